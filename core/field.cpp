@@ -1,0 +1,180 @@
+#include "core/field.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/parallel_for.h>
+
+namespace nimbus {
+
+namespace {
+
+inline int wrapIndex(int i, int n) {
+    int r = i % n;
+    return r < 0 ? r + n : r;
+}
+
+} // namespace
+
+float NoiseVolume::sample(vec3 u) const {
+    const float n = float(res);
+    vec3 w = u - glm::floor(u / n) * n; // [0, res)
+    vec3 f0 = glm::floor(w);
+    vec3 f = w - f0;
+    int x0 = wrapIndex(int(f0.x), res), y0 = wrapIndex(int(f0.y), res),
+        z0 = wrapIndex(int(f0.z), res);
+    int x1 = wrapIndex(x0 + 1, res), y1 = wrapIndex(y0 + 1, res), z1 = wrapIndex(z0 + 1, res);
+    auto at = [&](int x, int y, int z) { return values[(size_t(z) * res + y) * res + x]; };
+    float c00 = at(x0, y0, z0) + f.x * (at(x1, y0, z0) - at(x0, y0, z0));
+    float c10 = at(x0, y1, z0) + f.x * (at(x1, y1, z0) - at(x0, y1, z0));
+    float c01 = at(x0, y0, z1) + f.x * (at(x1, y0, z1) - at(x0, y0, z1));
+    float c11 = at(x0, y1, z1) + f.x * (at(x1, y1, z1) - at(x0, y1, z1));
+    float c0 = c00 + f.y * (c10 - c00);
+    float c1 = c01 + f.y * (c11 - c01);
+    return c0 + f.z * (c1 - c0);
+}
+
+float NoiseVolume::maxOver(vec3 lo, vec3 hi) const {
+    ivec3 a(glm::floor(lo)), b(glm::ceil(hi));
+    // a box wider than the tile touches every node
+    if (b.x - a.x >= res && b.y - a.y >= res && b.z - a.z >= res)
+        return *std::max_element(values.begin(), values.end());
+    b = glm::min(b, a + ivec3(res - 1));
+    float m = 0.0f;
+    for (int z = a.z; z <= b.z; ++z) {
+        int zz = wrapIndex(z, res);
+        for (int y = a.y; y <= b.y; ++y) {
+            const float* row = &values[(size_t(zz) * res + wrapIndex(y, res)) * res];
+            for (int x = a.x; x <= b.x; ++x) m = std::max(m, row[wrapIndex(x, res)]);
+        }
+    }
+    return m;
+}
+
+float cumulusBaseNoise(const CumulusDesc& c, vec3 q) {
+    return kern::perlinWorley(q * float(c.baseLattice), c.baseLattice, c.baseOctaves, c.seed);
+}
+
+float cumulusDetailNoise(const CumulusDesc& c, vec3 q) {
+    return kern::worleyFbm(q * float(c.detailLattice), c.detailLattice, c.detailOctaves, 0.5f,
+                           c.seed + 0x9e3779b9u);
+}
+
+namespace {
+
+std::shared_ptr<const NoiseVolume> bakeTile(int res, float (*fn)(const CumulusDesc&, vec3),
+                                            const CumulusDesc& c) {
+    auto vol = std::make_shared<NoiseVolume>();
+    vol->res = res;
+    vol->values.resize(size_t(res) * res * res);
+    tbb::parallel_for(0, res, [&](int z) {
+        for (int y = 0; y < res; ++y)
+            for (int x = 0; x < res; ++x)
+                vol->values[(size_t(z) * res + y) * res + x] =
+                    fn(c, vec3(float(x), float(y), float(z)) / float(res));
+    });
+    return vol;
+}
+
+} // namespace
+
+std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c) {
+    return bakeTile(c.baseBakeResolution, &cumulusBaseNoise, c);
+}
+
+std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c) {
+    return bakeTile(c.detailBakeResolution, &cumulusDetailNoise, c);
+}
+
+kern::CloudLayer cloudLayerFrom(const CumulusDesc& c) {
+    kern::CloudLayer L{};
+    L.bottom = c.bounds.lo.y;
+    L.top = c.bounds.hi.y;
+    L.heightA = c.heightA;
+    L.heightB = c.heightB;
+    L.coverage = c.coverage;
+    L.softness = c.softness;
+    L.erosion = c.erosion;
+    L.towerSpacing = c.towerSpacing;
+    L.towerRadiusMin = c.towerRadiusMin;
+    L.towerRadiusMax = c.towerRadiusMax;
+    L.towerHeightMin = c.towerHeightMin;
+    L.towerHeightMax = c.towerHeightMax;
+    L.towerProbability = c.towerProbability;
+    L.towerAnisotropy = c.towerAnisotropy;
+    L.seed = c.seed;
+    return L;
+}
+
+Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVolume> baseBake,
+                std::shared_ptr<const NoiseVolume> detailBake) {
+    Field f;
+    f.kind = desc.kind;
+    switch (desc.kind) {
+    case FieldKind::Homogeneous:
+        f.homogeneous = desc.homogeneous;
+        f.box = desc.homogeneous.box;
+        break;
+    case FieldKind::Cumulus:
+        f.cumulus = desc.cumulus;
+        f.box = desc.cumulus.bounds;
+        f.layer = cloudLayerFrom(desc.cumulus);
+        f.baseOffset = desc.cumulus.wind * time;
+        f.detailOffset = (desc.cumulus.wind + desc.cumulus.detailWind) * time;
+        f.baseBake = std::move(baseBake);
+        f.detailBake = std::move(detailBake);
+        break;
+    }
+    return f;
+}
+
+float Field::density(vec3 p) const {
+    switch (kind) {
+    case FieldKind::Homogeneous:
+        return box.contains(p) ? homogeneous.density : 0.0f;
+    case FieldKind::Cumulus: {
+        if (!box.contains(p)) return 0.0f;
+        const float h = (p.y - layer.bottom) / (layer.top - layer.bottom);
+        const vec3 pb = p - baseOffset;
+        const float towerH = kern::towerHeightAt(layer, pb.x, pb.z);
+        const float env = kern::cloudEnvelope(layer, h, towerH);
+        // the base noise is at most 1: nothing can survive the threshold here
+        if (kern::cloudShape(layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
+        const vec3 qb = pb / cumulus.basePeriod;
+        const float base = baseBake ? baseBake->sample(qb * float(baseBake->res))
+                                    : cumulusBaseNoise(cumulus, qb);
+        if (kern::cloudShape(layer, env, base, 0.0f) <= 0.0f) return 0.0f;
+        const vec3 qd = (p - detailOffset) / cumulus.detailPeriod;
+        const float detail = detailBake ? detailBake->sample(qd * float(detailBake->res))
+                                        : cumulusDetailNoise(cumulus, qd);
+        return cumulus.density * kern::cloudShape(layer, env, base, detail);
+    }
+    }
+    return 0.0f;
+}
+
+float Field::majorant(const Box& b) const {
+    Box c{glm::max(b.lo, box.lo), glm::min(b.hi, box.hi)};
+    if (c.lo.x > c.hi.x || c.lo.y > c.hi.y || c.lo.z > c.hi.z) return 0.0f;
+    switch (kind) {
+    case FieldKind::Homogeneous:
+        return homogeneous.density;
+    case FieldKind::Cumulus: {
+        const float span = layer.top - layer.bottom;
+        const float h0 = (c.lo.y - layer.bottom) / span, h1 = (c.hi.y - layer.bottom) / span;
+        const vec3 lo = c.lo - baseOffset, hi = c.hi - baseOffset;
+        const float towerMax = kern::towerHeightBound(layer, lo.x, hi.x, lo.z, hi.z);
+        const float envMax = kern::cloudEnvelopeBound(layer, h0, h1, towerMax);
+        if (kern::cloudShape(layer, envMax, 1.0f, 0.0f) <= 0.0f) return 0.0f;
+        float baseMax = 1.0f;
+        if (baseBake) {
+            const float s = float(baseBake->res) / cumulus.basePeriod;
+            baseMax = baseBake->maxOver(lo * s, hi * s);
+        }
+        return cumulus.density * kern::cloudShape(layer, envMax, baseMax, 0.0f);
+    }
+    }
+    return 0.0f;
+}
+
+} // namespace nimbus

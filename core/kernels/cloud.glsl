@@ -1,0 +1,148 @@
+// cloud.glsl: cloud shaping after Olajos 2016, ch. 2 ("Real-time rendering of volumetric
+// clouds"): a height distribution HD(h) = (1 - e^{-a h}) e^{-b h} gives flat bases and slowly
+// thinning tops; Gaussian towers (truncated bivariate normal peaks, one per hashed cell) set how
+// high each column reaches; noise carves the shape, thresholded with a soft edge and eroded by
+// finer octaves. Pure math: the noise values come in as arguments, so the same shaping serves
+// direct evaluation, baked noise volumes and conservative bounds.
+
+struct CloudLayer {
+    float bottom;           // world altitude (y) of the layer base
+    float top;              // world altitude of the layer top
+    float heightA;          // HD rise rate a (large: flat base)
+    float heightB;          // HD decay rate b
+    float coverage;         // in [0,1]: threshold is 1 - coverage
+    float softness;         // width of the soft edge above the threshold
+    float erosion;          // in [0,1): how much the detail noise eats the edges
+    float towerSpacing;     // size of the hashed cells holding at most one tower each
+    float towerRadiusMin;   // footprint radius (3 sigma) range
+    float towerRadiusMax;
+    float towerHeightMin;   // column height range, as a fraction of the layer
+    float towerHeightMax;
+    float towerProbability; // chance that a cell holds a tower
+    float towerAnisotropy;  // 0: round footprints; up to 0.9: elongated
+    uint seed;
+};
+
+const float CLOUD_TRUNC = 0.011108996538f; // e^{-4.5}: the Gaussian is cut at 3 sigma
+const int CLOUD_TOWER_PERIOD = 1048576;    // towers do not repeat in practice
+
+NB_FN float heightDistribution(float h, float a, float b) {
+    return (1.0f - exp(-a * h)) * exp(-b * h);
+}
+
+// argmax of HD: d/dh HD = 0 at h* = ln((a + b) / b) / a.
+NB_FN float heightDistributionPeak(float a, float b) { return log((a + b) / b) / a; }
+
+// HD normalised to a peak of 1; zero outside (0, 1).
+NB_FN float heightProfile(float h, float a, float b) {
+    if (h <= 0.0f || h >= 1.0f) return 0.0f;
+    return heightDistribution(h, a, b) / heightDistribution(heightDistributionPeak(a, b), a, b);
+}
+
+// Maximum of heightProfile over [h0, h1]; HD is unimodal so the max sits at the clamped peak.
+NB_FN float heightProfileMax(float h0, float h1, float a, float b) {
+    if (h1 <= 0.0f || h0 >= 1.0f) return 0.0f;
+    float hp = clamp(heightDistributionPeak(a, b), max(h0, 1e-6f), min(h1, 1.0f - 1e-6f));
+    return heightProfile(hp, a, b);
+}
+
+struct Tower {
+    vec2 center;
+    float sigmaX;  // std deviation along the rotated x axis
+    float sigmaZ;
+    float cosA;    // rotation of the footprint
+    float sinA;
+    float height;  // column height as a fraction of the layer
+    bool present;
+};
+
+NB_FN Tower cloudTower(IN(CloudLayer) L, int i, int j) {
+    uvec3 h0 = latticeHash3(ivec3(i, j, 0), CLOUD_TOWER_PERIOD, L.seed);
+    uvec3 h1 = latticeHash3(ivec3(i, j, 1), CLOUD_TOWER_PERIOD, L.seed);
+    vec3 u0 = hashToUnit3(h0);
+    vec3 u1 = hashToUnit3(h1);
+    Tower t;
+    t.present = hashToUnit(pcg(h0.x ^ h1.y)) < L.towerProbability;
+    float r = mix(L.towerRadiusMin, L.towerRadiusMax, u0.z);
+    t.center = vec2((float(i) + u0.x) * L.towerSpacing, (float(j) + u0.y) * L.towerSpacing);
+    t.sigmaX = r / 3.0f;
+    t.sigmaZ = t.sigmaX * (1.0f - L.towerAnisotropy * u1.x);
+    float angle = 6.28318530718f * u1.y;
+    t.cosA = cos(angle);
+    t.sinA = sin(angle);
+    // larger towers grow taller: blend the size draw into the height draw
+    t.height = mix(L.towerHeightMin, L.towerHeightMax, mix(u1.z, u0.z, 0.6f));
+    return t;
+}
+
+// Truncated Gaussian from the Mahalanobis distance squared q: 1 at q = 0, 0 from q = 9 on.
+NB_FN float truncatedGaussian(float q) {
+    return max(0.0f, (exp(-0.5f * q) - CLOUD_TRUNC) / (1.0f - CLOUD_TRUNC));
+}
+
+// Column height (fraction of the layer) at horizontal position (x, z): max over the towers.
+// Footprints reach at most towerRadiusMax <= towerSpacing, so the 3x3 neighbouring cells hold
+// every tower that can touch (x, z).
+NB_FN float towerHeightAt(IN(CloudLayer) L, float x, float z) {
+    int ci = int(floor(x / L.towerSpacing));
+    int cj = int(floor(z / L.towerSpacing));
+    float best = 0.0f;
+    for (int dj = -1; dj <= 1; dj++) {
+        for (int di = -1; di <= 1; di++) {
+            Tower t = cloudTower(L, ci + di, cj + dj);
+            if (!t.present) continue;
+            float dx = x - t.center.x;
+            float dz = z - t.center.y;
+            float rx = (t.cosA * dx + t.sinA * dz) / t.sigmaX;
+            float rz = (-t.sinA * dx + t.cosA * dz) / t.sigmaZ;
+            best = max(best, t.height * truncatedGaussian(rx * rx + rz * rz));
+        }
+    }
+    return best;
+}
+
+// Conservative upper bound of towerHeightAt over the box [x0,x1] x [z0,z1]: the Mahalanobis
+// distance is at least the Euclidean distance to the box over the largest sigma.
+NB_FN float towerHeightBound(IN(CloudLayer) L, float x0, float x1, float z0, float z1) {
+    int i0 = int(floor(x0 / L.towerSpacing)) - 1;
+    int i1 = int(floor(x1 / L.towerSpacing)) + 1;
+    int j0 = int(floor(z0 / L.towerSpacing)) - 1;
+    int j1 = int(floor(z1 / L.towerSpacing)) + 1;
+    float best = 0.0f;
+    for (int j = j0; j <= j1; j++) {
+        for (int i = i0; i <= i1; i++) {
+            Tower t = cloudTower(L, i, j);
+            if (!t.present) continue;
+            float dx = max(max(x0 - t.center.x, t.center.x - x1), 0.0f);
+            float dz = max(max(z0 - t.center.y, t.center.y - z1), 0.0f);
+            float smax = max(t.sigmaX, t.sigmaZ);
+            best = max(best, t.height * truncatedGaussian((dx * dx + dz * dz) / (smax * smax)));
+        }
+    }
+    return best;
+}
+
+// Vertical envelope in [0, 1] for a point at layer height fraction h under a column of height
+// towerH (both fractions of the layer).
+NB_FN float cloudEnvelope(IN(CloudLayer) L, float h, float towerH) {
+    if (towerH <= 1e-4f) return 0.0f;
+    return heightProfile(h / towerH, L.heightA, L.heightB);
+}
+
+// Upper bound of cloudEnvelope for h in [h0, h1] and a column height of at most towerHMax.
+// h / towerH is smallest for the tallest column, and any column can reach the profile's peak
+// when h0 / towerHMax lies below it, so the bound is the profile max over [h0/towerHMax, 1).
+NB_FN float cloudEnvelopeBound(IN(CloudLayer) L, float h0, float h1, float towerHMax) {
+    if (towerHMax <= 1e-4f || h1 <= 0.0f) return 0.0f;
+    return heightProfileMax(max(h0, 0.0f) / towerHMax, 1.0f, L.heightA, L.heightB);
+}
+
+// Density in [0, 1] from the envelope, the base noise and the detail noise (all in [0, 1]).
+// Non-decreasing in envelope and base, non-increasing in detail: bounds follow by plugging in
+// the bounds of the inputs.
+NB_FN float cloudShape(IN(CloudLayer) L, float envelope, float base, float detail) {
+    float d = clamp((envelope * base - (1.0f - L.coverage)) / L.softness, 0.0f, 1.0f);
+    d = d * d * (3.0f - 2.0f * d);
+    float e = min(L.erosion * detail, 0.99f);
+    return clamp((d - e) / (1.0f - e), 0.0f, 1.0f);
+}

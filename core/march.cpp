@@ -1,0 +1,144 @@
+#include "core/march.h"
+
+#include <algorithm>
+#include <limits>
+
+namespace nimbus {
+
+using kern::pcg;
+
+MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
+                           const MajorantGrid* grid)
+    : s_(scene), plan_(plan), field_(field), grid_(grid), camera_(scene.camera),
+      primary_(scene.render.step, scene.render.stepGrowth),
+      shadow_(scene.render.shadowStep, scene.render.shadowGrowth),
+      wholeMajorant_(field.majorant(field.bounds())) {
+    sigmaS_ = scene.medium.sigma_s * scene.medium.densityScale;
+    sigmaT_ = (scene.medium.sigma_s + scene.medium.sigma_a) * scene.medium.densityScale;
+    frameKey_ = pcg(std::uint32_t(plan.frame) ^ pcg(scene.render.seed));
+}
+
+vec3 MarchContext::skyRadiance(vec3 d) const {
+    switch (s_.sky.kind) {
+    case SkyKind::None:
+        return vec3(0.0f);
+    case SkyKind::Uniform:
+        return s_.sky.zenith;
+    case SkyKind::Gradient:
+        return glm::mix(s_.sky.horizon, s_.sky.zenith, std::sqrt(std::clamp(d.y, 0.0f, 1.0f)));
+    }
+    return vec3(0.0f);
+}
+
+float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, MarchCounters& cnt) const {
+    const Ray ray{p, s_.sun.direction};
+    const float jitter = s_.render.jitter ? kern::hashToUnit(pcg(rng)) : 0.5f;
+    // stop once the sun is blocked for every channel (transmittance < 1e-5)
+    const float tauStop = 11.5f / std::max(minComponent(sigmaT_), 1e-12f);
+    float tIn, tOut;
+    if (!intersectBox(ray, field_.bounds(), 0.0f, std::numeric_limits<float>::max(), tIn, tOut))
+        return 0.0f;
+    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
+    float tau = 0.0f;
+    marchSegments(it, shadow_, tIn, tOut, jitter, [&](float t, float dt, std::int64_t) {
+        ++cnt.shadowSamples;
+        tau += field_.density(ray.at(t)) * dt;
+        return tau <= tauStop;
+    });
+    return tau;
+}
+
+float MarchContext::inScatterFactor(float rho, float tau) const {
+    switch (s_.render.inScatter) {
+    case InScatter::None:
+        return 1.0f;
+    case InScatter::Olajos:
+        // Olajos 2016: in-scatter probability S(d) = 1 - e^{-c d} of the local density
+        return glm::mix(1.0f, kern::inScatterOlajos(rho, s_.render.inScatterC),
+                        s_.render.inScatterStrength);
+    case InScatter::Powder: {
+        // Schneider 2015: beer-powder 2 e^{-d}(1 - e^{-2d}) = Beer * 2 (1 - e^{-2d}), d the
+        // mean optical depth toward the sun
+        const float d = tau * (sigmaT_.x + sigmaT_.y + sigmaT_.z) / 3.0f;
+        return glm::mix(1.0f, 2.0f * (1.0f - std::exp(-2.0f * d)), s_.render.inScatterStrength);
+    }
+    }
+    return 1.0f;
+}
+
+void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const {
+    const std::uint32_t pixelKey =
+        pcg(std::uint32_t(x) ^ pcg(std::uint32_t(y) ^ pcg(frameKey_)));
+    const float jitter = s_.render.jitter ? kern::hashToUnit(pixelKey) : 0.5f;
+    const Ray ray = camera_.generate(float(x) + 0.5f, float(y) + 0.5f);
+    ++cnt.rays;
+
+    const vec3 sunDir = s_.sun.direction;
+    const float cosTheta = glm::dot(ray.d, sunDir);
+    const int phaseKind = int(s_.medium.phase);
+    const vec3 sunRadiance =
+        s_.sun.irradiance * kern::phaseEval(phaseKind, s_.medium.g, cosTheta);
+    const Box& b = field_.bounds();
+    const float span = std::max(b.hi.y - b.lo.y, 1e-20f);
+
+    vec3 L(0.0f), T(1.0f);
+    float depth = 0.0f;
+    bool depthSet = false;
+    const float eps = s_.render.epsilon;
+
+    float tIn, tOut;
+    if (intersectBox(ray, b, 0.0f, std::numeric_limits<float>::max(), tIn, tOut)) {
+        MajorantIterator it(grid_, b, ray, tIn, tOut, wholeMajorant_);
+        marchSegments(it, primary_, tIn, tOut, jitter, [&](float t, float dt, std::int64_t n) {
+            const vec3 p = ray.at(t);
+            ++cnt.primarySamples;
+            const float rho = field_.density(p);
+            if (rho <= 0.0f) return true;
+            vec3 S(0.0f);
+            if (plan_.shadows) {
+                const float tau =
+                    sunDensityIntegral(p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt);
+                S += sunRadiance * kern::beerLambert(sigmaT_ * tau) * inScatterFactor(rho, tau);
+            }
+            if (plan_.ambient) {
+                const float h = std::clamp((p.y - b.lo.y) / span, 0.0f, 1.0f);
+                const vec3 sky = s_.sky.kind == SkyKind::Uniform
+                                     ? s_.sky.zenith
+                                     : glm::mix(s_.sky.horizon, s_.sky.zenith, h);
+                S += sky * s_.sky.ambient;
+            }
+            kern::integrateStep(S * (sigmaS_ * rho), sigmaT_ * rho, dt, L, T);
+            if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
+                depth = t;
+                depthSet = true;
+            }
+            return maxComponent(T) >= eps;
+        });
+    }
+
+    float alpha = 1.0f - (T.x + T.y + T.z) / 3.0f;
+    if (s_.render.background == Background::Sky) {
+        L += T * skyRadiance(ray.d);
+        alpha = 1.0f;
+    }
+    vec4 out(L, alpha);
+    const bool finite = std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z) &&
+                        std::isfinite(out.w);
+    if (!finite) {
+        ++cnt.nonFinite;
+        out = vec4(0.0f);
+    }
+    const size_t i = size_t(y) * fb.width + x;
+    fb.rgba[4 * i + 0] = out.x;
+    fb.rgba[4 * i + 1] = out.y;
+    fb.rgba[4 * i + 2] = out.z;
+    fb.rgba[4 * i + 3] = out.w;
+    if (fb.aovs.transmittance) {
+        fb.transmittance[3 * i + 0] = T.x;
+        fb.transmittance[3 * i + 1] = T.y;
+        fb.transmittance[3 * i + 2] = T.z;
+    }
+    if (fb.aovs.depth) fb.depth[i] = depth;
+}
+
+} // namespace nimbus

@@ -1,0 +1,175 @@
+#include "core/render.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "core/camera.h"
+#include "core/march.h"
+
+namespace nimbus {
+
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+float autoMajorantCell(const SceneDesc& s, const Box& b) {
+    if (s.render.majorantCell > 0.0f) return s.render.majorantCell;
+    // about four primary steps per cell, at most 256 cells along any axis
+    const vec3 e = b.extent();
+    const float longest = std::max(e.x, std::max(e.y, e.z));
+    return std::max(4.0f * s.render.step, longest / 256.0f);
+}
+
+} // namespace
+
+std::string FramePlan::explain() const {
+    std::ostringstream o;
+    o << "frame " << frame << " (t = " << time << " s)\n";
+    o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
+      << noiseDecision << ")\n";
+    o << "  empty-space skipping: "
+      << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
+      << "\n";
+    o << "  sun shadow marches: " << (shadows ? "yes" : "no (no sun)") << "\n";
+    o << "  sky ambient: " << (ambient ? "yes" : "no") << "\n";
+    o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
+      << (aovs.depth ? ", depth" : "") << "\n";
+    return o.str();
+}
+
+Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {}
+
+FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
+    const SceneDesc& s = scene_;
+    FramePlan p;
+    p.frame = frame;
+    p.time = float(frame) / s.render.fps;
+    p.aovs = aovs;
+    p.shadows = s.sun.enabled && maxComponent(s.sun.irradiance) > 0.0f;
+    p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
+                maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
+    p.skipEmpty = s.render.skipEmpty;
+    const Box bounds = s.field.kind == FieldKind::Cumulus ? s.field.cumulus.bounds
+                                                          : s.field.homogeneous.box;
+    p.majorantCell = autoMajorantCell(s, bounds);
+
+    if (s.field.kind != FieldKind::Cumulus) {
+        p.noiseDecision = "no noise in this field";
+        return p;
+    }
+    const CumulusDesc& c = s.field.cumulus;
+    const double bakeEvals =
+        std::pow(double(c.baseBakeResolution), 3) + std::pow(double(c.detailBakeResolution), 3);
+    // Expected noise evaluations if evaluated directly: every pixel marches the diagonal of the
+    // bounds; about a tenth of the samples survive the cheap envelope test, and each of those
+    // costs a shadow march of ~12 more.
+    const vec3 e = bounds.extent();
+    const double stepsPerRay = std::min(4096.0, double(glm::length(e)) / s.render.step);
+    const double directEvals = double(s.camera.width) * s.camera.height * stepsPerRay * 0.1 *
+                               (1.0 + (p.shadows ? 12.0 : 0.0));
+    char buf[256];
+    switch (c.eval) {
+    case NoiseEval::Direct:
+        p.bakeNoise = false;
+        p.noiseDecision = "field.evaluation = \"direct\"";
+        break;
+    case NoiseEval::Baked:
+        p.bakeNoise = true;
+        p.noiseDecision = "field.evaluation = \"baked\"";
+        break;
+    case NoiseEval::Auto:
+        p.bakeNoise = directEvals > bakeEvals;
+        std::snprintf(buf, sizeof buf, "auto: ~%.3g direct noise evaluations vs %.3g to bake",
+                      directEvals, bakeEvals);
+        p.noiseDecision = buf;
+        break;
+    }
+    return p;
+}
+
+Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
+    if (bakeSeconds) *bakeSeconds = 0.0;
+    if (scene_.field.kind != FieldKind::Cumulus || !plan.bakeNoise)
+        return makeField(scene_.field, plan.time);
+    {
+        std::lock_guard<std::mutex> lock(bakeMutex_);
+        if (!baseBake_) {
+            auto t0 = std::chrono::steady_clock::now();
+            baseBake_ = bakeCumulusBase(scene_.field.cumulus);
+            detailBake_ = bakeCumulusDetail(scene_.field.cumulus);
+            if (bakeSeconds) *bakeSeconds = secondsSince(t0);
+        }
+    }
+    return makeField(scene_.field, plan.time, baseBake_, detailBake_);
+}
+
+bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
+                      const RenderCallbacks& cb) {
+    const SceneDesc& s = scene_;
+    const int threads = s.render.threads > 0 ? s.render.threads : tbb::task_arena::automatic;
+    tbb::task_arena arena(threads);
+    stats = RenderStats{};
+    bool completed = true;
+
+    arena.execute([&] {
+        Field field = fieldFor(plan, &stats.bakeSeconds);
+        auto t0 = std::chrono::steady_clock::now();
+        MajorantGrid grid;
+        if (plan.skipEmpty) {
+            grid = buildMajorantGrid(field, plan.majorantCell);
+            stats.majorantCells = grid.cellCount();
+            stats.majorantEmptyFraction = grid.emptyFraction();
+        }
+        stats.majorantSeconds = secondsSince(t0);
+
+        MarchContext ctx(s, plan, field, plan.skipEmpty ? &grid : nullptr);
+        fb.resize(s.camera.width, s.camera.height, plan.aovs);
+        const int ts = s.render.tileSize;
+        const int tilesX = (fb.width + ts - 1) / ts, tilesY = (fb.height + ts - 1) / ts;
+        const int tiles = tilesX * tilesY;
+        std::atomic<std::uint64_t> rays{0}, prim{0}, shad{0}, bad{0};
+        std::atomic<int> done{0};
+        std::mutex progressMutex;
+
+        t0 = std::chrono::steady_clock::now();
+        tbb::parallel_for(
+            tbb::blocked_range<int>(0, tiles, 1),
+            [&](const tbb::blocked_range<int>& r) {
+                for (int tile = r.begin(); tile != r.end(); ++tile) {
+                    if (cb.cancel && cb.cancel->load(std::memory_order_relaxed)) return;
+                    const int x0 = (tile % tilesX) * ts, y0 = (tile / tilesX) * ts;
+                    MarchCounters cnt;
+                    for (int y = y0; y < std::min(y0 + ts, fb.height); ++y)
+                        for (int x = x0; x < std::min(x0 + ts, fb.width); ++x)
+                            ctx.renderPixel(x, y, fb, cnt);
+                    rays += cnt.rays;
+                    prim += cnt.primarySamples;
+                    shad += cnt.shadowSamples;
+                    bad += cnt.nonFinite;
+                    const int d = ++done;
+                    if (cb.progress) {
+                        std::lock_guard<std::mutex> lock(progressMutex);
+                        cb.progress(d, tiles);
+                    }
+                }
+            },
+            tbb::simple_partitioner());
+        stats.integrateSeconds = secondsSince(t0);
+        stats.rays = rays;
+        stats.primarySamples = prim;
+        stats.shadowSamples = shad;
+        stats.nonFinite = bad;
+        completed = done.load() == tiles;
+    });
+    return completed;
+}
+
+} // namespace nimbus

@@ -1,0 +1,126 @@
+/// @file scene.h
+/// @brief Plain description of a scene: what the scene file says, validated, in world units.
+///
+/// Nothing here knows about files: plugin/io/scene_file.cpp fills these structs from TOML and
+/// checks ranges; core/ only reads them. Colours are already in the working space (ACEScg by
+/// default) when they arrive here.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/geometry.h"
+
+namespace nimbus {
+
+struct CameraDesc {
+    vec3 position{0.0f, 1.0f, -5.0f};
+    vec3 lookAt{0.0f, 1.0f, 0.0f};
+    vec3 up{0.0f, 1.0f, 0.0f};
+    float fovY = 45.0f; ///< vertical field of view, degrees
+    int width = 640;
+    int height = 360;
+};
+
+struct SunDesc {
+    bool enabled = true;
+    vec3 direction{0.0f, 1.0f, 0.0f}; ///< unit vector pointing TOWARD the sun
+    vec3 irradiance{1.0f};            ///< RGB, working space
+};
+
+enum class SkyKind { None, Uniform, Gradient };
+
+struct SkyDesc {
+    SkyKind kind = SkyKind::Gradient;
+    vec3 zenith{0.3f, 0.5f, 0.9f};  ///< radiance straight up (uniform sky: everywhere)
+    vec3 horizon{0.8f, 0.85f, 0.9f}; ///< radiance at the horizon and below
+    float ambient = 1.0f;            ///< scale of the sky term inside the medium
+};
+
+enum class PhaseKind { Isotropic = 0, HenyeyGreenstein = 1 }; // values = PHASE_* in phase.glsl
+
+struct MediumDesc {
+    vec3 sigma_s{1.0f}; ///< scattering coefficient per unit density (RGB, 1/unit length)
+    vec3 sigma_a{0.0f}; ///< absorption coefficient per unit density
+    float densityScale = 1.0f;
+    PhaseKind phase = PhaseKind::HenyeyGreenstein;
+    float g = 0.8f;
+};
+
+enum class FieldKind { Homogeneous, Cumulus };
+enum class NoiseEval { Auto, Direct, Baked };
+
+/// A box of constant density (tests, fog layers).
+struct HomogeneousDesc {
+    Box box{vec3(-1.0f), vec3(1.0f)};
+    float density = 1.0f;
+};
+
+/// Procedural cumulus layer (Olajos 2016, ch. 2), see core/kernels/cloud.glsl.
+struct CumulusDesc {
+    Box bounds{vec3(-20.0f, 1.5f, -20.0f), vec3(20.0f, 4.5f, 20.0f)}; ///< y range = altitude range
+    float density = 1.0f;
+    float coverage = 0.55f;
+    float softness = 0.15f;
+    float erosion = 0.35f;
+    float heightA = 50.0f;
+    float heightB = 2.0f;
+    float basePeriod = 12.0f;  ///< world size of one tile of the base noise
+    int baseLattice = 4;       ///< lattice cells per tile (lowest octave)
+    int baseOctaves = 4;
+    float detailPeriod = 2.0f; ///< world size of one tile of the detail noise
+    int detailLattice = 4;
+    int detailOctaves = 3;
+    float towerSpacing = 4.0f;
+    float towerRadiusMin = 1.2f;
+    float towerRadiusMax = 3.5f;
+    float towerHeightMin = 0.25f;
+    float towerHeightMax = 1.0f;
+    float towerProbability = 0.7f;
+    float towerAnisotropy = 0.4f;
+    vec3 wind{0.0f};          ///< world units per second: the whole field drifts with it
+    vec3 detailWind{0.0f};    ///< extra drift of the detail noise: slowly evolving edges
+    std::uint32_t seed = 1;
+    NoiseEval eval = NoiseEval::Auto;
+    int baseBakeResolution = 128;   ///< voxels per base tile when baked
+    int detailBakeResolution = 64;  ///< voxels per detail tile when baked
+};
+
+struct FieldDesc {
+    FieldKind kind = FieldKind::Cumulus;
+    HomogeneousDesc homogeneous;
+    CumulusDesc cumulus;
+};
+
+enum class InScatter { None, Olajos, Powder };
+enum class Background { Sky, Transparent };
+
+struct RenderDesc {
+    float step = 0.05f;        ///< primary step length (world units)
+    float stepGrowth = 0.0f;   ///< distance-adaptive: step = max(step, stepGrowth * distance)
+    bool jitter = true;
+    float epsilon = 0.01f;     ///< stop when transmittance drops below this
+    float shadowStep = 0.05f;
+    float shadowGrowth = 0.3f; ///< shadow steps grow geometrically by this factor
+    bool skipEmpty = true;     ///< use the majorant grid to skip empty space
+    float majorantCell = 0.0f; ///< majorant cell size; 0 = chosen by the plan
+    InScatter inScatter = InScatter::Olajos;
+    float inScatterC = 2.0f;
+    float inScatterStrength = 0.5f;
+    Background background = Background::Sky;
+    std::uint32_t seed = 0;
+    int threads = 0;           ///< 0 = all cores
+    int tileSize = 16;
+    float fps = 24.0f;         ///< frame -> time: t = frame / fps
+};
+
+struct SceneDesc {
+    CameraDesc camera;
+    SunDesc sun;
+    SkyDesc sky;
+    MediumDesc medium;
+    FieldDesc field;
+    RenderDesc render;
+};
+
+} // namespace nimbus

@@ -1,0 +1,173 @@
+/// @file atomic_file.cpp
+/// @brief writeAtomically() and the async-signal-safe registry of in-flight temp files.
+#include "plugin/io/atomic_file.h"
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace nimbus::io {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---- in-flight registry: fixed storage, lock-free, readable from a signal handler ----
+
+constexpr int kSlots = 64;
+constexpr std::size_t kMaxPath = 4096;
+
+/// kFree -> kFilling -> kActive (registered by writeAtomically) -> kRemoving -> kRemoved (by
+/// removeInFlightTempFiles) -> kFree (only by the owning writeAtomically call, so a slot is never
+/// reused while its owner may still unregister it).
+enum SlotState : int { kFree = 0, kFilling = 1, kActive = 2, kRemoving = 3, kRemoved = 4 };
+
+struct Slot {
+    std::atomic<int> state{kFree};
+    char path[kMaxPath];
+};
+
+Slot g_slots[kSlots];
+static_assert(std::atomic<int>::is_always_lock_free, "signal safety needs lock-free atomics");
+
+/// Registers @p path; returns the slot index, or -1 if no slot is free or the path is too long
+/// (the write then proceeds unregistered: its temp file is a hidden .tmp file, never taken for a
+/// valid frame).
+int registerTemp(const std::string& path) {
+    if (path.size() + 1 > kMaxPath) return -1;
+    for (int i = 0; i < kSlots; ++i) {
+        int expected = kFree;
+        if (g_slots[i].state.compare_exchange_strong(expected, kFilling)) {
+            std::memcpy(g_slots[i].path, path.c_str(), path.size() + 1);
+            g_slots[i].state.store(kActive, std::memory_order_release);
+            return i;
+        }
+    }
+    return -1;
+}
+
+void unregisterTemp(int slot) {
+    if (slot < 0) return;
+    for (;;) {
+        int s = g_slots[slot].state.load();
+        if (s == kRemoving) continue; // another thread's handler is unlinking it: a short wait
+        if (g_slots[slot].state.compare_exchange_weak(s, kFree)) return;
+    }
+}
+
+std::atomic<unsigned long long> g_counter{0};
+
+std::string sysError(const std::string& what, const std::string& path, int err) {
+    return what + " '" + path + "': " + std::strerror(err);
+}
+
+void fsyncPath(const std::string& path, bool directory) {
+    const int fd = ::open(path.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_RDONLY) | O_CLOEXEC);
+    if (fd < 0) {
+        const int err = errno;
+        if (directory) return; // best effort for the directory
+        throw std::runtime_error(sysError("cannot open written file", path, err));
+    }
+    if (::fsync(fd) != 0) {
+        const int err = errno;
+        ::close(fd);
+        // Some filesystems cannot fsync directories (EINVAL): the file itself is durable.
+        if (directory && (err == EINVAL || err == EBADF)) return;
+        throw std::runtime_error(sysError("cannot fsync", path, err));
+    }
+    if (::close(fd) != 0 && !directory) {
+        const int err = errno;
+        throw std::runtime_error(sysError("cannot close", path, err));
+    }
+}
+
+void signalHandler(int sig) {
+    const int savedErrno = errno;
+    removeInFlightTempFiles();
+    errno = savedErrno;
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+}
+
+} // namespace
+
+std::string makeTempPath(const std::string& finalPath) {
+    const fs::path p(finalPath);
+    const std::string name = ".";
+    return (p.parent_path() / (name + p.stem().string() + ".tmp." + std::to_string(::getpid()) +
+                               "." + std::to_string(g_counter.fetch_add(1)) +
+                               p.extension().string()))
+        .string();
+}
+
+void writeAtomically(const std::string& finalPath,
+                     const std::function<void(const std::string& tempPath)>& writer) {
+    if (finalPath.empty()) throw std::runtime_error("writeAtomically: empty output path");
+    const fs::path target(finalPath);
+    if (!target.has_filename())
+        throw std::runtime_error("output path '" + finalPath + "' names a directory, not a file");
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    if (target.has_parent_path()) {
+        std::error_code ec;
+        fs::create_directories(dir, ec);
+        if (ec)
+            throw std::runtime_error(sysError("cannot create directory", dir.string(), ec.value()));
+    }
+    {
+        std::error_code ec;
+        if (fs::is_directory(target, ec))
+            throw std::runtime_error("cannot write '" + finalPath + "': it is a directory");
+    }
+
+    const std::string temp = makeTempPath(finalPath);
+    const int slot = registerTemp(temp);
+    try {
+        writer(temp);
+        fsyncPath(temp, false);
+        if (::rename(temp.c_str(), finalPath.c_str()) != 0) {
+            const int err = errno;
+            throw std::runtime_error("cannot rename '" + temp + "' to '" + finalPath +
+                                     "': " + std::strerror(err));
+        }
+    } catch (...) {
+        ::unlink(temp.c_str());
+        unregisterTemp(slot);
+        throw;
+    }
+    unregisterTemp(slot);
+    fsyncPath(dir.string(), true);
+}
+
+void removeInFlightTempFiles() noexcept {
+    for (int i = 0; i < kSlots; ++i) {
+        int expected = kActive;
+        if (g_slots[i].state.compare_exchange_strong(expected, kRemoving)) {
+            ::unlink(g_slots[i].path);
+            g_slots[i].state.store(kRemoved);
+        }
+    }
+}
+
+std::size_t inFlightTempFileCount() noexcept {
+    std::size_t n = 0;
+    for (int i = 0; i < kSlots; ++i)
+        if (g_slots[i].state.load() == kActive) ++n;
+    return n;
+}
+
+void installTempFileCleanupOnSignals() {
+    struct sigaction sa {};
+    sa.sa_handler = signalHandler;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = 0;
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &sa, nullptr);
+}
+
+} // namespace nimbus::io

@@ -1,0 +1,13 @@
+# Assembles prelude.glsl + the given kernel files into one compute shader and validates it.
+file(WRITE ${OUT} "#version 430\n")
+file(READ ${PRELUDE} _text)
+file(APPEND ${OUT} "${_text}")
+foreach(k ${KERNELS})
+  file(READ ${k} _text)
+  file(APPEND ${OUT} "#line 1\n${_text}\n")
+endforeach()
+file(APPEND ${OUT} "layout(local_size_x = 1) in;\nvoid main() {}\n")
+execute_process(COMMAND ${VALIDATOR} ${OUT} RESULT_VARIABLE _rc OUTPUT_VARIABLE _out ERROR_VARIABLE _err)
+if(NOT _rc EQUAL 0)
+  message(FATAL_ERROR "GLSL validation failed for ${OUT}:\n${_out}${_err}")
+endif()
