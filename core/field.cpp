@@ -136,8 +136,7 @@ float Field::density(vec3 p) const {
         if (!box.contains(p)) return 0.0f;
         const float h = (p.y - layer.bottom) / (layer.top - layer.bottom);
         const vec3 pb = p - baseOffset;
-        const float towerH = kern::towerHeightAt(layer, pb.x, pb.z);
-        const float env = kern::cloudEnvelope(layer, h, towerH);
+        const float env = kern::towerEnvelope(layer, h, pb.x, pb.z);
         // the base noise is at most 1: nothing can survive the threshold here
         if (kern::cloudShape(layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
         const vec3 qb = pb / cumulus.basePeriod;
@@ -163,8 +162,7 @@ float Field::majorant(const Box& b) const {
         const float span = layer.top - layer.bottom;
         const float h0 = (c.lo.y - layer.bottom) / span, h1 = (c.hi.y - layer.bottom) / span;
         const vec3 lo = c.lo - baseOffset, hi = c.hi - baseOffset;
-        const float towerMax = kern::towerHeightBound(layer, lo.x, hi.x, lo.z, hi.z);
-        const float envMax = kern::cloudEnvelopeBound(layer, h0, h1, towerMax);
+        const float envMax = kern::towerEnvelopeBound(layer, h0, h1, lo.x, hi.x, lo.z, hi.z);
         if (kern::cloudShape(layer, envMax, 1.0f, 0.0f) <= 0.0f) return 0.0f;
         float baseMax = 1.0f;
         if (baseBake) {

@@ -2,6 +2,7 @@
 /// @brief Frame buffers: the beauty pass and the optional AOVs of one frame, scene-linear.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 namespace nimbus {

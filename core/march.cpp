@@ -15,6 +15,18 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
       wholeMajorant_(field.majorant(field.bounds())) {
     sigmaS_ = scene.medium.sigma_s * scene.medium.densityScale;
     sigmaT_ = (scene.medium.sigma_s + scene.medium.sigma_a) * scene.medium.densityScale;
+    // mean sky radiance over the sphere, the in-scattered ambient of an isotropic medium
+    switch (scene.sky.kind) {
+    case SkyKind::None:
+        ambient_ = vec3(0.0f);
+        break;
+    case SkyKind::Uniform:
+        ambient_ = scene.sky.zenith * scene.sky.ambient;
+        break;
+    case SkyKind::Gradient:
+        ambient_ = 0.5f * (scene.sky.zenith + scene.sky.horizon) * scene.sky.ambient;
+        break;
+    }
     frameKey_ = pcg(std::uint32_t(plan.frame) ^ pcg(scene.render.seed));
 }
 
@@ -76,8 +88,6 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
     const vec3 sunDir = s_.sun.direction;
     const float cosTheta = glm::dot(ray.d, sunDir);
     const int phaseKind = int(s_.medium.phase);
-    const vec3 sunRadiance =
-        s_.sun.irradiance * kern::phaseEval(phaseKind, s_.medium.g, cosTheta);
     const Box& b = field_.bounds();
     const float span = std::max(b.hi.y - b.lo.y, 1e-20f);
 
@@ -98,14 +108,22 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
             if (plan_.shadows) {
                 const float tau =
                     sunDensityIntegral(p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt);
-                S += sunRadiance * kern::beerLambert(sigmaT_ * tau) * inScatterFactor(rho, tau);
+                vec3 sun(0.0f);
+                float weight = 1.0f, extinction = 1.0f, g = s_.medium.g;
+                for (int i = 0; i < s_.render.octaves; ++i) {
+                    sun += weight * kern::phaseEval(phaseKind, g, cosTheta) *
+                           kern::beerLambert(sigmaT_ * (tau * extinction));
+                    weight *= s_.render.octaveContribution;
+                    extinction *= s_.render.octaveExtinction;
+                    g *= s_.render.octaveEccentricity;
+                }
+                S += s_.sun.irradiance * sun * inScatterFactor(rho, tau);
             }
             if (plan_.ambient) {
+                // cheap occlusion (Olajos 2016): light from the sky dome reaches the top of the
+                // layer; near its base half the sphere sees the darker ground instead
                 const float h = std::clamp((p.y - b.lo.y) / span, 0.0f, 1.0f);
-                const vec3 sky = s_.sky.kind == SkyKind::Uniform
-                                     ? s_.sky.zenith
-                                     : glm::mix(s_.sky.horizon, s_.sky.zenith, h);
-                S += sky * s_.sky.ambient;
+                S += ambient_ * (kAmbientGround + (1.0f - kAmbientGround) * h);
             }
             kern::integrateStep(S * (sigmaS_ * rho), sigmaT_ * rho, dt, L, T);
             if (!depthSet && (T.x + T.y + T.z) < 1.5f) {

@@ -82,6 +82,9 @@ struct MarchCounters {
 /// Everything a pixel needs, precomputed once per frame.
 class MarchContext {
   public:
+    /// Share of the sky ambient left at the base of the layer (below, the ground is seen).
+    static constexpr float kAmbientGround = 0.3f;
+
     MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
                  const MajorantGrid* grid);
     void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
@@ -102,6 +105,7 @@ class MarchContext {
     StepSchedule primary_, shadow_;
     float wholeMajorant_;
     vec3 sigmaS_, sigmaT_; ///< per unit density, density scale folded in
+    vec3 ambient_;         ///< sky ambient radiance at the top of the layer
     std::uint32_t frameKey_;
 };
 

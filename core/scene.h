@@ -60,24 +60,24 @@ struct HomogeneousDesc {
 struct CumulusDesc {
     Box bounds{vec3(-20.0f, 1.5f, -20.0f), vec3(20.0f, 4.5f, 20.0f)}; ///< y range = altitude range
     float density = 1.0f;
-    float coverage = 0.55f;
-    float softness = 0.15f;
-    float erosion = 0.35f;
+    float coverage = 0.85f;
+    float softness = 0.25f;
+    float erosion = 0.3f;
     float heightA = 50.0f;
-    float heightB = 2.0f;
+    float heightB = 0.5f;
     float basePeriod = 12.0f;  ///< world size of one tile of the base noise
     int baseLattice = 4;       ///< lattice cells per tile (lowest octave)
     int baseOctaves = 4;
     float detailPeriod = 2.0f; ///< world size of one tile of the detail noise
     int detailLattice = 4;
     int detailOctaves = 3;
-    float towerSpacing = 4.0f;
-    float towerRadiusMin = 1.2f;
-    float towerRadiusMax = 3.5f;
+    float towerSpacing = 4.5f;
+    float towerRadiusMin = 2.0f;
+    float towerRadiusMax = 4.0f;
     float towerHeightMin = 0.25f;
     float towerHeightMax = 1.0f;
-    float towerProbability = 0.7f;
-    float towerAnisotropy = 0.4f;
+    float towerProbability = 0.6f;
+    float towerAnisotropy = 0.35f;
     vec3 wind{0.0f};          ///< world units per second: the whole field drifts with it
     vec3 detailWind{0.0f};    ///< extra drift of the detail noise: slowly evolving edges
     std::uint32_t seed = 1;
@@ -104,6 +104,13 @@ struct RenderDesc {
     float shadowGrowth = 0.3f; ///< shadow steps grow geometrically by this factor
     bool skipEmpty = true;     ///< use the majorant grid to skip empty space
     float majorantCell = 0.0f; ///< majorant cell size; 0 = chosen by the plan
+    /// Multiple-scattering octaves (Wrenninge 2015; Hillaire 2016): octave i adds the sun term
+    /// with weight contribution^i, sun optical depth scaled by extinction^i and phase g scaled
+    /// by eccentricity^i. 1 = single scattering only. Energy: contribution <= extinction.
+    int octaves = 1;
+    float octaveExtinction = 0.5f;
+    float octaveContribution = 0.5f;
+    float octaveEccentricity = 0.5f;
     InScatter inScatter = InScatter::Olajos;
     float inScatterC = 2.0f;
     float inScatterStrength = 0.5f;

@@ -164,15 +164,17 @@ TEST(Kernels, TowerBoundIsConservative) {
     int nonzero = 0;
     for (int i = 0; i < 2000; ++i) {
         float x0 = u(rng), z0 = u(rng), x1 = x0 + w(rng), z1 = z0 + w(rng);
-        float bound = towerHeightBound(L, x0, x1, z0, z1);
-        for (int k = 0; k < 25; ++k) {
-            float x = x0 + (x1 - x0) * (k % 5) / 4.0f, z = z0 + (z1 - z0) * (k / 5) / 4.0f;
-            float v = towerHeightAt(L, x, z);
+        float h0 = std::abs(u(rng)) / 40.0f, h1 = std::min(1.0f, h0 + w(rng) / 6.0f);
+        float bound = towerEnvelopeBound(L, h0, h1, x0, x1, z0, z1);
+        for (int k = 0; k < 125; ++k) {
+            float x = x0 + (x1 - x0) * (k % 5) / 4.0f, z = z0 + (z1 - z0) * ((k / 5) % 5) / 4.0f;
+            float h = h0 + (h1 - h0) * (k / 25) / 4.0f;
+            float v = towerEnvelope(L, h, x, z);
             nonzero += v > 0.0f;
             ASSERT_LE(v, bound + 1e-6f) << "box " << x0 << ".." << x1 << " x " << z0 << ".." << z1;
         }
     }
-    EXPECT_GT(nonzero, 1000);
+    EXPECT_GT(nonzero, 10000);
 }
 
 TEST(Kernels, HenyeyGreensteinNormalisedWithMeanCosineG) {
@@ -263,6 +265,9 @@ TEST(Kernels, CloudShapeIsMonotoneInItsInputs) {
         ASSERT_LE(v, cloudShape(L, e, std::min(1.0f, b + k * 0.2f), d) + 1e-6f);
         ASSERT_GE(v, cloudShape(L, e, b, std::min(1.0f, d + k * 0.2f)) - 1e-6f);
     }
-    EXPECT_EQ(cloudShape(L, 0.3f, 1.0f, 0.0f), 0.0f);  // below the threshold 1 - coverage
+    EXPECT_EQ(cloudShape(L, 0.0f, 1.0f, 0.0f), 0.0f);  // no envelope: no cloud
+    EXPECT_EQ(cloudShape(L, 1.0f, 0.35f, 0.0f), 0.0f); // base below the threshold 1 - coverage
     EXPECT_EQ(cloudShape(L, 1.0f, 1.0f, 0.0f), 1.0f);  // well above: full density
+    // soft edge: half way up the ramp the smoothstep gives exactly 1/2
+    EXPECT_NEAR(cloudShape(L, 1.0f, 0.4f + 0.1f, 0.0f), 0.5f, 1e-6f);
 }

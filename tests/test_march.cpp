@@ -104,23 +104,31 @@ TEST(March, HomogeneousSlabTransmittanceIsExact) {
 }
 
 TEST(March, SingleScatterInUniformSlabMatchesClosedForm) {
-    // Sun only, isotropic phase, no shadowing geometry beyond the slab: along a ray that
-    // crosses a slab of thickness D with the sun straight behind the camera... use a
-    // uniform sky instead: ambient S = sigma_s * L_sky, so L = L_sky * sigma_s/sigma_t (1 - T).
+    // No sun, a uniform sky: the in-scattered source S = sigma_s * L_sky * occlusion(h) is
+    // constant along a horizontal ray, so L = L_sky * occlusion * sigma_s / sigma_t * (1 - T).
     SceneDesc s = slabScene();
     s.sun.enabled = false;
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.7f, 1.0f, 1.3f);
     s.sky.ambient = 1.0f;
     s.render.step = 0.05f;
+    s.camera.height = 1; // one row of horizontal rays: constant height along each ray
+    s.camera.fovY = 1.5f;
+    s.camera.position = vec3(0.3f, 0.2f, -5.0f);
+    s.camera.lookAt = vec3(0.3f, 0.2f, 0.0f);
     Framebuffer fb = renderScene(s, nullptr, AovSet{true, false});
+    int crossed = 0;
+    for (int i = 0; i < fb.width; ++i) crossed += fb.transmittance[3 * i] < 0.5f;
+    EXPECT_GT(crossed, fb.width / 2);
     const vec3 sigma_s = s.medium.sigma_s * s.medium.densityScale * s.field.homogeneous.density;
     const vec3 sigma_t = (s.medium.sigma_s + s.medium.sigma_a) * s.medium.densityScale *
                          s.field.homogeneous.density;
     for (int i = 0; i < fb.width * fb.height; ++i)
         for (int c = 0; c < 3; ++c) {
             const float T = fb.transmittance[3 * i + c];
-            const float expect = s.sky.zenith[c] * sigma_s[c] / sigma_t[c] * (1.0f - T);
+            // horizontal rays at y = 0.2: height fraction h = 0.6 in a box spanning y in [-1, 1]
+            const float occl = MarchContext::kAmbientGround + (1.0f - MarchContext::kAmbientGround) * 0.6f;
+            const float expect = s.sky.zenith[c] * occl * sigma_s[c] / sigma_t[c] * (1.0f - T);
             ASSERT_NEAR(fb.rgba[4 * i + c], expect, 1e-4f);
         }
 }

@@ -80,10 +80,33 @@ NB_FN float truncatedGaussian(float q) {
     return max(0.0f, (exp(-0.5f * q) - CLOUD_TRUNC) / (1.0f - CLOUD_TRUNC));
 }
 
-// Column height (fraction of the layer) at horizontal position (x, z): max over the towers.
-// Footprints reach at most towerRadiusMax <= towerSpacing, so the 3x3 neighbouring cells hold
-// every tower that can touch (x, z).
-NB_FN float towerHeightAt(IN(CloudLayer) L, float x, float z) {
+// Vertical envelope in [0, 1] for a point at layer height fraction h under a column of height
+// towerH (both fractions of the layer): HD of the height within the column, rounded off toward
+// the column top by (1 - hn^4) so towers end in domes rather than flat lids.
+NB_FN float cloudEnvelope(IN(CloudLayer) L, float h, float towerH) {
+    if (towerH <= 1e-4f) return 0.0f;
+    float hn = h / towerH;
+    float hn2 = hn * hn;
+    return heightProfile(hn, L.heightA, L.heightB) * max(0.0f, 1.0f - hn2 * hn2);
+}
+
+// Upper bound of cloudEnvelope for h in [h0, h1] and a column height of at most towerHMax.
+// hn = h / towerH is smallest for the tallest column; both factors are bounded separately over
+// hn in [h0 / towerHMax, 1): the profile by its max there, the rounding by its value at the low
+// end.
+NB_FN float cloudEnvelopeBound(IN(CloudLayer) L, float h0, float h1, float towerHMax) {
+    if (towerHMax <= 1e-4f || h1 <= 0.0f) return 0.0f;
+    float lo = max(h0, 0.0f) / towerHMax;
+    float lo2 = lo * lo;
+    return heightProfileMax(lo, 1.0f, L.heightA, L.heightB) * max(0.0f, 1.0f - lo2 * lo2);
+}
+
+// Envelope of the tower field at (x, h, z): for each tower k with footprint weight g_k (the
+// truncated Gaussian), the column reaches height_k * g_k and the envelope is
+// cloudEnvelope(h, height_k g_k) * g_k, so a tower thins toward its rim as well as its top;
+// the max over towers is taken. Footprints reach at most towerRadiusMax <= towerSpacing, so
+// the 3x3 neighbouring cells hold every tower that can touch (x, z).
+NB_FN float towerEnvelope(IN(CloudLayer) L, float h, float x, float z) {
     int ci = int(floor(x / L.towerSpacing));
     int cj = int(floor(z / L.towerSpacing));
     float best = 0.0f;
@@ -95,15 +118,19 @@ NB_FN float towerHeightAt(IN(CloudLayer) L, float x, float z) {
             float dz = z - t.center.y;
             float rx = (t.cosA * dx + t.sinA * dz) / t.sigmaX;
             float rz = (-t.sinA * dx + t.cosA * dz) / t.sigmaZ;
-            best = max(best, t.height * truncatedGaussian(rx * rx + rz * rz));
+            float g = truncatedGaussian(rx * rx + rz * rz);
+            if (g <= 0.0f) continue;
+            best = max(best, cloudEnvelope(L, h, t.height * g) * g);
         }
     }
     return best;
 }
 
-// Conservative upper bound of towerHeightAt over the box [x0,x1] x [z0,z1]: the Mahalanobis
-// distance is at least the Euclidean distance to the box over the largest sigma.
-NB_FN float towerHeightBound(IN(CloudLayer) L, float x0, float x1, float z0, float z1) {
+// Conservative upper bound of towerEnvelope over [x0,x1] x [h0,h1] x [z0,z1]: per tower, the
+// Mahalanobis distance is at least the Euclidean distance to the box over the largest sigma,
+// which bounds g_k; cloudEnvelopeBound is non-decreasing in the column height.
+NB_FN float towerEnvelopeBound(IN(CloudLayer) L, float h0, float h1, float x0, float x1,
+                               float z0, float z1) {
     int i0 = int(floor(x0 / L.towerSpacing)) - 1;
     int i1 = int(floor(x1 / L.towerSpacing)) + 1;
     int j0 = int(floor(z0 / L.towerSpacing)) - 1;
@@ -116,32 +143,21 @@ NB_FN float towerHeightBound(IN(CloudLayer) L, float x0, float x1, float z0, flo
             float dx = max(max(x0 - t.center.x, t.center.x - x1), 0.0f);
             float dz = max(max(z0 - t.center.y, t.center.y - z1), 0.0f);
             float smax = max(t.sigmaX, t.sigmaZ);
-            best = max(best, t.height * truncatedGaussian((dx * dx + dz * dz) / (smax * smax)));
+            float g = truncatedGaussian((dx * dx + dz * dz) / (smax * smax));
+            if (g <= 0.0f) continue;
+            best = max(best, cloudEnvelopeBound(L, h0, h1, t.height * g) * g);
         }
     }
     return best;
 }
 
-// Vertical envelope in [0, 1] for a point at layer height fraction h under a column of height
-// towerH (both fractions of the layer).
-NB_FN float cloudEnvelope(IN(CloudLayer) L, float h, float towerH) {
-    if (towerH <= 1e-4f) return 0.0f;
-    return heightProfile(h / towerH, L.heightA, L.heightB);
-}
-
-// Upper bound of cloudEnvelope for h in [h0, h1] and a column height of at most towerHMax.
-// h / towerH is smallest for the tallest column, and any column can reach the profile's peak
-// when h0 / towerHMax lies below it, so the bound is the profile max over [h0/towerHMax, 1).
-NB_FN float cloudEnvelopeBound(IN(CloudLayer) L, float h0, float h1, float towerHMax) {
-    if (towerHMax <= 1e-4f || h1 <= 0.0f) return 0.0f;
-    return heightProfileMax(max(h0, 0.0f) / towerHMax, 1.0f, L.heightA, L.heightB);
-}
-
 // Density in [0, 1] from the envelope, the base noise and the detail noise (all in [0, 1]).
-// Non-decreasing in envelope and base, non-increasing in detail: bounds follow by plugging in
-// the bounds of the inputs.
+// Coverage as in Schneider 2015: the threshold on the base noise falls from 1 (no cloud) where
+// the envelope is 0 to 1 - coverage at the envelope's peak; a soft edge of width `softness`
+// above it; then the detail noise erodes the thin parts. Non-decreasing in envelope and base,
+// non-increasing in detail: bounds follow by plugging in the bounds of the inputs.
 NB_FN float cloudShape(IN(CloudLayer) L, float envelope, float base, float detail) {
-    float d = clamp((envelope * base - (1.0f - L.coverage)) / L.softness, 0.0f, 1.0f);
+    float d = clamp((base - (1.0f - L.coverage * envelope)) / L.softness, 0.0f, 1.0f);
     d = d * d * (3.0f - 2.0f * d);
     float e = min(L.erosion * detail, 0.99f);
     return clamp((d - e) / (1.0f - e), 0.0f, 1.0f);

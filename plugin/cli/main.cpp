@@ -1,1 +1,105 @@
-int main() { return 0; }
+/// @file main.cpp
+/// @brief The `nimbus` command: render frame sequences, measure error against run time, print
+/// the scene-file reference.
+///
+/// Exit codes: 0 success, 1 internal error, 2 bad input (command line, scene file, colour
+/// names), 3 I/O failure (cannot read or write a file), 4 out of memory, 130 interrupted.
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "plugin/cli/commands.h"
+#include "plugin/io/frames.h"
+#include "plugin/io/scene_file.h"
+
+using namespace nimbus;
+
+int main(int argc, char** argv) {
+    CLI::App app{"nimbus " NIMBUS_VERSION
+                 " - offline renderer for volumetric clouds.\n"
+                 "Renders TOML scenes (see `nimbus reference`) to colour-managed OpenEXR frame "
+                 "sequences.\nExit codes: 0 ok, 2 bad input, 3 I/O error, 4 out of memory, "
+                 "130 interrupted."};
+    app.set_version_flag("--version", std::string("nimbus ") + NIMBUS_VERSION);
+    app.require_subcommand(1);
+    app.footer("Examples:\n"
+               "  nimbus render examples/scenes/cumulus.toml\n"
+               "  nimbus render scene.toml --frames 1-4 --set render.step=0.5\n"
+               "  nimbus render scene.toml --frames 101-110 --resume    # one farm task\n"
+               "  nimbus converge scene.toml --csv error.csv\n"
+               "  nimbus reference > scene-reference.md");
+
+    cli::RenderOptions ro;
+    auto* render = app.add_subcommand("render", "Render the frames of a scene to EXR files");
+    render->add_option("scene", ro.scene, "Scene file (TOML)")->required();
+    render->add_option("-f,--frames", ro.frames,
+                       std::string("Frames to render (default: the scene's `frames`). ") +
+                           std::string(io::frameSpecSyntax()));
+    render->add_option("-s,--set", ro.overrides,
+                       "Override a scene value: section.key=value (TOML value), repeatable")
+        ->allow_extra_args(false);
+    render->add_option("-o,--output", ro.output,
+                       std::string("Output EXR path pattern (overrides output.path). ") +
+                           std::string(io::framePatternSyntax()));
+    render->add_option("-t,--threads", ro.threads, "Worker threads (0 = all cores)")
+        ->check(CLI::Range(0, 1024));
+    render->add_flag("--explain", ro.explain, "Print the plan of each frame and exit");
+    render->add_flag("--resume", ro.resume,
+                     "Skip frames whose output already exists as a complete Nimbus EXR");
+    render->add_option("--progress", ro.progress,
+                       "Progress display: auto (bar on a terminal, plain lines otherwise), bar, "
+                       "plain, none")
+        ->check(CLI::IsMember({"auto", "bar", "plain", "none"}));
+    render->add_flag("-q,--quiet", ro.quiet, "Only errors and warnings");
+
+    cli::ConvergeOptions co;
+    auto* converge = app.add_subcommand(
+        "converge", "Measure error against run time: a fine-step reference, then a ladder of "
+                    "coarser steps (table + CSV)");
+    converge->add_option("scene", co.scene, "Scene file (TOML)")->required();
+    converge->add_option("-s,--set", co.overrides, "Override a scene value (as for render)")
+        ->allow_extra_args(false);
+    converge->add_option("--frame", co.frame, "Frame to measure (default: first of the scene)");
+    converge->add_option("--ladder", co.ladder,
+                         "Step multipliers to measure, applied to render.step and "
+                         "render.shadow_step")
+        ->delimiter(',')
+        ->capture_default_str();
+    converge->add_option("--reference", co.referenceFactor,
+                         "Step multiplier of the reference render")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    converge->add_option("--csv", co.csv, "CSV output (default: <scene stem>.converge.csv)");
+    converge->add_option("-t,--threads", co.threads, "Worker threads (0 = all cores)")
+        ->check(CLI::Range(0, 1024));
+
+    auto* reference =
+        app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int rc = app.exit(e);
+        return rc == 0 ? 0 : cli::kExitBadInput;
+    }
+
+    try {
+        if (*render) return cli::runRender(ro);
+        if (*converge) return cli::runConverge(co);
+        if (*reference) {
+            std::cout << io::sceneFileReference();
+            return 0;
+        }
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "nimbus: error: out of memory\n");
+        return cli::kExitNoMemory;
+    }
+    return 0;
+}

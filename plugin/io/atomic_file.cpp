@@ -69,7 +69,8 @@ std::string sysError(const std::string& what, const std::string& path, int err) 
 }
 
 void fsyncPath(const std::string& path, bool directory) {
-    const int fd = ::open(path.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_RDONLY) | O_CLOEXEC);
+    const int fd =
+        ::open(path.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_RDONLY) | O_CLOEXEC);
     if (fd < 0) {
         const int err = errno;
         if (directory) return; // best effort for the directory
@@ -101,9 +102,9 @@ void signalHandler(int sig) {
 std::string makeTempPath(const std::string& finalPath) {
     const fs::path p(finalPath);
     const std::string name = ".";
-    return (p.parent_path() / (name + p.stem().string() + ".tmp." + std::to_string(::getpid()) +
-                               "." + std::to_string(g_counter.fetch_add(1)) +
-                               p.extension().string()))
+    return (p.parent_path() /
+            (name + p.stem().string() + ".tmp." + std::to_string(::getpid()) + "." +
+             std::to_string(g_counter.fetch_add(1)) + p.extension().string()))
         .string();
 }
 

@@ -154,9 +154,9 @@ bool nearlyEqual(float a, float b) {
 }
 
 /// Sample colours used to compare conversions numerically (positive, includes > 1 values).
-const std::array<glm::vec3, 6> kProbeColors{glm::vec3(1, 0, 0),       glm::vec3(0, 1, 0),
-                                            glm::vec3(0, 0, 1),       glm::vec3(0.18f),
-                                            glm::vec3(0.9f, 0.5f, 0.1f), glm::vec3(4.0f, 2.0f, 0.5f)};
+const std::array<glm::vec3, 6> kProbeColors{
+    glm::vec3(1, 0, 0), glm::vec3(0, 1, 0),          glm::vec3(0, 0, 1),
+    glm::vec3(0.18f),   glm::vec3(0.9f, 0.5f, 0.1f), glm::vec3(4.0f, 2.0f, 0.5f)};
 
 } // namespace
 
@@ -173,8 +173,8 @@ struct ColorSystem::Impl {
 
     std::vector<std::string> names() const {
         std::vector<std::string> out;
-        const int n = config->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL,
-                                                OCIO::COLORSPACE_ALL);
+        const int n =
+            config->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL);
         for (int i = 0; i < n; ++i)
             out.emplace_back(config->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL,
                                                               OCIO::COLORSPACE_ALL, i));
@@ -207,8 +207,8 @@ struct ColorSystem::Impl {
         try {
             p = config->getProcessor(src.c_str(), dst.c_str())->getDefaultCPUProcessor();
         } catch (const OCIO::Exception& e) {
-            throw std::runtime_error("OCIO cannot convert from '" + src + "' to '" + dst +
-                                     "' (" + description + "): " + e.what());
+            throw std::runtime_error("OCIO cannot convert from '" + src + "' to '" + dst + "' (" +
+                                     description + "): " + e.what());
         }
         cpuCache.emplace(key, p);
         return p;
@@ -224,7 +224,9 @@ struct ColorSystem::Impl {
 
 ColorSystem::ColorSystem(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
 
-const char* ColorSystem::builtinConfigText() { return kBuiltinConfig; }
+const char* ColorSystem::builtinConfigText() {
+    return kBuiltinConfig;
+}
 
 ColorSystem ColorSystem::builtin() {
     auto impl = std::make_shared<Impl>();
@@ -240,8 +242,7 @@ ColorSystem ColorSystem::builtin() {
     return ColorSystem(std::move(impl));
 }
 
-ColorSystem ColorSystem::fromFileWithDescription(const std::string& path,
-                                                 const std::string& what) {
+ColorSystem ColorSystem::fromFileWithDescription(const std::string& path, const std::string& what) {
     auto impl = std::make_shared<Impl>();
     try {
         impl->config = OCIO::Config::CreateFromFile(path.c_str());
@@ -262,8 +263,12 @@ ColorSystem ColorSystem::load() {
     return builtin();
 }
 
-const std::string& ColorSystem::description() const { return impl_->description; }
-bool ColorSystem::isBuiltin() const { return impl_->builtin; }
+const std::string& ColorSystem::description() const {
+    return impl_->description;
+}
+bool ColorSystem::isBuiltin() const {
+    return impl_->builtin;
+}
 
 bool ColorSystem::hasColorSpace(const std::string& name) const {
     if (name.empty()) return false;
@@ -274,7 +279,9 @@ bool ColorSystem::hasColorSpace(const std::string& name) const {
     }
 }
 
-std::vector<std::string> ColorSystem::colorSpaceNames() const { return impl_->names(); }
+std::vector<std::string> ColorSystem::colorSpaceNames() const {
+    return impl_->names();
+}
 
 std::string ColorSystem::canonicalName(const std::string& name) const {
     return impl_->space(name)->getName();
@@ -323,7 +330,8 @@ void checkImageArgs(const float* data, int width, int height, int channels, cons
     if (width < 0 || height < 0)
         throw std::runtime_error(std::string(what) + ": negative image size");
     if (channels != 3 && channels != 4)
-        throw std::runtime_error(std::string(what) + ": channels must be 3 (RGB) or 4 (RGBA), got " +
+        throw std::runtime_error(std::string(what) +
+                                 ": channels must be 3 (RGB) or 4 (RGBA), got " +
                                  std::to_string(channels));
     if (!data && width > 0 && height > 0)
         throw std::runtime_error(std::string(what) + ": null pixel data");
@@ -333,19 +341,20 @@ void checkImageArgs(const float* data, int width, int height, int channels, cons
 void applyRows(const OCIO::ConstCPUProcessorRcPtr& p, float* data, int width, int height,
                int channels) {
     if (width == 0 || height == 0 || p->isNoOp()) return;
-    tbb::parallel_for(tbb::blocked_range<int>(0, height, 16), [&](const tbb::blocked_range<int>& r) {
-        float* rows = data + size_t(r.begin()) * width * channels;
-        const int nrows = r.end() - r.begin();
-        std::vector<float> alpha;
-        if (channels == 4) {
-            alpha.resize(size_t(width) * nrows);
-            for (size_t i = 0; i < alpha.size(); ++i) alpha[i] = rows[i * 4 + 3];
-        }
-        OCIO::PackedImageDesc desc(rows, width, nrows, channels);
-        p->apply(desc);
-        if (channels == 4)
-            for (size_t i = 0; i < alpha.size(); ++i) rows[i * 4 + 3] = alpha[i];
-    });
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 16),
+                      [&](const tbb::blocked_range<int>& r) {
+                          float* rows = data + size_t(r.begin()) * width * channels;
+                          const int nrows = r.end() - r.begin();
+                          std::vector<float> alpha;
+                          if (channels == 4) {
+                              alpha.resize(size_t(width) * nrows);
+                              for (size_t i = 0; i < alpha.size(); ++i) alpha[i] = rows[i * 4 + 3];
+                          }
+                          OCIO::PackedImageDesc desc(rows, width, nrows, channels);
+                          p->apply(desc);
+                          if (channels == 4)
+                              for (size_t i = 0; i < alpha.size(); ++i) rows[i * 4 + 3] = alpha[i];
+                      });
 }
 
 } // namespace
@@ -393,7 +402,9 @@ std::vector<std::string> ColorSystem::views(const std::string& display) const {
     return out;
 }
 
-std::string ColorSystem::defaultDisplay() const { return impl_->config->getDefaultDisplay(); }
+std::string ColorSystem::defaultDisplay() const {
+    return impl_->config->getDefaultDisplay();
+}
 
 std::string ColorSystem::defaultView(const std::string& display) const {
     views(display); // validates the display
@@ -401,8 +412,8 @@ std::string ColorSystem::defaultView(const std::string& display) const {
 }
 
 void ColorSystem::applyDisplayView(float* data, int width, int height, int channels,
-                                  const std::string& from, const std::string& display,
-                                  const std::string& view) const {
+                                   const std::string& from, const std::string& display,
+                                   const std::string& view) const {
     checkImageArgs(data, width, height, channels, "applyDisplayView");
     const std::string src = canonicalName(from);
     const auto v = views(display);
@@ -429,9 +440,12 @@ std::optional<Chromaticities> ColorSystem::chromaticities(const std::string& nam
     const std::string canon = cs->getName();
 
     static const std::map<std::string, Chromaticities> kBuiltinSpaces{
-        {"ACEScg", chroma::AP1},         {"ACES2065-1", chroma::AP0},
-        {"lin_rec709", chroma::Rec709},  {"sRGB", chroma::Rec709},
-        {"sRGB - Display", chroma::Rec709}, {"CIE-XYZ-D65", chroma::XYZ}};
+        {"ACEScg", chroma::AP1},
+        {"ACES2065-1", chroma::AP0},
+        {"lin_rec709", chroma::Rec709},
+        {"sRGB", chroma::Rec709},
+        {"sRGB - Display", chroma::Rec709},
+        {"CIE-XYZ-D65", chroma::XYZ}};
     if (impl_->builtin) {
         auto it = kBuiltinSpaces.find(canon);
         if (it == kBuiltinSpaces.end()) return std::nullopt;
@@ -451,7 +465,8 @@ std::optional<Chromaticities> ColorSystem::chromaticities(const std::string& nam
             std::vector<glm::vec3> user;
             for (const auto& c : kProbeColors)
                 user.push_back(impl_->convert(c, canon, OCIO::ROLE_INTERCHANGE_SCENE));
-            for (const char* known : {"ACEScg", "ACES2065-1", "lin_rec709", "sRGB", "CIE-XYZ-D65"}) {
+            for (const char* known :
+                 {"ACEScg", "ACES2065-1", "lin_rec709", "sRGB", "CIE-XYZ-D65"}) {
                 bool same = true;
                 for (size_t i = 0; i < kProbeColors.size() && same; ++i) {
                     const glm::vec3 r = ref.convert(kProbeColors[i], known, "ACES2065-1");

@@ -6,16 +6,15 @@
 /// honours `$OCIO`; without it, it uses its own small built-in config made only of OCIO 2.1
 /// BuiltinTransforms (Debian ships no OCIO config and OCIO 2.1 has no `ocio://default`).
 ///
-/// Built-in config (see ColorSystem::builtinConfigText()):
-/// | colour space   | meaning                                                  | aliases                 |
-/// |----------------|----------------------------------------------------------|-------------------------|
-/// | `ACEScg`       | AP1 primaries, linear; roles default/scene_linear         | `lin_ap1`               |
-/// | `ACES2065-1`   | AP0 primaries, linear; reference / aces_interchange       | `lin_ap0`               |
-/// | `lin_rec709`   | Rec.709/sRGB primaries (D65), linear                     | `lin_srgb`              |
-/// | `sRGB`         | Rec.709 primaries, sRGB piecewise encoding (like "sRGB - Texture") | `srgb_texture` |
-/// | `CIE-XYZ-D65`  | CIE XYZ, D65 white                                       |                         |
-/// | `raw`          | data, never converted; role data                         |                         |
-/// | `sRGB - Display` | display-referred sRGB (display colour space)           |                         |
+/// Built-in config (see ColorSystem::builtinConfigText()), colour spaces (aliases in brackets):
+///  - `ACEScg` [lin_ap1]: AP1 primaries, linear; roles default, scene_linear, rendering.
+///  - `ACES2065-1` [lin_ap0]: AP0 primaries, linear; roles reference, aces_interchange.
+///  - `lin_rec709` [lin_srgb]: Rec.709/sRGB primaries, D65 white, linear.
+///  - `sRGB` [srgb_texture]: Rec.709 primaries with the piecewise sRGB encoding (display-encoded,
+///    no tone mapping; like "sRGB - Texture" of the ACES configs).
+///  - `CIE-XYZ-D65`: CIE XYZ, D65 white; role cie_xyz_d65_interchange.
+///  - `raw`: data, never converted; role data.
+///  - `sRGB - Display`: the display-referred colour space of the `sRGB` display.
 /// Display `sRGB` with the views `ACES 1.0 SDR-video` (ACES 1.0 output transform, tone mapped)
 /// and `Un-tone-mapped` (plain sRGB encoding, clips above 1).
 ///
@@ -63,7 +62,8 @@ class ColorSystem {
     bool hasColorSpace(const std::string& name) const;
     /// Names of all colour spaces (scene- and display-referred, canonical names only).
     std::vector<std::string> colorSpaceNames() const;
-    /// Canonical colour-space name for a name, alias or role. @throws std::runtime_error if unknown.
+    /// Canonical colour-space name for a name, alias or role. @throws std::runtime_error if
+    /// unknown.
     std::string canonicalName(const std::string& name) const;
     /// The colour space of the `scene_linear` role (the default working space), or "" if the
     /// config defines no such role.
@@ -96,9 +96,8 @@ class ColorSystem {
     /// composite premultiplied images over a background first). The result is display-encoded.
     /// @throws std::runtime_error naming an unknown colour space, display or view (with the valid
     /// ones).
-    void applyDisplayView(float* data, int width, int height, int channels,
-                          const std::string& from, const std::string& display,
-                          const std::string& view) const;
+    void applyDisplayView(float* data, int width, int height, int channels, const std::string& from,
+                          const std::string& display, const std::string& view) const;
 
     /// CIE xy chromaticities (R, G, B, white) of a colour space when Nimbus can identify it:
     /// every space of the built-in config except `raw` (ACEScg = AP1, ACES2065-1 = AP0,
@@ -120,9 +119,10 @@ class ColorSystem {
 /// Well-known chromaticities.
 namespace chroma {
 /// ACES AP1 (ACEScg), ACES white (~D60).
-inline constexpr Chromaticities AP1{0.713f, 0.293f, 0.165f, 0.830f, 0.128f, 0.044f, 0.32168f, 0.33767f};
+inline constexpr Chromaticities AP1{0.713f, 0.293f, 0.165f,   0.830f,
+                                    0.128f, 0.044f, 0.32168f, 0.33767f};
 /// ACES AP0 (ACES2065-1), ACES white (~D60).
-inline constexpr Chromaticities AP0{0.7347f, 0.2653f, 0.0f,    1.0f,
+inline constexpr Chromaticities AP0{0.7347f, 0.2653f, 0.0f,     1.0f,
                                     0.0001f, -0.077f, 0.32168f, 0.33767f};
 /// ITU-R BT.709 / sRGB primaries, D65 white.
 inline constexpr Chromaticities Rec709{0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};

@@ -21,8 +21,12 @@ constexpr std::string_view kSpecExpected =
                                 std::string(kSpecExpected));
 }
 
-bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
-bool isDigit(char c) { return c >= '0' && c <= '9'; }
+bool isSpace(char c) {
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r';
+}
+bool isDigit(char c) {
+    return c >= '0' && c <= '9';
+}
 
 /// Cursor over one spec; every error names the 1-based character position.
 struct SpecReader {
@@ -36,8 +40,7 @@ struct SpecReader {
     }
     std::string where() const {
         if (atEnd()) return "at the end";
-        return "at position " + std::to_string(pos + 1) + " ('" + std::string(1, spec[pos]) +
-               "')";
+        return "at position " + std::to_string(pos + 1) + " ('" + std::string(1, spec[pos]) + "')";
     }
 
     /// [-]digits, the value must fit an int.
@@ -156,8 +159,7 @@ std::vector<int> parseFrameSpec(const std::string& spec) {
                                 std::to_string(a));
         }
         in.skipSpace();
-        if (!in.atEnd() && in.peek() != ',')
-            specError(spec, "unexpected character " + in.where());
+        if (!in.atEnd() && in.peek() != ',') specError(spec, "unexpected character " + in.where());
 
         std::int64_t count = (std::int64_t(b) - a) / step + 1;
         if (count > kMaxFrames || std::int64_t(frames.size()) + count > 2 * kMaxFrames) {

@@ -43,7 +43,7 @@ struct OutputDesc {
 
 /// A parsed and validated scene file.
 struct SceneFile {
-    std::string path;       ///< the file it came from (the source name for parseSceneText)
+    std::string path; ///< the file it came from (the source name for parseSceneText)
     nimbus::SceneDesc scene;
     OutputDesc output;
     std::string frames = "1";                   ///< frame spec, already checked by parseFrameSpec

@@ -1,0 +1,42 @@
+/// @file commands.h
+/// @brief The subcommands of `nimbus` (render, converge) behind the command-line parser.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace nimbus::cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitInternal = 1;
+inline constexpr int kExitBadInput = 2;
+inline constexpr int kExitIo = 3;
+inline constexpr int kExitNoMemory = 4;
+inline constexpr int kExitInterrupted = 130;
+
+struct RenderOptions {
+    std::string scene;
+    std::string frames;
+    std::vector<std::string> overrides;
+    std::string output;
+    int threads = -1; ///< -1: keep the scene's render.threads
+    bool explain = false;
+    bool resume = false;
+    std::string progress = "auto";
+    bool quiet = false;
+};
+
+struct ConvergeOptions {
+    std::string scene;
+    std::vector<std::string> overrides;
+    int frame = -1000000000; ///< sentinel: first frame of the scene
+    std::vector<double> ladder{4.0, 2.0, 1.0, 0.5};
+    double referenceFactor = 0.125;
+    std::string csv;
+    int threads = -1;
+};
+
+int runRender(const RenderOptions& o);
+int runConverge(const ConvergeOptions& o);
+
+} // namespace nimbus::cli
