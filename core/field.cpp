@@ -140,8 +140,8 @@ float Field::density(vec3 p) const {
         // the base noise is at most 1: nothing can survive the threshold here
         if (kern::cloudShape(layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
         const vec3 qb = pb / cumulus.basePeriod;
-        const float base = baseBake ? baseBake->sample(qb * float(baseBake->res))
-                                    : cumulusBaseNoise(cumulus, qb);
+        const float base =
+            baseBake ? baseBake->sample(qb * float(baseBake->res)) : cumulusBaseNoise(cumulus, qb);
         if (kern::cloudShape(layer, env, base, 0.0f) <= 0.0f) return 0.0f;
         const vec3 qd = (p - detailOffset) / cumulus.detailPeriod;
         const float detail = detailBake ? detailBake->sample(qd * float(detailBake->res))

@@ -44,8 +44,8 @@ struct Field {
     HomogeneousDesc homogeneous;
     CumulusDesc cumulus;
     kern::CloudLayer layer{};
-    vec3 baseOffset{0.0f};   ///< wind * time: the whole field drifts
-    vec3 detailOffset{0.0f}; ///< (wind + detailWind) * time
+    vec3 baseOffset{0.0f};                         ///< wind * time: the whole field drifts
+    vec3 detailOffset{0.0f};                       ///< (wind + detailWind) * time
     std::shared_ptr<const NoiseVolume> baseBake;   ///< null: evaluate directly
     std::shared_ptr<const NoiseVolume> detailBake; ///< null: evaluate directly
 

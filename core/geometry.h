@@ -12,8 +12,12 @@ using glm::vec2;
 using glm::vec3;
 using glm::vec4;
 
-inline float maxComponent(vec3 v) { return std::max(v.x, std::max(v.y, v.z)); }
-inline float minComponent(vec3 v) { return std::min(v.x, std::min(v.y, v.z)); }
+inline float maxComponent(vec3 v) {
+    return std::max(v.x, std::max(v.y, v.z));
+}
+inline float minComponent(vec3 v) {
+    return std::min(v.x, std::min(v.y, v.z));
+}
 
 struct Ray {
     vec3 o;
@@ -33,8 +37,7 @@ struct Box {
 };
 
 /// Slab test; returns false when the ray misses. On a hit [t0, t1] is clipped to [tmin, tmax].
-inline bool intersectBox(const Ray& r, const Box& b, float tmin, float tmax, float& t0,
-                         float& t1) {
+inline bool intersectBox(const Ray& r, const Box& b, float tmin, float tmax, float& t0, float& t1) {
     t0 = tmin;
     t1 = tmax;
     for (int a = 0; a < 3; ++a) {

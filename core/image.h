@@ -9,7 +9,7 @@ namespace nimbus {
 
 struct AovSet {
     bool transmittance = false; ///< RGB transmittance of the whole camera ray
-    bool depth = false;         ///< distance at which transmittance first falls below 0.5 (0 if never)
+    bool depth = false; ///< distance at which transmittance first falls below 0.5 (0 if never)
 };
 
 struct Framebuffer {

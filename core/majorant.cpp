@@ -73,7 +73,8 @@ bool MajorantIterator::next(MajorantSegment& seg) {
         return whole_ > 0.0f;
     }
     while (t_ < tEnd_) {
-        int axis = tNext_.x < tNext_.y ? (tNext_.x < tNext_.z ? 0 : 2) : (tNext_.y < tNext_.z ? 1 : 2);
+        int axis =
+            tNext_.x < tNext_.y ? (tNext_.x < tNext_.z ? 0 : 2) : (tNext_.y < tNext_.z ? 1 : 2);
         float tExit = std::min(tNext_[axis], tEnd_);
         float m = grid_->at(cell_);
         float tEnter = t_;

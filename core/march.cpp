@@ -79,8 +79,7 @@ float MarchContext::inScatterFactor(float rho, float tau) const {
 }
 
 void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const {
-    const std::uint32_t pixelKey =
-        pcg(std::uint32_t(x) ^ pcg(std::uint32_t(y) ^ pcg(frameKey_)));
+    const std::uint32_t pixelKey = pcg(std::uint32_t(x) ^ pcg(std::uint32_t(y) ^ pcg(frameKey_)));
     const float jitter = s_.render.jitter ? kern::hashToUnit(pixelKey) : 0.5f;
     const Ray ray = camera_.generate(float(x) + 0.5f, float(y) + 0.5f);
     ++cnt.rays;

@@ -21,8 +21,8 @@
 namespace nimbus {
 
 /// Sample positions along a ray as a function of a continuous step coordinate u: samples sit
-/// at u = n + jitter. Fixed steps of dt0 up to distance tg = ceil(1 / growth) dt0, then steps that grow
-/// geometrically (dt ~ growth * t). Closed form in both directions, so skipping a stretch of
+/// at u = n + jitter. Fixed steps of dt0 up to distance tg = ceil(1 / growth) dt0, then steps that
+/// grow geometrically (dt ~ growth * t). Closed form in both directions, so skipping a stretch of
 /// empty space lands on exactly the samples a full march would have taken.
 struct StepSchedule {
     double dt0 = 1.0, growth = 0.0, tg = 0.0, logG = 0.0;

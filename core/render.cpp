@@ -57,8 +57,8 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
                 maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
     p.skipEmpty = s.render.skipEmpty;
-    const Box bounds = s.field.kind == FieldKind::Cumulus ? s.field.cumulus.bounds
-                                                          : s.field.homogeneous.box;
+    const Box bounds =
+        s.field.kind == FieldKind::Cumulus ? s.field.cumulus.bounds : s.field.homogeneous.box;
     p.majorantCell = autoMajorantCell(s, bounds);
 
     if (s.field.kind != FieldKind::Cumulus) {

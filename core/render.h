@@ -27,23 +27,23 @@ struct FramePlan {
     int frame = 1;
     float time = 0.0f; ///< seconds: frame / fps
     AovSet aovs;
-    bool bakeNoise = false;     ///< cumulus noise read from baked tiles (else evaluated directly)
-    std::string noiseDecision;  ///< why
-    bool shadows = true;        ///< sun enabled with non-zero irradiance
-    bool ambient = true;        ///< sky present with non-zero ambient
+    bool bakeNoise = false;    ///< cumulus noise read from baked tiles (else evaluated directly)
+    std::string noiseDecision; ///< why
+    bool shadows = true;       ///< sun enabled with non-zero irradiance
+    bool ambient = true;       ///< sky present with non-zero ambient
     bool skipEmpty = true;
-    float majorantCell = 0.0f;  ///< world size of a majorant cell
+    float majorantCell = 0.0f; ///< world size of a majorant cell
     std::string explain() const;
 };
 
 struct RenderStats {
     std::uint64_t rays = 0;
-    std::uint64_t primarySamples = 0;  ///< density lookups on camera rays
-    std::uint64_t shadowSamples = 0;   ///< density lookups on shadow rays
-    std::uint64_t nonFinite = 0;       ///< pixels that were NaN/Inf (replaced by 0); should be 0
+    std::uint64_t primarySamples = 0; ///< density lookups on camera rays
+    std::uint64_t shadowSamples = 0;  ///< density lookups on shadow rays
+    std::uint64_t nonFinite = 0;      ///< pixels that were NaN/Inf (replaced by 0); should be 0
     std::size_t majorantCells = 0;
     double majorantEmptyFraction = 0.0;
-    double bakeSeconds = 0.0;     ///< noise baking charged to this frame (0 when reused)
+    double bakeSeconds = 0.0; ///< noise baking charged to this frame (0 when reused)
     double majorantSeconds = 0.0;
     double integrateSeconds = 0.0;
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }

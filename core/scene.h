@@ -32,7 +32,7 @@ enum class SkyKind { None, Uniform, Gradient };
 
 struct SkyDesc {
     SkyKind kind = SkyKind::Gradient;
-    vec3 zenith{0.3f, 0.5f, 0.9f};  ///< radiance straight up (uniform sky: everywhere)
+    vec3 zenith{0.3f, 0.5f, 0.9f};   ///< radiance straight up (uniform sky: everywhere)
     vec3 horizon{0.8f, 0.85f, 0.9f}; ///< radiance at the horizon and below
     float ambient = 1.0f;            ///< scale of the sky term inside the medium
 };
@@ -65,8 +65,8 @@ struct CumulusDesc {
     float erosion = 0.3f;
     float heightA = 50.0f;
     float heightB = 0.5f;
-    float basePeriod = 12.0f;  ///< world size of one tile of the base noise
-    int baseLattice = 4;       ///< lattice cells per tile (lowest octave)
+    float basePeriod = 12.0f; ///< world size of one tile of the base noise
+    int baseLattice = 4;      ///< lattice cells per tile (lowest octave)
     int baseOctaves = 4;
     float detailPeriod = 2.0f; ///< world size of one tile of the detail noise
     int detailLattice = 4;
@@ -78,12 +78,12 @@ struct CumulusDesc {
     float towerHeightMax = 1.0f;
     float towerProbability = 0.6f;
     float towerAnisotropy = 0.35f;
-    vec3 wind{0.0f};          ///< world units per second: the whole field drifts with it
-    vec3 detailWind{0.0f};    ///< extra drift of the detail noise: slowly evolving edges
+    vec3 wind{0.0f};       ///< world units per second: the whole field drifts with it
+    vec3 detailWind{0.0f}; ///< extra drift of the detail noise: slowly evolving edges
     std::uint32_t seed = 1;
     NoiseEval eval = NoiseEval::Auto;
-    int baseBakeResolution = 128;   ///< voxels per base tile when baked
-    int detailBakeResolution = 64;  ///< voxels per detail tile when baked
+    int baseBakeResolution = 128;  ///< voxels per base tile when baked
+    int detailBakeResolution = 64; ///< voxels per detail tile when baked
 };
 
 struct FieldDesc {
@@ -96,10 +96,10 @@ enum class InScatter { None, Olajos, Powder };
 enum class Background { Sky, Transparent };
 
 struct RenderDesc {
-    float step = 0.05f;        ///< primary step length (world units)
-    float stepGrowth = 0.0f;   ///< distance-adaptive: step = max(step, stepGrowth * distance)
+    float step = 0.05f;      ///< primary step length (world units)
+    float stepGrowth = 0.0f; ///< distance-adaptive: step = max(step, stepGrowth * distance)
     bool jitter = true;
-    float epsilon = 0.01f;     ///< stop when transmittance drops below this
+    float epsilon = 0.01f; ///< stop when transmittance drops below this
     float shadowStep = 0.05f;
     float shadowGrowth = 0.3f; ///< shadow steps grow geometrically by this factor
     bool skipEmpty = true;     ///< use the majorant grid to skip empty space
@@ -116,9 +116,9 @@ struct RenderDesc {
     float inScatterStrength = 0.5f;
     Background background = Background::Sky;
     std::uint32_t seed = 0;
-    int threads = 0;           ///< 0 = all cores
+    int threads = 0; ///< 0 = all cores
     int tileSize = 16;
-    float fps = 24.0f;         ///< frame -> time: t = frame / fps
+    float fps = 24.0f; ///< frame -> time: t = frame / fps
 };
 
 struct SceneDesc {

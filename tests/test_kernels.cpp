@@ -73,7 +73,8 @@ TEST(Kernels, WorleyRangeAndOneAtFeaturePoints) {
         vec3 fp = vec3(cell) + hashToUnit3(latticeHash3(cell, 8, 3u));
         EXPECT_NEAR(worleyNoise(fp, 8, 3u), 1.0f, 1e-5f);
         // half way to... the value falls linearly with distance: 1 - d/sqrt(3) <= 1 - 0.1/sqrt(3)
-        EXPECT_LE(worleyNoise(fp + vec3(0.1f, 0.0f, 0.0f), 8, 3u), 1.0f - 0.1f / std::sqrt(3.0f) + 1e-5f);
+        EXPECT_LE(worleyNoise(fp + vec3(0.1f, 0.0f, 0.0f), 8, 3u),
+                  1.0f - 0.1f / std::sqrt(3.0f) + 1e-5f);
     }
 }
 

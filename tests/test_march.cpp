@@ -71,7 +71,8 @@ Framebuffer renderScene(const SceneDesc& s, RenderStats* statsOut = nullptr, Aov
 TEST(March, StepScheduleRoundTrips) {
     for (double growth : {0.0, 0.01, 0.3}) {
         StepSchedule s(0.05, growth);
-        for (double t : {0.0, 0.01, 0.2, 3.0, 40.0, 900.0}) EXPECT_NEAR(s.t(s.u(t)), t, 1e-9 * (1 + t));
+        for (double t : {0.0, 0.01, 0.2, 3.0, 40.0, 900.0})
+            EXPECT_NEAR(s.t(s.u(t)), t, 1e-9 * (1 + t));
         for (int n = 0; n < 100; ++n) EXPECT_GT(s.t(n + 1) - s.t(n), 0.05 * (1 - 1e-9));
     }
 }
@@ -121,13 +122,14 @@ TEST(March, SingleScatterInUniformSlabMatchesClosedForm) {
     for (int i = 0; i < fb.width; ++i) crossed += fb.transmittance[3 * i] < 0.5f;
     EXPECT_GT(crossed, fb.width / 2);
     const vec3 sigma_s = s.medium.sigma_s * s.medium.densityScale * s.field.homogeneous.density;
-    const vec3 sigma_t = (s.medium.sigma_s + s.medium.sigma_a) * s.medium.densityScale *
-                         s.field.homogeneous.density;
+    const vec3 sigma_t =
+        (s.medium.sigma_s + s.medium.sigma_a) * s.medium.densityScale * s.field.homogeneous.density;
     for (int i = 0; i < fb.width * fb.height; ++i)
         for (int c = 0; c < 3; ++c) {
             const float T = fb.transmittance[3 * i + c];
             // horizontal rays at y = 0.2: height fraction h = 0.6 in a box spanning y in [-1, 1]
-            const float occl = MarchContext::kAmbientGround + (1.0f - MarchContext::kAmbientGround) * 0.6f;
+            const float occl =
+                MarchContext::kAmbientGround + (1.0f - MarchContext::kAmbientGround) * 0.6f;
             const float expect = s.sky.zenith[c] * occl * sigma_s[c] / sigma_t[c] * (1.0f - T);
             ASSERT_NEAR(fb.rgba[4 * i + c], expect, 1e-4f);
         }

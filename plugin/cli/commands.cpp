@@ -137,7 +137,8 @@ int runRender(const RenderOptions& o) {
                 std::fprintf(stderr,
                              "nimbus: error: %zu frames would all be written to \"%s\": add a "
                              "frame token (%s)\n",
-                             frames.size(), p->c_str(), std::string(io::framePatternSyntax()).c_str());
+                             frames.size(), p->c_str(),
+                             std::string(io::framePatternSyntax()).c_str());
                 return kExitBadInput;
             }
     }
@@ -156,11 +157,11 @@ int runRender(const RenderOptions& o) {
     }
 
     installSignalHandlers();
-    const ProgressMode mode = o.quiet                   ? ProgressMode::None
-                              : o.progress == "bar"     ? ProgressMode::Bar
-                              : o.progress == "plain"   ? ProgressMode::Plain
-                              : o.progress == "none"    ? ProgressMode::None
-                                                        : ProgressMode::Auto;
+    const ProgressMode mode = o.quiet                 ? ProgressMode::None
+                              : o.progress == "bar"   ? ProgressMode::Bar
+                              : o.progress == "plain" ? ProgressMode::Plain
+                              : o.progress == "none"  ? ProgressMode::None
+                                                      : ProgressMode::Auto;
     Progress progress(mode, int(frames.size()));
     const std::string ws = io::workingSpace(*ls.cs);
     double totalSeconds = 0.0;
@@ -170,7 +171,9 @@ int runRender(const RenderOptions& o) {
         const std::string out = io::expandFramePattern(f.output.path, frame);
         if (o.resume && validOutputExists(out)) {
             progress.finishLine();
-            if (!o.quiet) std::fprintf(stderr, "frame %d: %s exists, skipped (--resume)\n", frame, out.c_str());
+            if (!o.quiet)
+                std::fprintf(stderr, "frame %d: %s exists, skipped (--resume)\n", frame,
+                             out.c_str());
             continue;
         }
         const FramePlan plan = renderer.plan(frame, f.output.aovs);
@@ -203,7 +206,8 @@ int runRender(const RenderOptions& o) {
                 bad += io::writePreviewPng(io::expandFramePattern(f.output.preview, frame), fb,
                                            *ls.cs, ws, f.output.display, f.output.view);
             if (bad + st.nonFinite > 0)
-                std::fprintf(stderr, "nimbus: warning: frame %d: %zu non-finite values replaced by 0\n",
+                std::fprintf(stderr,
+                             "nimbus: warning: frame %d: %zu non-finite values replaced by 0\n",
                              frame, size_t(bad + st.nonFinite));
         } catch (const std::exception& e) {
             progress.finishLine();
@@ -258,7 +262,8 @@ int runConverge(const ConvergeOptions& o) {
     // that of the step alone
     {
         Renderer probe(base);
-        base.field.cumulus.eval = probe.plan(frame).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
+        base.field.cumulus.eval =
+            probe.plan(frame).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
     }
     installSignalHandlers();
     auto renderWith = [&](double factor, Framebuffer& fb, RenderStats& st) {
@@ -275,8 +280,8 @@ int runConverge(const ConvergeOptions& o) {
         return ok ? secondsSince(t0) : -1.0;
     };
 
-    std::fprintf(stderr, "reference: step %g x %g = %g ...\n", base.render.step,
-                 o.referenceFactor, base.render.step * o.referenceFactor);
+    std::fprintf(stderr, "reference: step %g x %g = %g ...\n", base.render.step, o.referenceFactor,
+                 base.render.step * o.referenceFactor);
     Framebuffer ref;
     RenderStats refStats;
     const double refSeconds = renderWith(o.referenceFactor, ref, refStats);
@@ -290,9 +295,14 @@ int runConverge(const ConvergeOptions& o) {
     };
     std::vector<Row> rows;
     auto addRow = [&](double factor, const RenderStats& st, double seconds, const Framebuffer* fb) {
-        Row r{factor, base.render.step * factor, base.render.shadowStep * factor,
+        Row r{factor,
+              base.render.step * factor,
+              base.render.shadowStep * factor,
               double(st.primarySamples) / std::max<double>(1, double(st.rays)),
-              double(st.shadowSamples) / std::max<double>(1, double(st.rays)), seconds, 0.0, 0.0};
+              double(st.shadowSamples) / std::max<double>(1, double(st.rays)),
+              seconds,
+              0.0,
+              0.0};
         if (fb) {
             double sq = 0.0;
             for (size_t i = 0; i < ref.rgba.size(); ++i) {
@@ -318,10 +328,13 @@ int runConverge(const ConvergeOptions& o) {
     table << "frame " << frame << ", " << ls.file.scene.camera.width << "x"
           << ls.file.scene.camera.height << ", clouds only (RGBA, background transparent)\n";
     char line[256];
-    std::snprintf(line, sizeof line, "| %-9s | %-10s | %-11s | %-13s | %-13s | %-10s | %-10s | %-9s |\n",
-                  "step x", "step", "shadow step", "samples/ray", "shadow/ray", "time (s)",
-                  "RMSE", "rel. RMSE");
-    table << line << "|-----------|------------|-------------|---------------|---------------|------------|------------|-----------|\n";
+    std::snprintf(line, sizeof line,
+                  "| %-9s | %-10s | %-11s | %-13s | %-13s | %-10s | %-10s | %-9s |\n", "step x",
+                  "step", "shadow step", "samples/ray", "shadow/ray", "time (s)", "RMSE",
+                  "rel. RMSE");
+    table << line
+          << "|-----------|------------|-------------|---------------|---------------|------------|"
+             "------------|-----------|\n";
     csv << "step_multiplier,step,shadow_step,samples_per_ray,shadow_samples_per_ray,seconds,rmse,"
            "relative_rmse,is_reference\n";
     for (size_t i = 0; i < rows.size(); ++i) {

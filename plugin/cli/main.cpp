@@ -22,8 +22,7 @@
 using namespace nimbus;
 
 int main(int argc, char** argv) {
-    CLI::App app{"nimbus " NIMBUS_VERSION
-                 " - offline renderer for volumetric clouds.\n"
+    CLI::App app{"nimbus " NIMBUS_VERSION " - offline renderer for volumetric clouds.\n"
                  "Renders TOML scenes (see `nimbus reference`) to colour-managed OpenEXR frame "
                  "sequences.\nExit codes: 0 ok, 2 bad input, 3 I/O error, 4 out of memory, "
                  "130 interrupted."};
@@ -42,8 +41,9 @@ int main(int argc, char** argv) {
     render->add_option("-f,--frames", ro.frames,
                        std::string("Frames to render (default: the scene's `frames`). ") +
                            std::string(io::frameSpecSyntax()));
-    render->add_option("-s,--set", ro.overrides,
-                       "Override a scene value: section.key=value (TOML value), repeatable")
+    render
+        ->add_option("-s,--set", ro.overrides,
+                     "Override a scene value: section.key=value (TOML value), repeatable")
         ->allow_extra_args(false);
     render->add_option("-o,--output", ro.output,
                        std::string("Output EXR path pattern (overrides output.path). ") +
@@ -53,9 +53,10 @@ int main(int argc, char** argv) {
     render->add_flag("--explain", ro.explain, "Print the plan of each frame and exit");
     render->add_flag("--resume", ro.resume,
                      "Skip frames whose output already exists as a complete Nimbus EXR");
-    render->add_option("--progress", ro.progress,
-                       "Progress display: auto (bar on a terminal, plain lines otherwise), bar, "
-                       "plain, none")
+    render
+        ->add_option("--progress", ro.progress,
+                     "Progress display: auto (bar on a terminal, plain lines otherwise), bar, "
+                     "plain, none")
         ->check(CLI::IsMember({"auto", "bar", "plain", "none"}));
     render->add_flag("-q,--quiet", ro.quiet, "Only errors and warnings");
 
@@ -67,21 +68,21 @@ int main(int argc, char** argv) {
     converge->add_option("-s,--set", co.overrides, "Override a scene value (as for render)")
         ->allow_extra_args(false);
     converge->add_option("--frame", co.frame, "Frame to measure (default: first of the scene)");
-    converge->add_option("--ladder", co.ladder,
-                         "Step multipliers to measure, applied to render.step and "
-                         "render.shadow_step")
+    converge
+        ->add_option("--ladder", co.ladder,
+                     "Step multipliers to measure, applied to render.step and "
+                     "render.shadow_step")
         ->delimiter(',')
         ->capture_default_str();
-    converge->add_option("--reference", co.referenceFactor,
-                         "Step multiplier of the reference render")
+    converge
+        ->add_option("--reference", co.referenceFactor, "Step multiplier of the reference render")
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
     converge->add_option("--csv", co.csv, "CSV output (default: <scene stem>.converge.csv)");
     converge->add_option("-t,--threads", co.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024));
 
-    auto* reference =
-        app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
+    auto* reference = app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
 
     try {
         app.parse(argc, argv);

@@ -18,7 +18,8 @@ std::string formatDuration(double s) {
 }
 
 Progress::Progress(ProgressMode mode, int frames) : mode_(mode), frames_(frames) {
-    if (mode_ == ProgressMode::Auto) mode_ = isatty(STDERR_FILENO) ? ProgressMode::Bar : ProgressMode::Plain;
+    if (mode_ == ProgressMode::Auto)
+        mode_ = isatty(STDERR_FILENO) ? ProgressMode::Bar : ProgressMode::Plain;
     start_ = lastDraw_ = std::chrono::steady_clock::now();
 }
 

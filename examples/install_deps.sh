@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages Nimbus needs to build, render and test, and only those that
+# are missing. Run as root (or with sudo available). Safe to run again: a no-op when all are present.
+set -euo pipefail
+
+PACKAGES=(
+  cmake g++ make pkg-config git
+  libtbb-dev libglm-dev                                  # core
+  libopenimageio-dev openimageio-tools libopencolorio-dev # plugin: EXR, colour
+  libtomlplusplus-dev libcli11-dev                       # plugin: scene files, command line
+  libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install_deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get -o DPkg::Lock::Timeout=600 update -qq
+$SUDO apt-get -o DPkg::Lock::Timeout=600 install -y -qq --no-install-recommends "${missing[@]}"

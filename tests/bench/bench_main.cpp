@@ -1,0 +1,104 @@
+// Benchmarks (Google Benchmark): density lookups per second, the default frame with empty-space
+// skipping on and off, and the share of time spent in shadow marches. Run from the build dir:
+//   ./tests/nimbus_bench                       (all; the frame benchmarks take ~1 min on 2 cores)
+//   ./tests/nimbus_bench --benchmark_filter=Density
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "core/majorant.h"
+#include "core/render.h"
+#include "plugin/io/color.h"
+#include "plugin/io/scene_file.h"
+#include "plugin/io/scene_setup.h"
+
+using namespace nimbus;
+
+namespace {
+
+const SceneDesc& defaultScene() {
+    static SceneDesc scene = [] {
+        io::SceneFile f = io::loadSceneFile(NIMBUS_SOURCE_DIR "/examples/scenes/cumulus.toml");
+        io::resolveColours(f, io::ColorSystem::load());
+        return f.scene;
+    }();
+    return scene;
+}
+
+/// Points where a march with skipping evaluates density: inside non-empty majorant cells.
+std::vector<vec3> pointsInCloudCells(const Field& f, const MajorantGrid& g, int n) {
+    std::vector<vec3> cells;
+    for (int z = 0; z < g.res.z; ++z)
+        for (int y = 0; y < g.res.y; ++y)
+            for (int x = 0; x < g.res.x; ++x)
+                if (g.at(ivec3(x, y, z)) > 0.0f) cells.push_back(vec3(x, y, z));
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<vec3> pts(n);
+    for (vec3& p : pts) {
+        vec3 c = cells[rng() % cells.size()];
+        p = f.bounds().lo + (c + vec3(u(rng), u(rng), u(rng))) * g.cellSize;
+    }
+    return pts;
+}
+
+void BM_Density(benchmark::State& state) {
+    SceneDesc s = defaultScene();
+    const bool baked = state.range(0) != 0;
+    auto base = baked ? bakeCumulusBase(s.field.cumulus) : nullptr;
+    auto detail = baked ? bakeCumulusDetail(s.field.cumulus) : nullptr;
+    Field f = makeField(s.field, 0.5f, base, detail);
+    MajorantGrid g = buildMajorantGrid(f, 0.16f);
+    std::vector<vec3> pts = pointsInCloudCells(f, g, 1 << 16);
+    size_t i = 0;
+    float sum = 0.0f;
+    for (auto _ : state) {
+        sum += f.density(pts[i++ & (pts.size() - 1)]);
+    }
+    benchmark::DoNotOptimize(sum);
+    state.SetItemsProcessed(state.iterations());
+    state.SetLabel(baked ? "baked noise, points in non-empty cells"
+                         : "direct noise, points in non-empty cells");
+}
+BENCHMARK(BM_Density)->Arg(0)->Arg(1);
+
+/// One frame of the default scene. Args: skip empty space (0/1), sun (0/1).
+void BM_Frame(benchmark::State& state) {
+    SceneDesc s = defaultScene();
+    s.render.skipEmpty = state.range(0) != 0;
+    s.sun.enabled = state.range(1) != 0;
+    Renderer r(s);
+    FramePlan plan = r.plan(1);
+    Framebuffer fb;
+    RenderStats st;
+    r.render(plan, fb, st); // bakes the noise once, outside the timing
+    for (auto _ : state) r.render(plan, fb, st);
+    state.counters["lookups"] = double(st.lookups());
+    state.counters["shadow_lookups"] = double(st.shadowSamples);
+    state.counters["lookups_per_s"] =
+        benchmark::Counter(double(st.lookups()), benchmark::Counter::kIsIterationInvariantRate);
+    state.SetLabel(std::string(s.render.skipEmpty ? "skip on" : "skip off") +
+                   (s.sun.enabled ? ", sun" : ", no sun (no shadow marches)"));
+}
+BENCHMARK(BM_Frame)
+    ->Args({1, 1})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Iterations(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+
+void BM_NoiseBake(benchmark::State& state) {
+    SceneDesc s = defaultScene();
+    for (auto _ : state) {
+        auto b = bakeCumulusBase(s.field.cumulus);
+        auto d = bakeCumulusDetail(s.field.cumulus);
+        benchmark::DoNotOptimize(b);
+        benchmark::DoNotOptimize(d);
+    }
+}
+BENCHMARK(BM_NoiseBake)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+} // namespace
+
+BENCHMARK_MAIN();
