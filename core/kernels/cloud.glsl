@@ -101,9 +101,14 @@ NB_FN float cloudEnvelopeBound(IN(CloudLayer) L, float h0, float h1, float tower
     return heightProfileMax(lo, 1.0f, L.heightA, L.heightB) * max(0.0f, 1.0f - lo2 * lo2);
 }
 
+// Fade-out of a tower toward the rim of its footprint: full strength where the Gaussian weight
+// g is above 0.35, so the base stays wide and flat; zero at g = 0, which removes the thin skirt
+// the Gaussian tails would otherwise leave at the bottom of the layer. Non-decreasing in g.
+NB_FN float towerRim(float g) { return smoothstep(0.1f, 0.7f, g); }
+
 // Envelope of the tower field at (x, h, z): for each tower k with footprint weight g_k (the
 // truncated Gaussian), the column reaches height_k * g_k and the envelope is
-// cloudEnvelope(h, height_k g_k) * g_k, so a tower thins toward its rim as well as its top;
+// cloudEnvelope(h, height_k g_k) * towerRim(g_k): towers round off toward the top and the rim;
 // the max over towers is taken. Footprints reach at most towerRadiusMax <= towerSpacing, so
 // the 3x3 neighbouring cells hold every tower that can touch (x, z).
 NB_FN float towerEnvelope(IN(CloudLayer) L, float h, float x, float z) {
@@ -120,7 +125,7 @@ NB_FN float towerEnvelope(IN(CloudLayer) L, float h, float x, float z) {
             float rz = (-t.sinA * dx + t.cosA * dz) / t.sigmaZ;
             float g = truncatedGaussian(rx * rx + rz * rz);
             if (g <= 0.0f) continue;
-            best = max(best, cloudEnvelope(L, h, t.height * g) * g);
+            best = max(best, cloudEnvelope(L, h, t.height * g) * towerRim(g));
         }
     }
     return best;
@@ -145,7 +150,7 @@ NB_FN float towerEnvelopeBound(IN(CloudLayer) L, float h0, float h1, float x0, f
             float smax = max(t.sigmaX, t.sigmaZ);
             float g = truncatedGaussian((dx * dx + dz * dz) / (smax * smax));
             if (g <= 0.0f) continue;
-            best = max(best, cloudEnvelopeBound(L, h0, h1, t.height * g) * g);
+            best = max(best, cloudEnvelopeBound(L, h0, h1, t.height * g) * towerRim(g));
         }
     }
     return best;
