@@ -86,6 +86,9 @@ std::map<std::string, std::string> settingsOf(const io::SceneFile& f,
     const RenderDesc& r = f.scene.render;
     std::map<std::string, std::string> m;
     m["scene"] = f.path;
+    // the scene file itself, so a frame can be reproduced from its EXR alone
+    std::ifstream in(f.path);
+    m["scene_file"] = std::string(std::istreambuf_iterator<char>(in), {});
     std::string ov;
     for (const auto& o : overrides) ov += (ov.empty() ? "" : " ") + o;
     m["overrides"] = ov;
@@ -225,11 +228,12 @@ int runRender(const RenderOptions& o) {
             progress.finishLine();
             const double lookups = double(st.lookups());
             std::fprintf(stderr,
-                         "frame %d: %.2f s (bake %.2f s, majorant %.2f s, march %.2f s), "
+                         "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s, march %.2f s), "
                          "%.1f M density lookups (%.1f M/s, %.0f%% in shadow rays), "
                          "%.0f%% of majorant cells empty -> %s\n",
-                         frame, seconds, st.bakeSeconds, st.majorantSeconds, st.integrateSeconds,
-                         lookups * 1e-6, lookups * 1e-6 / std::max(st.integrateSeconds, 1e-9),
+                         frame, seconds, plan.bakeNoise ? "baked" : "direct", st.bakeSeconds,
+                         st.majorantSeconds, st.integrateSeconds, lookups * 1e-6,
+                         lookups * 1e-6 / std::max(st.integrateSeconds, 1e-9),
                          100.0 * double(st.shadowSamples) / std::max(lookups, 1.0),
                          100.0 * st.majorantEmptyFraction, out.c_str());
         }
@@ -268,7 +272,9 @@ int runConverge(const ConvergeOptions& o) {
     installSignalHandlers();
     auto renderWith = [&](double factor, Framebuffer& fb, RenderStats& st) {
         SceneDesc s = base;
+        // the whole step schedule scales: base steps and distance growth alike
         s.render.step = float(base.render.step * factor);
+        s.render.stepGrowth = float(base.render.stepGrowth * factor);
         s.render.shadowStep = float(base.render.shadowStep * factor);
         Renderer r(s);
         FramePlan plan = r.plan(frame);

@@ -70,8 +70,8 @@ int main(int argc, char** argv) {
     converge->add_option("--frame", co.frame, "Frame to measure (default: first of the scene)");
     converge
         ->add_option("--ladder", co.ladder,
-                     "Step multipliers to measure, applied to render.step and "
-                     "render.shadow_step")
+                     "Step multipliers to measure, applied to render.step, render.step_growth "
+                     "and render.shadow_step")
         ->delimiter(',')
         ->capture_default_str();
     converge
