@@ -3,13 +3,16 @@
 #include <algorithm>
 #include <limits>
 
+#include "core/phase.h"
+
 namespace nimbus {
 
 using kern::pcg;
 
 MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                           const MajorantGrid* grid)
-    : s_(scene), plan_(plan), field_(field), grid_(grid), camera_(scene.camera),
+                           const MajorantGrid* grid, const LightVolume* lightVolume)
+    : s_(scene), plan_(plan), field_(field), grid_(grid), lightVolume_(lightVolume),
+      camera_(scene.camera), phase_(PhaseFunction::fromMedium(scene.medium)),
       primary_(scene.render.step, scene.render.stepGrowth),
       shadow_(scene.render.shadowStep, scene.render.shadowGrowth),
       wholeMajorant_(field.majorant(field.bounds())) {
@@ -86,7 +89,6 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
 
     const vec3 sunDir = s_.sun.direction;
     const float cosTheta = glm::dot(ray.d, sunDir);
-    const int phaseKind = int(s_.medium.phase);
     const Box& b = field_.bounds();
     const float span = std::max(b.hi.y - b.lo.y, 1e-20f);
 
@@ -106,15 +108,18 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
             vec3 S(0.0f);
             if (plan_.shadows) {
                 const float tau =
-                    sunDensityIntegral(p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt);
+                    lightVolume_ ? lightVolume_->sample(p)
+                                 : sunDensityIntegral(
+                                       p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt);
                 vec3 sun(0.0f);
-                float weight = 1.0f, extinction = 1.0f, g = s_.medium.g;
+                float weight = 1.0f, extinction = 1.0f;
+                PhaseFunction octavePhase = phase_;
                 for (int i = 0; i < s_.render.octaves; ++i) {
-                    sun += weight * kern::phaseEval(phaseKind, g, cosTheta) *
+                    sun += weight * octavePhase.eval(cosTheta) *
                            kern::beerLambert(sigmaT_ * (tau * extinction));
                     weight *= s_.render.octaveContribution;
                     extinction *= s_.render.octaveExtinction;
-                    g *= s_.render.octaveEccentricity;
+                    octavePhase = octavePhase.octave(s_.render.octaveEccentricity);
                 }
                 S += s_.sun.irradiance * sun * inScatterFactor(rho, tau);
             }

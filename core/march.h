@@ -4,9 +4,9 @@
 ///
 /// Per camera ray: jittered samples on a step schedule (fixed, or growing with distance),
 /// only inside non-empty majorant segments; at each sample the sun's transmittance from a
-/// shadow march (Beer-Lambert), Henyey-Greenstein phase, the Olajos in-scatter or Schneider
-/// beer-powder term, and sky ambient; Hillaire's energy-conserving step integration; early exit
-/// when transmittance < epsilon. Olajos 2016 ch. 3; Hillaire 2016; Schneider 2015.
+/// shadow march (Beer-Lambert), the medium's phase function (core/phase.h), the Olajos in-scatter
+/// or Schneider beer-powder term, and sky ambient; Hillaire's energy-conserving step integration;
+/// early exit when transmittance < epsilon. Olajos 2016 ch. 3; Hillaire 2016; Schneider 2015.
 #pragma once
 
 #include <algorithm>
@@ -15,7 +15,9 @@
 
 #include "core/camera.h"
 #include "core/image.h"
+#include "core/light_volume.h"
 #include "core/majorant.h"
+#include "core/phase.h"
 #include "core/render.h"
 
 namespace nimbus {
@@ -86,7 +88,7 @@ class MarchContext {
     static constexpr float kAmbientGround = 0.3f;
 
     MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                 const MajorantGrid* grid);
+                 const MajorantGrid* grid, const LightVolume* lightVolume = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
 
     /// Density integral along the ray from p toward the sun (shadow march).
@@ -101,7 +103,9 @@ class MarchContext {
     const FramePlan& plan_;
     const Field& field_;
     const MajorantGrid* grid_;
+    const LightVolume* lightVolume_; ///< when set, replaces the shadow marches
     Camera camera_;
+    PhaseFunction phase_;
     StepSchedule primary_, shadow_;
     float wholeMajorant_;
     vec3 sigmaS_, sigmaT_; ///< per unit density, density scale folded in

@@ -10,7 +10,10 @@
 #include <tbb/task_arena.h>
 
 #include "core/camera.h"
+#include "core/light_volume.h"
 #include "core/march.h"
+#include "core/mie.h"
+#include "core/pathtrace.h"
 
 namespace nimbus {
 
@@ -28,6 +31,10 @@ float autoMajorantCell(const SceneDesc& s, const Box& b) {
     return std::max(4.0f * s.render.step, longest / 256.0f);
 }
 
+template <class Context>
+bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, RenderStats& stats,
+                 const RenderCallbacks& cb);
+
 } // namespace
 
 std::string FramePlan::explain() const {
@@ -38,14 +45,27 @@ std::string FramePlan::explain() const {
     o << "  empty-space skipping: "
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
       << "\n";
-    o << "  sun shadow marches: " << (shadows ? "yes" : "no (no sun)") << "\n";
+    o << "  sun transmittance: "
+      << (!shadows      ? std::string("none (no sun)")
+          : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
+                        : std::string("shadow march per sample"))
+      << "\n";
     o << "  sky ambient: " << (ambient ? "yes" : "no") << "\n";
     o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
       << (aovs.depth ? ", depth" : "") << "\n";
     return o.str();
 }
 
-Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {}
+Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {
+    // the Mie table is computed once per process and parameter set, and only when used
+    MediumDesc& m = scene_.medium;
+    if (m.phase == PhaseKind::MieTable && !m.mieTable) {
+        MieTableParams p;
+        p.effectiveRadius = m.effectiveRadius;
+        p.effectiveVariance = m.effectiveVariance;
+        m.mieTable = sharedMieTable(p);
+    }
+}
 
 FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     const SceneDesc& s = scene_;
@@ -60,6 +80,9 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     const Box bounds =
         s.field.kind == FieldKind::Cumulus ? s.field.cumulus.bounds : s.field.homogeneous.box;
     p.majorantCell = autoMajorantCell(s, bounds);
+    p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
+                    s.render.shadow == ShadowMethod::Volume;
+    p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
 
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision = "no noise in this field";
@@ -130,46 +153,72 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         }
         stats.majorantSeconds = secondsSince(t0);
 
-        MarchContext ctx(s, plan, field, plan.skipEmpty ? &grid : nullptr);
+        const MajorantGrid* g = plan.skipEmpty ? &grid : nullptr;
+        LightVolume lv;
+        if (plan.lightVolume) {
+            t0 = std::chrono::steady_clock::now();
+            lv = buildLightVolume(field, s.sun.direction, plan.lightVolumeCell, g);
+            stats.lightVolumeSeconds = secondsSince(t0);
+            stats.lightVolumeLookups = lv.densityLookups;
+        }
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
-        const int ts = s.render.tileSize;
-        const int tilesX = (fb.width + ts - 1) / ts, tilesY = (fb.height + ts - 1) / ts;
-        const int tiles = tilesX * tilesY;
-        std::atomic<std::uint64_t> rays{0}, prim{0}, shad{0}, bad{0};
-        std::atomic<int> done{0};
-        std::mutex progressMutex;
-
         t0 = std::chrono::steady_clock::now();
-        tbb::parallel_for(
-            tbb::blocked_range<int>(0, tiles, 1),
-            [&](const tbb::blocked_range<int>& r) {
-                for (int tile = r.begin(); tile != r.end(); ++tile) {
-                    if (cb.cancel && cb.cancel->load(std::memory_order_relaxed)) return;
-                    const int x0 = (tile % tilesX) * ts, y0 = (tile / tilesX) * ts;
-                    MarchCounters cnt;
-                    for (int y = y0; y < std::min(y0 + ts, fb.height); ++y)
-                        for (int x = x0; x < std::min(x0 + ts, fb.width); ++x)
-                            ctx.renderPixel(x, y, fb, cnt);
-                    rays += cnt.rays;
-                    prim += cnt.primarySamples;
-                    shad += cnt.shadowSamples;
-                    bad += cnt.nonFinite;
-                    const int d = ++done;
-                    if (cb.progress) {
-                        std::lock_guard<std::mutex> lock(progressMutex);
-                        cb.progress(d, tiles);
-                    }
-                }
-            },
-            tbb::simple_partitioner());
+        switch (s.render.integrator) {
+        case Integrator::March:
+            completed =
+                renderTiles(MarchContext(s, plan, field, g, plan.lightVolume ? &lv : nullptr), s,
+                            fb, stats, cb);
+            break;
+        case Integrator::PathTrace:
+            completed = renderTiles(PathContext(s, plan, field, g), s, fb, stats, cb);
+            break;
+        }
         stats.integrateSeconds = secondsSince(t0);
-        stats.rays = rays;
-        stats.primarySamples = prim;
-        stats.shadowSamples = shad;
-        stats.nonFinite = bad;
-        completed = done.load() == tiles;
     });
     return completed;
 }
+
+namespace {
+
+template <class Context>
+bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, RenderStats& stats,
+                 const RenderCallbacks& cb) {
+    const int ts = s.render.tileSize;
+    const int tilesX = (fb.width + ts - 1) / ts, tilesY = (fb.height + ts - 1) / ts;
+    const int tiles = tilesX * tilesY;
+    std::atomic<std::uint64_t> rays{0}, prim{0}, shad{0}, bad{0};
+    std::atomic<int> done{0};
+    std::mutex progressMutex;
+
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, tiles, 1),
+        [&](const tbb::blocked_range<int>& r) {
+            for (int tile = r.begin(); tile != r.end(); ++tile) {
+                if (cb.cancel && cb.cancel->load(std::memory_order_relaxed)) return;
+                const int x0 = (tile % tilesX) * ts, y0 = (tile / tilesX) * ts;
+                MarchCounters cnt;
+                for (int y = y0; y < std::min(y0 + ts, fb.height); ++y)
+                    for (int x = x0; x < std::min(x0 + ts, fb.width); ++x)
+                        ctx.renderPixel(x, y, fb, cnt);
+                rays += cnt.rays;
+                prim += cnt.primarySamples;
+                shad += cnt.shadowSamples;
+                bad += cnt.nonFinite;
+                const int d = ++done;
+                if (cb.progress) {
+                    std::lock_guard<std::mutex> lock(progressMutex);
+                    cb.progress(d, tiles);
+                }
+            }
+        },
+        tbb::simple_partitioner());
+    stats.rays = rays;
+    stats.primarySamples = prim;
+    stats.shadowSamples = shad;
+    stats.nonFinite = bad;
+    return done.load() == tiles;
+}
+
+} // namespace
 
 } // namespace nimbus

@@ -32,6 +32,8 @@ struct FramePlan {
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
     bool skipEmpty = true;
+    bool lightVolume = false; ///< sun transmittance from a precomputed light-attenuation volume
+    float lightVolumeCell = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     std::string explain() const;
 };
@@ -45,6 +47,8 @@ struct RenderStats {
     double majorantEmptyFraction = 0.0;
     double bakeSeconds = 0.0; ///< noise baking charged to this frame (0 when reused)
     double majorantSeconds = 0.0;
+    double lightVolumeSeconds = 0.0;
+    std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
     double integrateSeconds = 0.0;
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }
 };

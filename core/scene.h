@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "core/geometry.h"
@@ -37,14 +38,33 @@ struct SkyDesc {
     float ambient = 1.0f;            ///< scale of the sky term inside the medium
 };
 
-enum class PhaseKind { Isotropic = 0, HenyeyGreenstein = 1 }; // values = PHASE_* in phase.glsl
+/// Phase functions (core/phase.h); values = PHASE_* in core/kernels/phase.glsl.
+enum class PhaseKind {
+    Isotropic = 0,
+    HenyeyGreenstein = 1,
+    DualHG = 2,    ///< (1 - blend) HG(g) + blend HG(g2)
+    Draine = 3,    ///< Draine(g, alpha)
+    MieApprox = 4, ///< Jendersie & d'Eon 2023 fit by droplet diameter (5-50 um)
+    MieTable = 5   ///< Lorenz-Mie table from a droplet size distribution (core/mie.h)
+};
+
+class MieTable;
 
 struct MediumDesc {
     vec3 sigma_s{1.0f}; ///< scattering coefficient per unit density (RGB, 1/unit length)
     vec3 sigma_a{0.0f}; ///< absorption coefficient per unit density
     float densityScale = 1.0f;
     PhaseKind phase = PhaseKind::HenyeyGreenstein;
-    float g = 0.8f;
+    float g = 0.8f;                 ///< HG asymmetry; first lobe of dual_hg; g of draine
+    float g2 = -0.3f;               ///< dual_hg: second lobe
+    float blend = 0.2f;             ///< dual_hg: weight of the second lobe
+    float alpha = 1.0f;             ///< draine: alpha (0 = HG; g = 0, alpha = 1: Rayleigh)
+    float dropletDiameter = 20.0f;  ///< mie_approx: droplet diameter, micrometres, [5, 50]
+    float effectiveRadius = 10.0f;  ///< mie_table: effective droplet radius, micrometres
+    float effectiveVariance = 0.1f; ///< mie_table: effective variance of the radii
+    /// mie_table: the table, if the caller has it already (plan, cache); when null, core
+    /// computes it on first use (sharedMieTable in core/mie.h) and keeps it for the process.
+    std::shared_ptr<const MieTable> mieTable;
 };
 
 enum class FieldKind { Homogeneous, Cumulus };
@@ -93,17 +113,25 @@ struct FieldDesc {
 };
 
 enum class InScatter { None, Olajos, Powder };
+enum class Integrator { March, PathTrace };
+enum class ShadowMethod { March, Volume };
 enum class Background { Sky, Transparent };
 
 struct RenderDesc {
-    float step = 0.05f;      ///< primary step length (world units)
+    Integrator integrator = Integrator::March;
+    int spp = 16;       ///< pathtrace: samples per pixel
+    int maxDepth = 256; ///< pathtrace: scattering events per path at most (1 = single scattering)
+    int rrDepth = 3;    ///< pathtrace: Russian roulette from this depth on
+    float step = 0.05f; ///< primary step length (world units)
     float stepGrowth = 0.0f; ///< distance-adaptive: step = max(step, stepGrowth * distance)
     bool jitter = true;
     float epsilon = 0.01f; ///< stop when transmittance drops below this
     float shadowStep = 0.05f;
-    float shadowGrowth = 0.3f; ///< shadow steps grow geometrically by this factor
-    bool skipEmpty = true;     ///< use the majorant grid to skip empty space
-    float majorantCell = 0.0f; ///< majorant cell size; 0 = chosen by the plan
+    float shadowGrowth = 0.3f;                 ///< shadow steps grow geometrically by this factor
+    ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
+    float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
+    bool skipEmpty = true;        ///< use the majorant grid to skip empty space
+    float majorantCell = 0.0f;    ///< majorant cell size; 0 = chosen by the plan
     /// Multiple-scattering octaves (Wrenninge 2015; Hillaire 2016): octave i adds the sun term
     /// with weight contribution^i, sun optical depth scaled by extinction^i and phase g scaled
     /// by eccentricity^i. 1 = single scattering only. Energy: contribution <= extinction.

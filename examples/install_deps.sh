@@ -8,6 +8,7 @@ PACKAGES=(
   libtbb-dev libglm-dev                                  # core
   libopenimageio-dev openimageio-tools libopencolorio-dev # plugin: EXR, colour
   libtomlplusplus-dev libcli11-dev                       # plugin: scene files, command line
+  libopenvdb-dev libnanovdb-dev libboost-iostreams-dev   # plugin/vdb: VDB reading, baking
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
 )
 

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "core/render.h"
+#include "plugin/cli/common.h"
 #include "plugin/cli/progress.h"
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/color.h"
@@ -24,9 +25,9 @@
 
 namespace nimbus::cli {
 
-namespace {
-
 std::atomic<bool> gCancel{false};
+
+namespace {
 
 extern "C" void onSignal(int sig) {
     // first signal: stop rendering after the tiles in flight and remove partial outputs;
@@ -38,6 +39,8 @@ extern "C" void onSignal(int sig) {
     }
 }
 
+} // namespace
+
 void installSignalHandlers() {
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
@@ -47,12 +50,6 @@ void installSignalHandlers() {
 double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
-
-/// Loads, overrides and colour-resolves a scene; errors are printed and mapped to exit codes.
-struct LoadedScene {
-    std::optional<io::ColorSystem> cs;
-    io::SceneFile file;
-};
 
 int loadScene(const std::string& path, const std::vector<std::string>& overrides, int threads,
               LoadedScene& out) {
@@ -73,6 +70,8 @@ int loadScene(const std::string& path, const std::vector<std::string>& overrides
     for (const auto& w : out.file.warnings) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
     return kExitOk;
 }
+
+namespace {
 
 std::string fmt(const char* f, double v) {
     char buf[64];
@@ -242,133 +241,6 @@ int runRender(const RenderOptions& o) {
     if (!o.quiet && rendered > 1)
         std::fprintf(stderr, "%d frames in %s (%.2f s per frame)\n", rendered,
                      formatDuration(totalSeconds).c_str(), totalSeconds / rendered);
-    return kExitOk;
-}
-
-int runConverge(const ConvergeOptions& o) {
-    LoadedScene ls;
-    if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
-    SceneDesc base = ls.file.scene;
-    // compare the clouds themselves: a noise-free sky behind them would dilute the error
-    base.render.background = Background::Transparent;
-    int frame = o.frame;
-    if (frame == -1000000000) frame = io::parseFrameSpec(ls.file.frames).front();
-    if (o.ladder.empty()) {
-        std::fprintf(stderr, "nimbus: error: --ladder needs at least one step multiplier\n");
-        return kExitBadInput;
-    }
-    for (double m : o.ladder)
-        if (!(m > 0.0)) {
-            std::fprintf(stderr, "nimbus: error: --ladder: multiplier %g must be > 0\n", m);
-            return kExitBadInput;
-        }
-    // every rung uses the same noise evaluation as the scene's own plan, so the error measured is
-    // that of the step alone
-    {
-        Renderer probe(base);
-        base.field.cumulus.eval =
-            probe.plan(frame).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
-    }
-    installSignalHandlers();
-    auto renderWith = [&](double factor, Framebuffer& fb, RenderStats& st) {
-        SceneDesc s = base;
-        // the whole step schedule scales: base steps and distance growth alike
-        s.render.step = float(base.render.step * factor);
-        s.render.stepGrowth = float(base.render.stepGrowth * factor);
-        s.render.shadowStep = float(base.render.shadowStep * factor);
-        Renderer r(s);
-        FramePlan plan = r.plan(frame);
-        r.render(plan, fb, st); // warm-up: bakes the noise tiles so the timing is the march's
-        RenderCallbacks cb;
-        cb.cancel = &gCancel;
-        const auto t0 = std::chrono::steady_clock::now();
-        const bool ok = r.render(plan, fb, st, cb);
-        return ok ? secondsSince(t0) : -1.0;
-    };
-
-    std::fprintf(stderr, "reference: step %g x %g = %g ...\n", base.render.step, o.referenceFactor,
-                 base.render.step * o.referenceFactor);
-    Framebuffer ref;
-    RenderStats refStats;
-    const double refSeconds = renderWith(o.referenceFactor, ref, refStats);
-    if (refSeconds < 0) return kExitInterrupted;
-    double refSq = 0.0;
-    for (float v : ref.rgba) refSq += double(v) * v;
-    const double refRms = std::sqrt(refSq / double(ref.rgba.size()));
-
-    struct Row {
-        double factor, step, shadowStep, samplesPerRay, shadowPerRay, seconds, rmse, rel;
-    };
-    std::vector<Row> rows;
-    auto addRow = [&](double factor, const RenderStats& st, double seconds, const Framebuffer* fb) {
-        Row r{factor,
-              base.render.step * factor,
-              base.render.shadowStep * factor,
-              double(st.primarySamples) / std::max<double>(1, double(st.rays)),
-              double(st.shadowSamples) / std::max<double>(1, double(st.rays)),
-              seconds,
-              0.0,
-              0.0};
-        if (fb) {
-            double sq = 0.0;
-            for (size_t i = 0; i < ref.rgba.size(); ++i) {
-                const double d = double(fb->rgba[i]) - ref.rgba[i];
-                sq += d * d;
-            }
-            r.rmse = std::sqrt(sq / double(ref.rgba.size()));
-            r.rel = refRms > 0 ? r.rmse / refRms : 0.0;
-        }
-        rows.push_back(r);
-    };
-    addRow(o.referenceFactor, refStats, refSeconds, nullptr);
-    for (double m : o.ladder) {
-        Framebuffer fb;
-        RenderStats st;
-        const double sec = renderWith(m, fb, st);
-        if (sec < 0) return kExitInterrupted;
-        addRow(m, st, sec, &fb);
-        std::fprintf(stderr, "  step x %g: %.3f s, rel. RMSE %.4f\n", m, sec, rows.back().rel);
-    }
-
-    std::ostringstream table, csv;
-    table << "frame " << frame << ", " << ls.file.scene.camera.width << "x"
-          << ls.file.scene.camera.height << ", clouds only (RGBA, background transparent)\n";
-    char line[256];
-    std::snprintf(line, sizeof line,
-                  "| %-9s | %-10s | %-11s | %-13s | %-13s | %-10s | %-10s | %-9s |\n", "step x",
-                  "step", "shadow step", "samples/ray", "shadow/ray", "time (s)", "RMSE",
-                  "rel. RMSE");
-    table << line
-          << "|-----------|------------|-------------|---------------|---------------|------------|"
-             "------------|-----------|\n";
-    csv << "step_multiplier,step,shadow_step,samples_per_ray,shadow_samples_per_ray,seconds,rmse,"
-           "relative_rmse,is_reference\n";
-    for (size_t i = 0; i < rows.size(); ++i) {
-        const Row& r = rows[i];
-        std::snprintf(line, sizeof line,
-                      "| %-9g | %-10.4g | %-11.4g | %-13.1f | %-13.1f | %-10.3f | %-10s | %-9s |\n",
-                      r.factor, r.step, r.shadowStep, r.samplesPerRay, r.shadowPerRay, r.seconds,
-                      i == 0 ? "reference" : fmt("%.3g", r.rmse).c_str(),
-                      i == 0 ? "-" : fmt("%.2f%%", 100.0 * r.rel).c_str());
-        table << line;
-        csv << r.factor << "," << r.step << "," << r.shadowStep << "," << r.samplesPerRay << ","
-            << r.shadowPerRay << "," << r.seconds << "," << (i == 0 ? 0.0 : r.rmse) << ","
-            << (i == 0 ? 0.0 : r.rel) << "," << (i == 0 ? 1 : 0) << "\n";
-    }
-    std::cout << table.str();
-    std::string csvPath = o.csv;
-    if (csvPath.empty()) csvPath = std::filesystem::path(o.scene).stem().string() + ".converge.csv";
-    try {
-        io::writeAtomically(csvPath, [&](const std::string& tmp) {
-            std::ofstream out(tmp);
-            out << csv.str();
-            if (!out.flush()) throw std::runtime_error("cannot write " + tmp);
-        });
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
-        return kExitIo;
-    }
-    std::fprintf(stderr, "wrote %s\n", csvPath.c_str());
     return kExitOk;
 }
 

@@ -29,14 +29,28 @@ struct RenderOptions {
 struct ConvergeOptions {
     std::string scene;
     std::vector<std::string> overrides;
-    int frame = -1000000000; ///< sentinel: first frame of the scene
-    std::vector<double> ladder{4.0, 2.0, 1.0, 0.5};
-    double referenceFactor = 0.125;
+    int frame = -1000000000;                        ///< sentinel: first frame of the scene
+    std::vector<double> ladder{4.0, 2.0, 1.0, 0.5}; ///< march step multipliers
+    double referenceStep = 0.125;     ///< march reference: step multiplier (referenceSpp == 0)
+    int referenceSpp = 0;             ///< > 0: the reference is pathtrace with this many spp
+    std::vector<int> pathtraceLadder; ///< pathtrace rungs (samples per pixel)
+    double scale = 1.0;               ///< resolution multiplier for every render
     std::string csv;
+    std::string plot; ///< PNG of error against time (gnuplot), empty = none
+    int threads = -1;
+};
+
+struct CalibrateOptions {
+    std::string scene;
+    std::vector<std::string> overrides;
+    int frame = -1000000000;
+    int referenceSpp = 256;
+    double scale = 0.25;
     int threads = -1;
 };
 
 int runRender(const RenderOptions& o);
 int runConverge(const ConvergeOptions& o);
+int runCalibrate(const CalibrateOptions& o);
 
 } // namespace nimbus::cli

@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
                "  nimbus render scene.toml --frames 1-4 --set render.step=0.5\n"
                "  nimbus render scene.toml --frames 101-110 --resume    # one farm task\n"
                "  nimbus converge scene.toml --csv error.csv\n"
+               "  nimbus converge scene.toml --scale 0.25 --reference-spp 1024 "
+               "--pathtrace-ladder 4,16,64 --plot error.png\n"
+               "  nimbus calibrate scene.toml --scale 0.25\n"
                "  nimbus reference > scene-reference.md");
 
     cli::RenderOptions ro;
@@ -70,16 +73,47 @@ int main(int argc, char** argv) {
     converge->add_option("--frame", co.frame, "Frame to measure (default: first of the scene)");
     converge
         ->add_option("--ladder", co.ladder,
-                     "Step multipliers to measure, applied to render.step, render.step_growth "
+                     "march rungs: step multipliers applied to render.step, render.step_growth "
                      "and render.shadow_step")
         ->delimiter(',')
         ->capture_default_str();
     converge
-        ->add_option("--reference", co.referenceFactor, "Step multiplier of the reference render")
+        ->add_option("--reference-step", co.referenceStep,
+                     "Step multiplier of a march reference (used when --reference-spp is 0)")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    converge
+        ->add_option("--reference-spp", co.referenceSpp,
+                     "Make the reference an unbiased pathtrace render with this many samples "
+                     "per pixel (0 = a fine-step march reference)")
+        ->capture_default_str();
+    converge
+        ->add_option("--pathtrace-ladder", co.pathtraceLadder,
+                     "pathtrace rungs: samples per pixel, e.g. 1,4,16,64")
+        ->delimiter(',');
+    converge->add_option("--scale", co.scale, "Resolution multiplier for every render")
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
     converge->add_option("--csv", co.csv, "CSV output (default: <scene stem>.converge.csv)");
+    converge->add_option("--plot", co.plot, "Also draw error against time, log-log (PNG, gnuplot)");
     converge->add_option("-t,--threads", co.threads, "Worker threads (0 = all cores)")
+        ->check(CLI::Range(0, 1024));
+
+    cli::CalibrateOptions ko;
+    auto* calibrate = app.add_subcommand(
+        "calibrate", "Fit the approximations of march (scattering octaves, sky ambient) to a "
+                     "path-traced reference of the scene and print the fitted values");
+    calibrate->add_option("scene", ko.scene, "Scene file (TOML)")->required();
+    calibrate->add_option("-s,--set", ko.overrides, "Override a scene value (as for render)")
+        ->allow_extra_args(false);
+    calibrate->add_option("--frame", ko.frame, "Frame to fit (default: first of the scene)");
+    calibrate->add_option("--reference-spp", ko.referenceSpp, "Samples per pixel of the reference")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    calibrate->add_option("--scale", ko.scale, "Resolution multiplier of the fitting renders")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    calibrate->add_option("-t,--threads", ko.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024));
 
     auto* reference = app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
@@ -94,6 +128,7 @@ int main(int argc, char** argv) {
     try {
         if (*render) return cli::runRender(ro);
         if (*converge) return cli::runConverge(co);
+        if (*calibrate) return cli::runCalibrate(ko);
         if (*reference) {
             std::cout << io::sceneFileReference();
             return 0;

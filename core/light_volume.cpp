@@ -1,0 +1,136 @@
+#include "core/light_volume.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include <tbb/parallel_for.h>
+
+namespace nimbus {
+
+namespace {
+
+inline size_t index(const ivec3& res, int x, int y, int z) {
+    return (size_t(z) * res.y + y) * res.x + x;
+}
+
+/// 1 inside [0, n - 1] (voxel-centre units), falling linearly to 0 at the faces -0.5 and n - 0.5.
+inline float rimFactor(float u, int n) {
+    if (u < 0.0f) return std::max(0.0f, 1.0f + 2.0f * u);
+    const float hi = float(n - 1);
+    if (u > hi) return std::max(0.0f, 1.0f - 2.0f * (u - hi));
+    return 1.0f;
+}
+
+} // namespace
+
+float LightVolume::sample(vec3 p) const {
+    // voxel centres sit at lo + (i + 0.5) * voxel; clamp to the outermost centres
+    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
+    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
+    ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
+    ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
+    vec3 f = u - vec3(i0);
+    auto at = [&](int x, int y, int z) { return tau[index(res, x, y, z)]; };
+    float c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
+    float c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
+    float c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
+    float c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
+    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
+}
+
+LightVolume buildLightVolume(const Field& field, vec3 sunDir, float cell,
+                             const MajorantGrid* grid) {
+    LightVolume lv;
+    lv.bounds = field.bounds();
+    const vec3 ext = lv.bounds.extent();
+    for (int a = 0; a < 3; ++a) lv.res[a] = std::max(2, int(std::ceil(ext[a] / cell)));
+    lv.voxel = ext / vec3(lv.res);
+    const size_t n = size_t(lv.res.x) * lv.res.y * lv.res.z;
+    lv.tau.assign(n, 0.0f);
+    std::vector<float> rho(n, 0.0f);
+    std::atomic<size_t> lookups{0};
+
+    // densities at voxel centres, skipping cells the majorant grid proves empty
+    tbb::parallel_for(0, lv.res.z, [&](int z) {
+        size_t local = 0;
+        for (int y = 0; y < lv.res.y; ++y)
+            for (int x = 0; x < lv.res.x; ++x) {
+                const vec3 p = lv.bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * lv.voxel;
+                if (grid) {
+                    ivec3 c = glm::clamp(ivec3((p - grid->bounds.lo) / grid->cellSize), ivec3(0),
+                                         grid->res - ivec3(1));
+                    if (grid->at(c) <= 0.0f) continue;
+                }
+                rho[index(lv.res, x, y, z)] = field.density(p);
+                ++local;
+            }
+        lookups += local;
+    });
+    lv.densityLookups = lookups;
+
+    // dominant axis of the sun direction; slices ordered from the sun side
+    int a = 0;
+    for (int k = 1; k < 3; ++k)
+        if (std::abs(sunDir[k]) > std::abs(sunDir[a])) a = k;
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    if (std::abs(sunDir[a]) < 1e-6f) return lv; // degenerate: no direction
+    const int step = sunDir[a] > 0.0f ? -1 : 1; // walk away from the sun
+    const int first = sunDir[a] > 0.0f ? lv.res[a] - 1 : 0;
+    const float l = lv.voxel[a] / std::abs(sunDir[a]); // path length between slice planes
+    // lateral shift (in voxels) of q' relative to q in the previous slice
+    const float db = sunDir[b] * l / lv.voxel[b], dc = sunDir[c] * l / lv.voxel[c];
+
+    auto idx = [&](int ia, int ib, int ic) {
+        ivec3 v;
+        v[a] = ia;
+        v[b] = ib;
+        v[c] = ic;
+        return index(lv.res, v.x, v.y, v.z);
+    };
+    // first slice: light crossed half a voxel of the entry face to reach the centres
+    for (int ic = 0; ic < lv.res[c]; ++ic)
+        for (int ib = 0; ib < lv.res[b]; ++ib) {
+            const size_t i = idx(first, ib, ic);
+            lv.tau[i] = 0.5f * rho[i] * l;
+        }
+    const float hiB = float(lv.res[b]) - 0.5f, hiC = float(lv.res[c]) - 0.5f;
+    for (int s = 1; s < lv.res[a]; ++s) {
+        const int ia = first + step * s, prev = ia - step;
+        tbb::parallel_for(0, lv.res[c], [&](int ic) {
+            for (int ib = 0; ib < lv.res[b]; ++ib) {
+                const size_t i = idx(ia, ib, ic);
+                const float ub = float(ib) + db, uc = float(ic) + dc;
+                // the light ray left the box through a side face within this step: only the
+                // fraction f of the step inside the box carries density
+                float f = 1.0f;
+                if (ub < -0.5f) f = std::min(f, (-0.5f - float(ib)) / db);
+                if (ub > hiB) f = std::min(f, (hiB - float(ib)) / db);
+                if (uc < -0.5f) f = std::min(f, (-0.5f - float(ic)) / dc);
+                if (uc > hiC) f = std::min(f, (hiC - float(ic)) / dc);
+                if (f < 1.0f) {
+                    lv.tau[i] = rho[i] * std::max(f, 0.0f) * l;
+                    continue;
+                }
+                // inside: bilinear in the previous slice; in the half-voxel rim between the
+                // outermost centres and the face, tau falls linearly to 0 at the face
+                const float rim = rimFactor(ub, lv.res[b]) * rimFactor(uc, lv.res[c]);
+                const float cb = std::clamp(ub, 0.0f, float(lv.res[b] - 1));
+                const float cc = std::clamp(uc, 0.0f, float(lv.res[c] - 1));
+                const int b0 = std::min(int(cb), lv.res[b] - 2),
+                          c0 = std::min(int(cc), lv.res[c] - 2);
+                const int b1 = b0 + 1, c1 = c0 + 1; // res >= 2 on every axis
+                const float fb = cb - float(b0), fc = cc - float(c0);
+                auto bil = [&](const std::vector<float>& v) {
+                    return (1 - fc) *
+                               ((1 - fb) * v[idx(prev, b0, c0)] + fb * v[idx(prev, b1, c0)]) +
+                           fc * ((1 - fb) * v[idx(prev, b0, c1)] + fb * v[idx(prev, b1, c1)]);
+                };
+                lv.tau[i] = rim * bil(lv.tau) + 0.5f * (rho[i] + bil(rho)) * l;
+            }
+        });
+    }
+    return lv;
+}
+
+} // namespace nimbus

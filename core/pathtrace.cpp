@@ -1,0 +1,230 @@
+#include "core/pathtrace.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nimbus {
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::max();
+
+float mean3(vec3 v) {
+    return (v.x + v.y + v.z) * (1.0f / 3.0f);
+}
+
+/// A direction with the given cosine to `axis`, at azimuth 2 pi u around it.
+vec3 aroundAxis(vec3 axis, float cosTheta, float u) {
+    const float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
+    const float phi = 6.28318530718f * u;
+    // Duff et al. 2017 orthonormal basis
+    const float sign = std::copysign(1.0f, axis.z);
+    const float a = -1.0f / (sign + axis.z);
+    const float b = axis.x * axis.y * a;
+    const vec3 t1(1.0f + sign * axis.x * axis.x * a, sign * b, -sign * axis.x);
+    const vec3 t2(b, sign + axis.y * axis.y * a, -axis.y);
+    return glm::normalize(sinTheta * std::cos(phi) * t1 + sinTheta * std::sin(phi) * t2 +
+                          cosTheta * axis);
+}
+
+} // namespace
+
+PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
+                         const MajorantGrid* grid)
+    : s_(scene), plan_(plan), field_(field), grid_(grid), camera_(scene.camera),
+      phase_(PhaseFunction::fromMedium(scene.medium)),
+      wholeMajorant_(field.majorant(field.bounds())) {
+    sigmaS_ = scene.medium.sigma_s * scene.medium.densityScale;
+    sigmaA_ = scene.medium.sigma_a * scene.medium.densityScale;
+    sigmaT_ = sigmaS_ + sigmaA_;
+    sigmaTMax_ = maxComponent(sigmaT_);
+    frameKey_ = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(scene.render.seed ^ 0x5bd1e995u));
+}
+
+vec3 PathContext::skyRadiance(vec3 d) const {
+    switch (s_.sky.kind) {
+    case SkyKind::None:
+        return vec3(0.0f);
+    case SkyKind::Uniform:
+        return s_.sky.zenith;
+    case SkyKind::Gradient:
+        return glm::mix(s_.sky.horizon, s_.sky.zenith, std::sqrt(std::clamp(d.y, 0.0f, 1.0f)));
+    }
+    return vec3(0.0f);
+}
+
+PathContext::Event PathContext::track(const Ray& ray, Sampler& rng, int hero, vec3& f, vec3& p,
+                                      float& tHit, MarchCounters& cnt) const {
+    float tIn, tOut;
+    if (sigmaTMax_ <= 0.0f || !intersectBox(ray, field_.bounds(), 0.0f, kInf, tIn, tOut))
+        return Event::Escaped;
+    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
+    MajorantSegment seg;
+    while (it.next(seg)) {
+        const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
+        float t = seg.t0;
+        for (;;) {
+            t -= std::log(1.0f - rng.next()) / sigmaMaj;
+            if (t >= seg.t1) break;
+            ++cnt.primarySamples;
+            const float rho = field_.density(ray.at(t));
+            // event probabilities of every channel's own delta tracking; the hero channel's
+            // choose the event, the path pdf of each channel is kept for spectral MIS
+            const vec3 pS = sigmaS_ * rho / sigmaMaj, pA = sigmaA_ * rho / sigmaMaj;
+            const vec3 pN = vec3(1.0f) - pS - pA;
+            const float u = rng.next();
+            if (u < pA[hero]) return Event::Absorbed; // no emission: the path ends
+            if (u < pA[hero] + pS[hero]) {
+                f *= pS;
+                p *= pS;
+                tHit = t;
+                return Event::Scattered;
+            }
+            f *= pN;
+            p *= pN;
+        }
+    }
+    return Event::Escaped;
+}
+
+vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const {
+    const Ray ray{p, d};
+    float tIn, tOut;
+    if (sigmaTMax_ <= 0.0f || !intersectBox(ray, field_.bounds(), 0.0f, kInf, tIn, tOut))
+        return vec3(1.0f);
+    vec3 T(1.0f);
+    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
+    MajorantSegment seg;
+    while (it.next(seg)) {
+        const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
+        float t = seg.t0;
+        for (;;) {
+            t -= std::log(1.0f - rng.next()) / sigmaMaj;
+            if (t >= seg.t1) break;
+            ++cnt.shadowSamples;
+            const float rho = field_.density(ray.at(t));
+            T *= vec3(1.0f) - sigmaT_ * rho / sigmaMaj;
+            // Russian roulette on small transmittance keeps the estimator unbiased
+            const float m = maxComponent(T);
+            if (m < 0.1f) {
+                const float q = 1.0f - m / 0.1f;
+                if (rng.next() < q) return vec3(0.0f);
+                T /= 1.0f - q;
+            }
+        }
+    }
+    return T;
+}
+
+vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, float& depthOut,
+                            MarchCounters& cnt) const {
+    const bool sky = s_.sky.kind != SkyKind::None;
+    constexpr float kSkyPdf = 0.0795774715459f; // uniform sphere, 1 / (4 pi)
+
+    // camera-ray transmittance for alpha and the AOV (ratio tracking, independent stream)
+    Sampler trng{rng.key ^ 0xa511e9b3u, 0};
+    Tcam = transmittance(cameraRay.o, cameraRay.d, trng, cnt);
+    depthOut = 0.0f;
+
+    // Spectral MIS (one-sample over the channel that drives the tracking): f is the path
+    // throughput and p the path pdf under each channel's own tracking; the estimate of channel
+    // c is f_c / mean(p). For grey media f == p and every weight is 1.
+    const int hero = std::min(2, int(rng.next() * 3.0f));
+    vec3 L(0.0f), f(1.0f), p(1.0f);
+    Ray ray = cameraRay;
+    float lastPhasePdf = 0.0f; // pdf of the phase sample that made the current ray
+    for (int depth = 0;; ++depth) {
+        float t = 0.0f;
+        const Event ev = track(ray, rng, hero, f, p, t, cnt);
+        if (ev == Event::Absorbed) break;
+        const vec3 beta = f / mean3(p);
+        if (ev == Event::Escaped) {
+            if (depth == 0) {
+                if (s_.render.background == Background::Sky) L += beta * skyRadiance(ray.d);
+            } else if (sky) {
+                const float w = lastPhasePdf / (lastPhasePdf + kSkyPdf);
+                L += beta * skyRadiance(ray.d) * w;
+            }
+            break;
+        }
+        const vec3 pos = ray.at(t);
+        if (depth == 0) depthOut = t;
+
+        // next-event estimation: the sun
+        if (plan_.shadows) {
+            const vec3 ph = phase_.eval(glm::dot(ray.d, s_.sun.direction));
+            L += beta * s_.sun.irradiance * ph * transmittance(pos, s_.sun.direction, rng, cnt);
+        }
+        // next-event estimation: the sky, MIS with phase sampling
+        if (sky) {
+            const float z = 1.0f - 2.0f * rng.next();
+            const vec3 wi = aroundAxis(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
+            const float cosTheta = glm::dot(ray.d, wi);
+            const float w = kSkyPdf / (kSkyPdf + phase_.pdf(cosTheta));
+            const vec3 Tr = transmittance(pos, wi, rng, cnt);
+            L += beta * skyRadiance(wi) * Tr * phase_.eval(cosTheta) * (w / kSkyPdf);
+        }
+        if (depth + 1 >= s_.render.maxDepth) break;
+        // continue by sampling the phase function (the same direction for every channel, so
+        // its weight eval / pdf goes into the throughput alone)
+        const float u0 = rng.next(), u1 = rng.next();
+        const PhaseSample ps = phase_.sample(vec2(u0, u1));
+        if (!(ps.pdf > 0.0f)) break;
+        const vec3 d = aroundAxis(ray.d, ps.cosTheta, rng.next());
+        f *= ps.weight;
+        lastPhasePdf = ps.pdf;
+        ray = Ray{pos, d};
+        if (depth + 1 >= s_.render.rrDepth) {
+            const float q = std::max(0.05f, 1.0f - maxComponent(beta));
+            if (rng.next() < q) break;
+            f /= 1.0f - q;
+        }
+    }
+    return L;
+}
+
+void PathContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const {
+    const int spp = std::max(1, s_.render.spp);
+    vec3 L(0.0f), T(0.0f);
+    double depthSum = 0.0;
+    int depthCount = 0;
+    for (int s = 0; s < spp; ++s) {
+        Sampler rng = Sampler::forPixel(x, y, frameKey_, std::uint32_t(s));
+        const float jx = s_.render.jitter ? rng.next() : 0.5f;
+        const float jy = s_.render.jitter ? rng.next() : 0.5f;
+        const Ray ray = camera_.generate(float(x) + jx, float(y) + jy);
+        ++cnt.rays;
+        vec3 Ts;
+        float depth;
+        vec3 Ls = tracePath(ray, rng, Ts, depth, cnt);
+        if (!(std::isfinite(Ls.x) && std::isfinite(Ls.y) && std::isfinite(Ls.z))) {
+            ++cnt.nonFinite;
+            Ls = vec3(0.0f);
+        }
+        L += Ls;
+        T += Ts;
+        if (depth > 0.0f) {
+            depthSum += depth;
+            ++depthCount;
+        }
+    }
+    L /= float(spp);
+    T /= float(spp);
+    const size_t i = size_t(y) * fb.width + x;
+    const float alpha =
+        s_.render.background == Background::Sky ? 1.0f : std::clamp(1.0f - mean3(T), 0.0f, 1.0f);
+    fb.rgba[4 * i + 0] = L.x;
+    fb.rgba[4 * i + 1] = L.y;
+    fb.rgba[4 * i + 2] = L.z;
+    fb.rgba[4 * i + 3] = alpha;
+    if (fb.aovs.transmittance) {
+        fb.transmittance[3 * i + 0] = T.x;
+        fb.transmittance[3 * i + 1] = T.y;
+        fb.transmittance[3 * i + 2] = T.z;
+    }
+    // depth of the first real collision, averaged over the samples that had one
+    if (fb.aovs.depth) fb.depth[i] = depthCount ? float(depthSum / depthCount) : 0.0f;
+}
+
+} // namespace nimbus

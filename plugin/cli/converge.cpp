@@ -1,0 +1,363 @@
+/// @file converge.cpp
+/// @brief `nimbus converge` (error against run time for every quality setting) and
+/// `nimbus calibrate` (fit the approximations of `march` to a path-traced reference).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "core/render.h"
+#include "plugin/cli/commands.h"
+#include "plugin/cli/common.h"
+#include "plugin/io/atomic_file.h"
+#include "plugin/io/frames.h"
+
+namespace nimbus::cli {
+
+namespace {
+
+struct Rung {
+    std::string integrator; ///< "march" or "pathtrace"
+    std::string label;      ///< what differs from the scene
+    SceneDesc scene;
+    double stepMultiplier = 1.0;
+};
+
+struct Measured {
+    double seconds = 0.0;
+    RenderStats stats;
+    Framebuffer fb;
+};
+
+/// The whole step schedule scales: base steps and distance growth alike.
+SceneDesc withSteps(const SceneDesc& base, double f) {
+    SceneDesc s = base;
+    s.render.step = float(base.render.step * f);
+    s.render.stepGrowth = float(base.render.stepGrowth * f);
+    s.render.shadowStep = float(base.render.shadowStep * f);
+    return s;
+}
+
+/// Renders twice (the first pass bakes noise so the timing is the integrator's); returns false
+/// when interrupted.
+bool measure(const SceneDesc& s, int frame, Measured& m) {
+    Renderer r(s);
+    const FramePlan plan = r.plan(frame);
+    RenderCallbacks cb;
+    cb.cancel = &gCancel;
+    if (plan.bakeNoise) r.fieldFor(plan);
+    const auto t0 = std::chrono::steady_clock::now();
+    const bool ok = r.render(plan, m.fb, m.stats, cb);
+    m.seconds = secondsSince(t0);
+    return ok;
+}
+
+double rmse(const Framebuffer& a, const Framebuffer& ref) {
+    double sq = 0.0;
+    for (size_t i = 0; i < ref.rgba.size(); ++i) {
+        const double d = double(a.rgba[i]) - ref.rgba[i];
+        sq += d * d;
+    }
+    return std::sqrt(sq / double(ref.rgba.size()));
+}
+
+std::string percent(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f%%", 100.0 * v);
+    return buf;
+}
+
+double rms(const Framebuffer& a) {
+    double sq = 0.0;
+    for (float v : a.rgba) sq += double(v) * v;
+    return std::sqrt(sq / double(a.rgba.size()));
+}
+
+/// Scene prepared for measuring: clouds alone (a noise-free sky would dilute the error), the
+/// noise evaluation the scene's own plan picks (so the error is that of the setting alone),
+/// resolution scaled.
+bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base) {
+    base = ls.file.scene;
+    base.render.background = Background::Transparent;
+    if (frame == -1000000000) frame = io::parseFrameSpec(ls.file.frames).front();
+    base.camera.width = std::max(1, int(std::lround(base.camera.width * scale)));
+    base.camera.height = std::max(1, int(std::lround(base.camera.height * scale)));
+    Renderer probe(base);
+    base.field.cumulus.eval = probe.plan(frame).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
+    return true;
+}
+
+bool writeText(const std::string& path, const std::string& text) {
+    try {
+        io::writeAtomically(path, [&](const std::string& tmp) {
+            std::ofstream out(tmp);
+            out << text;
+            if (!out.flush()) throw std::runtime_error("cannot write " + tmp);
+        });
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+        return false;
+    }
+    return true;
+}
+
+} // namespace
+
+int runConverge(const ConvergeOptions& o) {
+    LoadedScene ls;
+    if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
+    for (double m : o.ladder)
+        if (!(m > 0.0)) {
+            std::fprintf(stderr, "nimbus: error: --ladder: step multiplier %g must be > 0\n", m);
+            return kExitBadInput;
+        }
+    for (int spp : o.pathtraceLadder)
+        if (spp < 1) {
+            std::fprintf(stderr, "nimbus: error: --pathtrace-ladder: %d spp must be >= 1\n", spp);
+            return kExitBadInput;
+        }
+    if (!(o.scale > 0.0) || o.referenceSpp < 0) {
+        std::fprintf(stderr, "nimbus: error: --scale must be > 0 and --reference-spp >= 0\n");
+        return kExitBadInput;
+    }
+    int frame = o.frame;
+    SceneDesc base;
+    prepare(ls, frame, o.scale, base);
+    installSignalHandlers();
+
+    // the reference
+    SceneDesc refScene;
+    std::string refLabel;
+    if (o.referenceSpp > 0) {
+        refScene = base;
+        refScene.render.integrator = Integrator::PathTrace;
+        refScene.render.spp = o.referenceSpp;
+        refLabel = "pathtrace " + std::to_string(o.referenceSpp) + " spp";
+    } else {
+        refScene = withSteps(base, o.referenceStep);
+        refScene.render.integrator = Integrator::March;
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "march, step x %g", o.referenceStep);
+        refLabel = buf;
+    }
+    std::fprintf(stderr, "reference: %s at %dx%d ...\n", refLabel.c_str(), base.camera.width,
+                 base.camera.height);
+    Measured ref;
+    if (!measure(refScene, frame, ref)) return kExitInterrupted;
+    const double refRms = rms(ref.fb);
+
+    // the rungs
+    std::vector<Rung> rungs;
+    for (double m : o.ladder) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "step x %g", m);
+        Rung r{"march", buf, withSteps(base, m), m};
+        r.scene.render.integrator = Integrator::March;
+        rungs.push_back(r);
+    }
+    {
+        // the other quality knobs of march, at the scene's own step
+        Rung single{"march", "octaves 1", base, 1.0};
+        single.scene.render.integrator = Integrator::March;
+        single.scene.render.octaves = 1;
+        if (base.render.octaves > 1) rungs.push_back(single);
+        Rung other{"march", "", base, 1.0};
+        other.scene.render.integrator = Integrator::March;
+        other.scene.render.shadow =
+            base.render.shadow == ShadowMethod::March ? ShadowMethod::Volume : ShadowMethod::March;
+        other.label =
+            other.scene.render.shadow == ShadowMethod::Volume ? "shadow volume" : "shadow march";
+        if (base.sun.enabled) rungs.push_back(other);
+    }
+    for (int spp : o.pathtraceLadder) {
+        Rung r{"pathtrace", std::to_string(spp) + " spp", base, 1.0};
+        r.scene.render.integrator = Integrator::PathTrace;
+        r.scene.render.spp = spp;
+        rungs.push_back(r);
+    }
+
+    struct Row {
+        const Rung* rung;
+        Measured m;
+        double err, rel;
+    };
+    std::vector<Row> rows;
+    for (const Rung& r : rungs) {
+        Row row{&r, {}, 0.0, 0.0};
+        if (!measure(r.scene, frame, row.m)) return kExitInterrupted;
+        row.err = rmse(row.m.fb, ref.fb);
+        row.rel = refRms > 0 ? row.err / refRms : 0.0;
+        std::fprintf(stderr, "  %-9s %-16s %8.3f s  rel. RMSE %6.2f%%\n", r.integrator.c_str(),
+                     r.label.c_str(), row.m.seconds, 100.0 * row.rel);
+        rows.push_back(std::move(row));
+    }
+
+    // table, CSV, plot
+    std::ostringstream table, csv;
+    table << "frame " << frame << ", " << base.camera.width << "x" << base.camera.height
+          << ", clouds only (RGBA, background transparent); reference: " << refLabel << ", "
+          << ref.seconds << " s\n";
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  "| %-9s | %-16s | %-8s | %-8s | %-11s | %-10s | %-9s | %-9s |\n", "integrator",
+                  "setting", "step", "spp", "lookups/ray", "time (s)", "RMSE", "rel. RMSE");
+    table << line
+          << "|------------|------------------|----------|----------|-------------|------------|---"
+             "--------|-----------|\n";
+    csv << "integrator,setting,step,shadow_step,octaves,shadow,spp,lookups_per_ray,seconds,rmse,"
+           "relative_rmse\n";
+    for (const Row& r : rows) {
+        const RenderDesc& rd = r.rung->scene.render;
+        const bool pt = rd.integrator == Integrator::PathTrace;
+        const double perRay =
+            double(r.m.stats.lookups()) / std::max<double>(1.0, double(r.m.stats.rays));
+        std::snprintf(line, sizeof line,
+                      "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s |\n",
+                      r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : rd.step,
+                      pt ? std::to_string(rd.spp).c_str() : "-", perRay, r.m.seconds, r.err,
+                      percent(r.rel).c_str());
+        table << line;
+        csv << r.rung->integrator << "," << r.rung->label << "," << (pt ? 0.0 : rd.step) << ","
+            << (pt ? 0.0 : rd.shadowStep) << "," << (pt ? 0 : rd.octaves) << ","
+            << (pt                                  ? "-"
+                : rd.shadow == ShadowMethod::Volume ? "volume"
+                                                    : "march")
+            << "," << (pt ? rd.spp : 0) << "," << perRay << "," << r.m.seconds << "," << r.err
+            << "," << r.rel << "\n";
+    }
+    std::cout << table.str();
+    std::string csvPath = o.csv;
+    if (csvPath.empty()) csvPath = std::filesystem::path(o.scene).stem().string() + ".converge.csv";
+    if (!writeText(csvPath, csv.str())) return kExitIo;
+    std::fprintf(stderr, "wrote %s\n", csvPath.c_str());
+
+    if (!o.plot.empty()) {
+        // gnuplot draws relative RMSE against time on log-log axes, one series per integrator
+        std::ostringstream gp;
+        gp << "set terminal pngcairo size 800,500\nset output '" << o.plot << ".tmp.png'\n"
+           << "set logscale xy\nset xlabel 'wall time (s)'\nset ylabel 'relative RMSE'\n"
+           << "set grid\nset key top right\nset datafile separator ','\n"
+           << "set title 'Error against run time (reference: " << refLabel << ")'\n"
+           << "plot '" << csvPath << "' using ($9):(stringcolumn(1) eq 'march' ? $11 : 1/0) "
+           << "with linespoints title 'march', '" << csvPath
+           << "' using ($9):(stringcolumn(1) eq 'pathtrace' ? $11 : 1/0) with linespoints "
+              "title 'pathtrace'\n";
+        const std::string gpPath = o.plot + ".gp";
+        if (!writeText(gpPath, gp.str())) return kExitIo;
+        const std::string cmd = "gnuplot '" + gpPath + "' 2>&1";
+        if (std::system(cmd.c_str()) != 0 ||
+            std::rename((o.plot + ".tmp.png").c_str(), o.plot.c_str()) != 0) {
+            std::fprintf(stderr,
+                         "nimbus: error: gnuplot failed to write %s (is gnuplot installed?)\n",
+                         o.plot.c_str());
+            std::remove((o.plot + ".tmp.png").c_str());
+            return kExitIo;
+        }
+        std::remove(gpPath.c_str());
+        std::fprintf(stderr, "wrote %s\n", o.plot.c_str());
+    }
+    return kExitOk;
+}
+
+int runCalibrate(const CalibrateOptions& o) {
+    LoadedScene ls;
+    if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
+    if (!(o.scale > 0.0) || o.referenceSpp < 1) {
+        std::fprintf(stderr, "nimbus: error: --scale must be > 0 and --reference-spp >= 1\n");
+        return kExitBadInput;
+    }
+    int frame = o.frame;
+    SceneDesc base;
+    prepare(ls, frame, o.scale, base);
+    base.render.integrator = Integrator::March;
+    installSignalHandlers();
+    SceneDesc refScene = base;
+    refScene.render.integrator = Integrator::PathTrace;
+    refScene.render.spp = o.referenceSpp;
+    std::fprintf(stderr, "reference: pathtrace %d spp at %dx%d ...\n", o.referenceSpp,
+                 base.camera.width, base.camera.height);
+    Measured ref;
+    if (!measure(refScene, frame, ref)) return kExitInterrupted;
+    const double refRms = rms(ref.fb);
+
+    int evaluations = 0;
+    auto error = [&](const SceneDesc& s, double& out) {
+        Measured m;
+        if (!measure(s, frame, m)) return false;
+        ++evaluations;
+        out = rmse(m.fb, ref.fb) / std::max(refRms, 1e-30);
+        return true;
+    };
+    SceneDesc best = base;
+    if (best.render.octaves < 2) best.render.octaves = 4;
+    double bestErr;
+    double startErr;
+    if (!error(base, startErr) || !error(best, bestErr)) return kExitInterrupted;
+    if (startErr < bestErr) {
+        best = base;
+        bestErr = startErr;
+    }
+    // coordinate descent over the approximations of march, two passes
+    struct Knob {
+        const char* name;
+        float* (*get)(SceneDesc&);
+        std::vector<float> values;
+    };
+    const std::vector<Knob> knobs = {
+        {"octave_extinction",
+         [](SceneDesc& s) { return &s.render.octaveExtinction; },
+         {0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
+        {"octave_contribution",
+         [](SceneDesc& s) { return &s.render.octaveContribution; },
+         {0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
+        {"octave_eccentricity",
+         [](SceneDesc& s) { return &s.render.octaveEccentricity; },
+         {0.0f, 0.25f, 0.5f, 0.75f, 1.0f}},
+        {"sky.ambient",
+         [](SceneDesc& s) { return &s.sky.ambient; },
+         {0.25f, 0.5f, 0.75f, 1.0f, 1.5f, 2.0f, 3.0f, 4.0f}},
+    };
+    for (int pass = 0; pass < 2; ++pass) {
+        for (int octaves : {2, 4, 8}) {
+            SceneDesc s = best;
+            s.render.octaves = octaves;
+            double e;
+            if (!error(s, e)) return kExitInterrupted;
+            if (e < bestErr) {
+                bestErr = e;
+                best = s;
+            }
+        }
+        for (const Knob& k : knobs) {
+            for (float v : k.values) {
+                SceneDesc s = best;
+                *k.get(s) = v;
+                // energy conservation: contribution <= extinction
+                if (s.render.octaveContribution > s.render.octaveExtinction) continue;
+                if (k.name == std::string("sky.ambient") && s.sky.kind == SkyKind::None) continue;
+                double e;
+                if (!error(s, e)) return kExitInterrupted;
+                if (e < bestErr) {
+                    bestErr = e;
+                    best = s;
+                }
+            }
+        }
+        std::fprintf(stderr, "pass %d: rel. RMSE %.2f%%\n", pass + 1, 100.0 * bestErr);
+    }
+    std::printf("calibrated against pathtrace %d spp (%dx%d, %d march renders):\n"
+                "  relative RMSE %.2f%% -> %.2f%%\n\n"
+                "[render]\noctaves = %d\noctave_extinction = %g\noctave_contribution = %g\n"
+                "octave_eccentricity = %g\n\n[sky]\nambient = %g\n",
+                o.referenceSpp, base.camera.width, base.camera.height, evaluations,
+                100.0 * startErr, 100.0 * bestErr, best.render.octaves,
+                best.render.octaveExtinction, best.render.octaveContribution,
+                best.render.octaveEccentricity, best.sky.ambient);
+    return kExitOk;
+}
+
+} // namespace nimbus::cli

@@ -1,0 +1,648 @@
+/// @file vdb_reader.cpp
+/// @brief loadVdbGrid() and listVdbGrids() (see vdb_reader.h). The only translation unit that
+///        reads OpenVDB files: OpenVDB's headers cost ~20 s and ~600 MB per translation unit.
+#include "plugin/vdb/vdb_reader.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
+
+#include <nanovdb/util/OpenToNanoVDB.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <new>
+#include <sstream>
+#include <system_error>
+
+namespace nimbus::vdb {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string quoted(const std::string& s) {
+    return "\"" + s + "\"";
+}
+
+/// "<path>: grid "<name>": "
+std::string gridContext(const std::string& path, const std::string& grid) {
+    return path + ": grid " + quoted(grid) + ": ";
+}
+
+std::string versionText(std::uint32_t fileVersion, const std::string& library) {
+    return "file format version " + std::to_string(fileVersion) + ", written by OpenVDB " + library;
+}
+
+/// Edit distance, for "did you mean" suggestions on short grid names.
+std::size_t editDistance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diag = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            std::size_t up = row[j];
+            bool same =
+                std::tolower((unsigned char)a[i - 1]) == std::tolower((unsigned char)b[j - 1]);
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
+            diag = up;
+        }
+    }
+    return row[b.size()];
+}
+
+/// Reads the structure of a VDB file (header, metadata, grid descriptors, a grid's metadata
+/// and transform type) the way OpenVDB lays it out, but with every length and offset checked
+/// against the bytes that remain. OpenVDB's own readers trust the lengths they read: a
+/// truncated or overwritten file makes them allocate gigabytes for one string or loop for
+/// minutes. What passes this scan still goes through OpenVDB, which does the real reading.
+class StructureReader {
+  public:
+    StructureReader(std::istream& is, std::uint64_t fileSize, std::string context)
+        : is_(is), fileSize_(fileSize), context_(std::move(context)) {}
+
+    std::uint64_t pos() { return std::uint64_t(std::int64_t(is_.tellg())); }
+    void seek(std::uint64_t p) {
+        if (p > fileSize_) truncated("a position", p - pos());
+        is_.clear();
+        is_.seekg(std::streamoff(p));
+    }
+    void setEnd(std::uint64_t end) { end_ = std::min(end, fileSize_); }
+
+    template <class T> T pod(const char* what) {
+        if (remaining() < sizeof(T)) truncated(what, sizeof(T));
+        T v{};
+        is_.read(reinterpret_cast<char*>(&v), sizeof(T));
+        if (!is_) truncated(what, sizeof(T));
+        return v;
+    }
+    std::string str(const char* what, std::uint32_t maxLength) {
+        const std::uint32_t n = pod<std::uint32_t>(what);
+        if (n > remaining()) truncated(what, n);
+        if (n > maxLength) {
+            corrupted(std::string(what) + " claims " + std::to_string(n) + " characters");
+        }
+        std::string s(n, '\0');
+        is_.read(s.data(), n);
+        if (!is_) truncated(what, n);
+        return s;
+    }
+    void skip(std::uint64_t n, const char* what) {
+        if (n > remaining()) truncated(what, n);
+        is_.seekg(std::streamoff(n), std::ios::cur);
+    }
+    /// A MetaMap (openvdb::MetaMap::readMeta): count, then name, type name, byte count, bytes.
+    /// Returns the value of string metadata @p wanted ("" when absent).
+    std::string metaMap(const std::string& wanted = "") {
+        const std::uint32_t count = pod<std::uint32_t>("the metadata count");
+        if (count > remaining() / 12) { // an entry takes at least 12 bytes
+            corrupted("the metadata claims " + std::to_string(count) + " entries");
+        }
+        std::string value;
+        for (std::uint32_t i = 0; i < count; ++i) {
+            const std::string name = str("a metadata name", 1u << 16);
+            const std::string type = str("a metadata type", 256);
+            const std::uint32_t bytes = pod<std::uint32_t>("a metadata size");
+            if (!wanted.empty() && name == wanted && type == "string" && bytes <= 4096) {
+                if (bytes > remaining()) truncated("a metadata value", bytes);
+                value.resize(bytes);
+                is_.read(value.data(), bytes);
+                if (!is_) truncated("a metadata value", bytes);
+            } else {
+                skip(bytes, "a metadata value");
+            }
+        }
+        return value;
+    }
+
+    [[noreturn]] void truncated(const std::string& what, std::uint64_t wantedBytes) {
+        if (end_ < fileSize_) {
+            corrupted(what + " needs " + std::to_string(wantedBytes) + " bytes at byte " +
+                      std::to_string(pos()) + ", past the end of the grid (byte " +
+                      std::to_string(end_) + ")");
+        }
+        throw VdbError(context_ + "the file is truncated: " + what + " needs " +
+                       std::to_string(wantedBytes) + " bytes at byte " + std::to_string(pos()) +
+                       " but the file has only " + std::to_string(fileSize_) +
+                       " bytes (an interrupted copy or write?)" + version_);
+    }
+    [[noreturn]] void corrupted(const std::string& what) {
+        throw VdbError(context_ + "corrupted file: " + what + version_);
+    }
+    void setVersionText(std::string v) { version_ = std::move(v); }
+    void setContext(std::string c) { context_ = std::move(c); }
+
+  private:
+    std::uint64_t remaining() {
+        const std::uint64_t p = pos();
+        return (is_ && p <= end_) ? end_ - p : 0;
+    }
+    std::istream& is_;
+    std::uint64_t fileSize_;
+    std::uint64_t end_ = fileSize_;
+    std::string context_;
+    std::string version_;
+};
+
+/// The header and the grid descriptors of a file, read as openvdb::io::File::open reads them.
+struct DescriptorScan {
+    std::uint32_t fileVersion = 0;
+    std::string libraryVersion;
+    std::string creator;
+    std::vector<VdbGridInfo> grids;
+    bool checked = true; ///< false for pre-2012 files without grid offsets (nothing checked)
+};
+
+class DescriptorScanner : private openvdb::io::Archive {
+  public:
+    /// Scans @p path; when @p gridToCheck is a grid of the file, also checks that grid's
+    /// metadata and transform type (the part of a grid OpenVDB reads with trusted lengths).
+    DescriptorScan scan(const std::string& path, const std::string& gridToCheck = "") {
+        std::error_code ec;
+        fs::file_status st = fs::status(path, ec);
+        if (ec || !fs::exists(st)) {
+            throw VdbError(path + ": cannot open the file: " +
+                           (ec ? ec.message() : std::string("no such file")));
+        }
+        if (fs::is_directory(st)) throw VdbError(path + ": is a directory, not a VDB file");
+        const std::uintmax_t size = fs::file_size(path, ec);
+        if (ec) throw VdbError(path + ": cannot read the file size: " + ec.message());
+        std::ifstream is(path, std::ios::binary);
+        if (!is) throw VdbError(path + ": cannot open the file: " + std::strerror(errno));
+        if (size == 0) throw VdbError(path + ": the file is empty (0 bytes), not a VDB file");
+        if (size < 16) {
+            throw VdbError(path + ": not a VDB file (only " + std::to_string(size) +
+                           " bytes, shorter than a VDB header)");
+        }
+
+        DescriptorScan out;
+        auto streamMeta = std::make_shared<openvdb::io::StreamMetadata>();
+        streamMeta->setSeekable(true);
+        openvdb::io::setStreamMetadataPtr(is, streamMeta, /*transfer=*/false);
+        try {
+            readHeader(is); // fixed-size fields only; checks the magic number
+        } catch (const openvdb::Exception& e) {
+            throw VdbError(path + ": not a VDB file, or a VDB format this OpenVDB (" +
+                           std::string(openvdb::getLibraryVersionString()) +
+                           ") cannot read: " + e.what());
+        }
+        StructureReader r(is, size, path + ": ");
+        if (!is) r.truncated("the file header", 0);
+        out.fileVersion = fileVersion();
+        out.libraryVersion =
+            std::to_string(libraryVersion().first) + "." + std::to_string(libraryVersion().second);
+        r.setVersionText(" (" + versionText(out.fileVersion, out.libraryVersion) + ")");
+        out.creator = r.metaMap("creator");
+
+        if (!inputHasGridOffsets()) {
+            out.checked = false; // pre-2012 layout: nothing to list or check up front
+            return out;
+        }
+        const std::int32_t count = r.pod<std::int32_t>("the grid count");
+        if (count < 0 || std::uint64_t(count) > size / 16) {
+            r.corrupted("it claims " + std::to_string(count) + " grids");
+        }
+        std::uint64_t previousEnd = r.pos();
+        const VdbGridInfo* toCheck = nullptr;
+        out.grids.reserve(std::size_t(count));
+        for (std::int32_t i = 0; i < count; ++i) {
+            // openvdb::io::GridDescriptor::read: unique name, type, [instance parent],
+            // grid, block and end positions.
+            r.setContext(path + ": grid #" + std::to_string(i + 1) + ": ");
+            const std::string uniqueName = r.str("a grid name", 1u << 16);
+            const std::string name = openvdb::io::GridDescriptor::stripSuffix(uniqueName);
+            r.setContext(gridContext(path, name));
+            std::string type = r.str("a grid type", 1024);
+            if (out.fileVersion >= openvdb::OPENVDB_FILE_VERSION_GRID_INSTANCING)
+                r.str("an instance parent name", 1u << 16);
+            const auto gridPos = r.pod<std::int64_t>("the grid offsets");
+            const auto blockPos = r.pod<std::int64_t>("the grid offsets");
+            const auto endPos = r.pod<std::int64_t>("the grid offsets");
+            if (endPos > std::int64_t(size)) {
+                throw VdbError(gridContext(path, name) +
+                               "the file is truncated: the grid's data ends at byte " +
+                               std::to_string(endPos) + " but the file has only " +
+                               std::to_string(size) + " bytes (an interrupted copy or write?) (" +
+                               versionText(out.fileVersion, out.libraryVersion) + ")");
+            }
+            if (gridPos < std::int64_t(previousEnd) || blockPos < gridPos || endPos < blockPos) {
+                r.corrupted("inconsistent grid offsets (" + std::to_string(gridPos) + ", " +
+                            std::to_string(blockPos) + ", " + std::to_string(endPos) + ")");
+            }
+            previousEnd = std::uint64_t(endPos);
+            bool half = false;
+            const std::string suffix = "_HalfFloat"; // GridDescriptor.cc HALF_FLOAT_TYPENAME_SUFFIX
+            if (type.size() > suffix.size() &&
+                type.compare(type.size() - suffix.size(), suffix.size(), suffix) == 0) {
+                type.resize(type.size() - suffix.size());
+                half = true;
+            }
+            std::string valueType = "unregistered type " + type;
+            if (openvdb::GridBase::isRegistered(type))
+                valueType = openvdb::GridBase::createGrid(type)->valueType();
+            if (half && valueType == "float") valueType = "half";
+            if (half && valueType == "vec3s") valueType = "vec3h";
+            out.grids.push_back({name, valueType, std::uint64_t(gridPos), std::uint64_t(endPos)});
+            if (name == gridToCheck && !toCheck) toCheck = &out.grids.back();
+            r.seek(std::uint64_t(endPos));
+        }
+        // The grid's own header (openvdb::io::Archive::readGrid): compression flags, metadata,
+        // transform type name. Layout verified for file versions >= 222 (OpenVDB 1.1 and later).
+        if (toCheck && out.fileVersion >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) {
+            r.setContext(gridContext(path, toCheck->name));
+            r.seek(toCheck->dataBegin);
+            r.setEnd(toCheck->dataEnd);
+            r.pod<std::uint32_t>("the compression flags");
+            r.metaMap();
+            r.str("the transform type", 256);
+        }
+        return out;
+    }
+};
+
+std::string listGrids(const std::vector<VdbGridInfo>& grids) {
+    if (grids.empty()) return "the file has no grids";
+    std::string s = "the file has " + std::to_string(grids.size()) +
+                    (grids.size() == 1 ? " grid: " : " grids: ");
+    for (std::size_t i = 0; i < grids.size(); ++i) {
+        if (i) s += ", ";
+        s += grids[i].name + " (" + grids[i].valueType + ")";
+    }
+    return s;
+}
+
+[[noreturn]] void missingGrid(const std::string& path, const std::string& name,
+                              const std::vector<VdbGridInfo>& grids) {
+    std::string msg = gridContext(path, name) + "no grid of that name; " + listGrids(grids);
+    const VdbGridInfo* best = nullptr;
+    std::size_t bestDistance = 3; // suggest only close names
+    for (const VdbGridInfo& g : grids) {
+        std::size_t d = editDistance(name, g.name);
+        if (d < bestDistance) bestDistance = d, best = &g;
+    }
+    if (best) msg += " (did you mean " + quoted(best->name) + "?)";
+    throw VdbError(msg);
+}
+
+bool isScalarFloatType(const std::string& t) {
+    return t == "float" || t == "half" || t == "double";
+}
+
+/// What the sanitising pass over leaf voxels found.
+struct SanitizeCounts {
+    std::uint64_t nonFinite = 0, negative = 0, inactiveNonZero = 0;
+    float mostNegative = 0.0f;
+    void add(const SanitizeCounts& o) {
+        nonFinite += o.nonFinite;
+        negative += o.negative;
+        inactiveNonZero += o.inactiveNonZero;
+        mostNegative = std::min(mostNegative, o.mostNegative);
+    }
+    /// Sanitises one value in place.
+    void fix(float& v, bool active) {
+        if (!active) {
+            if (v != 0.0f) v = 0.0f, ++inactiveNonZero; // NaN != 0 is true: NaN lands here too
+        } else if (!std::isfinite(v)) {
+            v = 0.0f, ++nonFinite;
+        } else if (v < 0.0f) {
+            mostNegative = std::min(mostNegative, v);
+            v = 0.0f, ++negative;
+        }
+    }
+};
+
+/// Replaces NaN/Inf by 0, clamps negatives to 0 and sets inactive values to 0, in every leaf
+/// (in parallel: with delayed loading this also decompresses the leaves) and every tile.
+SanitizeCounts sanitize(openvdb::FloatTree& tree) {
+    using LeafT = openvdb::FloatTree::LeafNodeType;
+    std::vector<LeafT*> leaves;
+    leaves.reserve(tree.leafCount());
+    tree.getNodes(leaves);
+    SanitizeCounts counts = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, leaves.size(), 16), SanitizeCounts{},
+        [&](const tbb::blocked_range<std::size_t>& r, SanitizeCounts c) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                LeafT& leaf = *leaves[i];
+                float* v = leaf.buffer().data(); // loads a delayed-load leaf
+                if (!v) throw std::runtime_error("a leaf node could not be loaded");
+                const auto& mask = leaf.getValueMask();
+                for (openvdb::Index n = 0; n < LeafT::SIZE; ++n) c.fix(v[n], mask.isOn(n));
+            }
+            return c;
+        },
+        [](SanitizeCounts a, const SanitizeCounts& b) {
+            a.add(b);
+            return a;
+        });
+    // Tiles of the root and the internal nodes (not the leaf voxels, done above).
+    auto it = tree.beginValueAll();
+    it.setMaxDepth(openvdb::FloatTree::ValueAllIter::LEAF_DEPTH - 1);
+    for (; it; ++it) {
+        float v = *it;
+        const float before = v;
+        counts.fix(v, it.isValueOn());
+        if (!(v == before)) it.setValue(v);
+    }
+    return counts;
+}
+
+glm::mat4 toGlm(const openvdb::Mat4d& m) {
+    // OpenVDB multiplies row vectors (world = [i j k 1] * M, translation in row 3); glm
+    // multiplies column vectors and stores columns, so glm[c][r] = M(c, r) is the same layout.
+    glm::mat4 g(1.0f);
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) g[r][c] = float(m(r, c));
+    return g;
+}
+
+/// A float copy of a double grid: leaves copied value by value, tiles re-added at their level.
+/// (Cheaper to compile than Tree's value-converting copy constructor, which instantiates a
+/// converting copy of every node type.) Values beyond the float range become +-Inf.
+openvdb::FloatGrid::Ptr toFloatGrid(const openvdb::DoubleGrid& source) {
+    using DoubleLeaf = openvdb::DoubleTree::LeafNodeType;
+    using FloatLeaf = openvdb::FloatTree::LeafNodeType;
+    const openvdb::DoubleTree& from = source.tree();
+    // Made by OpenVDB's grid registry: FloatGrid::create() here would instantiate the whole
+    // vtable of Grid<FloatTree> in this translation unit (~10 s of compile time).
+    openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(
+        openvdb::GridBase::createGrid(openvdb::FloatGrid::gridType()));
+    if (!grid) throw VdbError("OpenVDB cannot create a float grid");
+    openvdb::FloatTree& to = grid->tree();
+    to.root().setBackground(float(source.background()), /*updateChildNodes=*/false);
+    std::vector<const DoubleLeaf*> leaves;
+    leaves.reserve(from.leafCount());
+    from.getNodes(leaves);
+    for (const DoubleLeaf* d : leaves) {
+        auto f = std::make_unique<FloatLeaf>(d->origin(), 0.0f);
+        f->setValueMask(d->getValueMask());
+        const double* src = d->buffer().data(); // loads a delayed-load leaf
+        if (!src) throw std::runtime_error("a leaf node could not be loaded");
+        float* dst = f->buffer().data();
+        for (openvdb::Index n = 0; n < FloatLeaf::SIZE; ++n) dst[n] = float(src[n]);
+        to.addLeaf(f.release());
+    }
+    auto it = from.cbeginValueAll();
+    it.setMaxDepth(openvdb::DoubleTree::ValueAllIter::LEAF_DEPTH - 1); // tiles only
+    for (; it; ++it) {
+        if (!it.isValueOn() && *it == source.background()) continue;
+        to.addTile(it.getLevel(), it.getCoord(), float(*it), it.isValueOn());
+    }
+    grid->setTransform(source.transform().copy());
+    for (auto m = source.beginMeta(); m != source.endMeta(); ++m)
+        grid->insertMeta(m->first, *m->second);
+    return grid;
+}
+
+/// Level set -> fog volume in place, with the rules of openvdb::tools::sdfToFogVolume (default
+/// cutoff): outside (distance > 0) becomes inactive 0; a voxel at distance d <= 0 becomes
+/// d / cutoff, active when > 0, where cutoff is the most negative tile value of the lower
+/// internal nodes (normally -background, the narrow-band half-width), or the most negative value
+/// of the tree when no such tile is negative; an interior tile (value < 0) becomes an active 1.
+/// Written here because LevelSetUtil.h costs ~12 s and ~500 MB more to compile; checked against
+/// sdfToFogVolume value by value on the Gaffer sphere level set.
+void levelSetToFog(openvdb::FloatTree& tree) {
+    using LeafT = openvdb::FloatTree::LeafNodeType;
+    float minTile = std::numeric_limits<float>::max(); // tiles of the lower internal nodes
+    float minLeaf = std::numeric_limits<float>::max(); // every value of every leaf
+    for (auto it = tree.cbeginValueAll(); it; ++it) {
+        if (it.getLevel() == 0)
+            minLeaf = std::min(minLeaf, *it);
+        else if (it.getLevel() == 1)
+            minTile = std::min(minTile, *it);
+    }
+    const float minSdf = minTile > 0.0f ? std::min(minTile, minLeaf) : minTile;
+    const float cutoff = std::max(minSdf, -std::numeric_limits<float>::max());
+    const float weight = 1.0f / cutoff;
+    std::vector<LeafT*> leaves;
+    leaves.reserve(tree.leafCount());
+    tree.getNodes(leaves);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size()), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            LeafT& leaf = *leaves[i];
+            leaf.setValuesOff();
+            float* v = leaf.buffer().data();
+            for (openvdb::Index n = 0; n < LeafT::SIZE; ++n) {
+                v[n] = v[n] > 0.0f ? 0.0f : v[n] * weight;
+                if (v[n] > 0.0f) leaf.setValueOn(n);
+            }
+        }
+    });
+    auto it = tree.beginValueAll();
+    it.setMaxDepth(openvdb::FloatTree::ValueAllIter::LEAF_DEPTH - 1); // tiles only
+    for (; it; ++it) {
+        const bool inside = *it < 0.0f;
+        it.setValue(inside ? 1.0f : 0.0f);
+        it.setActiveState(inside);
+    }
+    tree.root().setBackground(0.0f, /*updateChildNodes=*/false);
+}
+
+} // namespace
+
+std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
+    openvdb::initialize();
+    try {
+        return DescriptorScanner().scan(path).grids;
+    } catch (const VdbError&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw VdbError(path + ": cannot list the grids: " + e.what());
+    }
+}
+
+LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
+    openvdb::initialize(); // idempotent and thread-safe
+    const std::string& path = options.path;
+    const std::string ctx = gridContext(path, options.gridName);
+
+    LoadedVdbGrid out;
+    out.path = path;
+    out.gridName = options.gridName;
+
+    DescriptorScan scan;
+    try {
+        scan = DescriptorScanner().scan(path, options.gridName);
+    } catch (const VdbError&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw VdbError(path + ": out of memory reading the file header (a corrupted file?)");
+    } catch (const std::exception& e) {
+        throw VdbError(path + ": cannot read the file header: " + e.what() +
+                       " (not a VDB file, or a corrupted one)");
+    }
+    out.fileVersion = scan.fileVersion;
+    out.libraryVersion = scan.libraryVersion;
+    out.creator = scan.creator;
+    out.gridsInFile = int(scan.grids.size());
+    out.gridsInFileInfo = scan.grids;
+    const std::string version = " (" + versionText(scan.fileVersion, scan.libraryVersion) + ")";
+
+    // Refuse by the descriptor's type before any tree is read.
+    auto found = std::find_if(scan.grids.begin(), scan.grids.end(),
+                              [&](const VdbGridInfo& g) { return g.name == options.gridName; });
+    if (found == scan.grids.end()) missingGrid(path, options.gridName, scan.grids);
+    if (!isScalarFloatType(found->valueType)) {
+        const bool vector = found->valueType.rfind("vec", 0) == 0;
+        throw VdbError(ctx + "holds " + found->valueType + " values" +
+                       (vector ? " (a vector grid, e.g. a velocity field)" : "") +
+                       "; a density grid must hold float, half or double values");
+    }
+
+    try {
+        openvdb::io::File file(path);
+        file.setCopyMaxBytes(0); // read in place: no private copy of the file in $TMPDIR
+        file.open(/*delayLoad=*/true);
+        openvdb::GridBase::Ptr base = file.readGrid(options.gridName);
+        ++out.gridsRead;
+        if (!base) throw VdbError(ctx + "OpenVDB returned no grid" + version);
+
+        openvdb::FloatGrid::Ptr grid;
+        if (auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) {
+            grid = f;
+            out.sourceValueType = base->saveFloatAsHalf() ? "half" : "float";
+        } else if (auto d = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) {
+            grid = toFloatGrid(*d);
+            out.sourceValueType = "double";
+        } else {
+            throw VdbError(ctx + "has grid type " + base->type() + " (" + base->valueType() +
+                           " values); a density grid must be a float, half or double grid with "
+                           "the standard 5-4-3 tree");
+        }
+        base.reset();
+
+        const openvdb::GridClass cls = grid->getGridClass();
+        out.gridClass = openvdb::GridBase::gridClassToString(cls);
+        if (cls == openvdb::GRID_LEVEL_SET) {
+            if (!options.levelsetToFog) {
+                throw VdbError(ctx + "is a level set (a signed distance field of a surface, not "
+                                     "a fog volume of densities); refusing to render distances "
+                                     "as density. Enable levelsetToFog to convert it to a fog "
+                                     "volume (inside = 1, as openvdb::tools::sdfToFogVolume does)");
+            }
+            if (!(grid->background() > 0.0f)) {
+                throw VdbError(ctx + "is a level set whose background (" +
+                               std::to_string(grid->background()) +
+                               ") is not a positive distance; cannot convert it to a fog volume");
+            }
+            levelSetToFog(grid->tree());
+            grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+        } else if (cls == openvdb::GRID_STAGGERED) {
+            out.warnings.push_back(ctx + "is marked as a staggered grid (a class for vector "
+                                         "grids); read as a density fog volume");
+        }
+
+        const openvdb::math::Transform& xform = grid->transform();
+        if (!xform.isLinear()) {
+            throw VdbError(ctx + "has a non-linear (" + xform.mapType() +
+                           ") transform; only affine transforms are supported");
+        }
+        const openvdb::math::AffineMap::Ptr affine = xform.baseMap()->getAffineMap();
+        const openvdb::Mat4d m = affine->getMat4();
+        const double det = m.getMat3().det();
+        bool finite = true;
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) finite = finite && std::isfinite(m(r, c));
+        if (!finite || !(std::abs(det) > 0.0)) {
+            throw VdbError(ctx + "has a degenerate index-to-world transform (determinant " +
+                           std::to_string(det) + ")");
+        }
+
+        openvdb::FloatTree& tree = grid->tree();
+        const float background = grid->background();
+        if (!(background == 0.0f)) {
+            out.warnings.push_back(ctx + "background value " + std::to_string(background) +
+                                   " is not 0; set to 0 (density outside the active voxels is 0)");
+            tree.root().setBackground(0.0f, /*updateChildNodes=*/true);
+        }
+        SanitizeCounts counts = sanitize(tree);
+        out.nonFiniteCount = counts.nonFinite;
+        out.negativeCount = counts.negative;
+        out.inactiveNonZeroCount = counts.inactiveNonZero;
+        if (counts.nonFinite) {
+            out.warnings.push_back(ctx + std::to_string(counts.nonFinite) +
+                                   " NaN/Inf value(s) replaced by 0");
+        }
+        if (counts.negative) {
+            out.warnings.push_back(ctx + std::to_string(counts.negative) +
+                                   " negative value(s) clamped to 0 (most negative " +
+                                   std::to_string(counts.mostNegative) + ")");
+        }
+        if (counts.inactiveNonZero) {
+            out.warnings.push_back(ctx + std::to_string(counts.inactiveNonZero) +
+                                   " inactive voxel/tile value(s) were not 0 and were set to 0 "
+                                   "(only active values are density)");
+        }
+
+        out.activeVoxelCount = tree.activeVoxelCount();
+        out.activeTileCount = tree.activeTileCount();
+        out.leafCount = tree.leafCount();
+        if (out.activeVoxelCount == 0) {
+            out.warnings.push_back(ctx + "is empty (no active voxels): it loads as an empty "
+                                         "volume");
+        }
+
+        // Transform, bounds.
+        out.worldFromIndex = toGlm(m);
+        out.indexFromWorld = toGlm(m.inverse());
+        const openvdb::Vec3d vs = affine->voxelSize();
+        out.voxelSize = glm::vec3(float(vs[0]), float(vs[1]), float(vs[2]));
+        openvdb::CoordBBox bbox;
+        if (tree.evalActiveVoxelBoundingBox(bbox) && !bbox.empty()) {
+            out.indexMin = glm::ivec3(bbox.min()[0], bbox.min()[1], bbox.min()[2]);
+            out.indexMax = glm::ivec3(bbox.max()[0], bbox.max()[1], bbox.max()[2]);
+            openvdb::Vec3d lo(std::numeric_limits<double>::max());
+            openvdb::Vec3d hi(-std::numeric_limits<double>::max());
+            for (int corner = 0; corner < 8; ++corner) {
+                openvdb::Vec3d ijk;
+                for (int a = 0; a < 3; ++a) {
+                    ijk[a] = (corner >> a) & 1 ? bbox.max()[a] + 0.5 : bbox.min()[a] - 0.5;
+                }
+                const openvdb::Vec3d w = affine->applyMap(ijk);
+                lo = openvdb::math::minComponent(lo, w);
+                hi = openvdb::math::maxComponent(hi, w);
+            }
+            out.worldBounds.lo = glm::vec3(float(lo[0]), float(lo[1]), float(lo[2]));
+            out.worldBounds.hi = glm::vec3(float(hi[0]), float(hi[1]), float(hi[2]));
+        }
+
+        // One conversion to NanoVDB, with min/max/avg/stddev for every node (majorants).
+        out.handle =
+            nanovdb::openToNanoVDB(*grid, nanovdb::StatsMode::All, nanovdb::ChecksumMode::Partial);
+        grid.reset();
+        file.close();
+        const nanovdb::FloatGrid* nano = out.handle.grid<float>();
+        if (!nano) throw VdbError(ctx + "the conversion to NanoVDB produced no float grid");
+        if (!nano->hasMinMax() || (out.activeVoxelCount > 0 && !nano->hasBBox())) {
+            throw VdbError(ctx + "the NanoVDB grid lacks node statistics (min/max, bbox)");
+        }
+        if (out.activeVoxelCount > 0) {
+            out.minValue = nano->tree().root().minimum();
+            out.maxValue = nano->tree().root().maximum();
+        }
+    } catch (const VdbError&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw VdbError(ctx + "out of memory while reading it" + version +
+                       " (a corrupted file, or a grid too large for this machine)");
+    } catch (const std::exception& e) {
+        throw VdbError(ctx + "OpenVDB could not read it" + version + ": " + e.what() +
+                       " (a corrupted or truncated file?)");
+    } catch (...) {
+        throw VdbError(ctx + "OpenVDB could not read it" + version +
+                       ": unknown exception (a corrupted file?)");
+    }
+    return out;
+}
+
+} // namespace nimbus::vdb
