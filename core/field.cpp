@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
+#include <nanovdb/NanoVDB.h>
+#include <nanovdb/util/SampleFromVoxels.h>
 #include <tbb/parallel_for.h>
 
 namespace nimbus {
@@ -115,6 +118,10 @@ Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVo
         f.homogeneous = desc.homogeneous;
         f.box = desc.homogeneous.box;
         break;
+    case FieldKind::Vdb:
+        f.vdb = desc.vdb;
+        f.box = desc.vdb.bounds;
+        break;
     case FieldKind::Cumulus:
         f.cumulus = desc.cumulus;
         f.box = desc.cumulus.bounds;
@@ -128,8 +135,59 @@ Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVo
     return f;
 }
 
+namespace {
+
+const nanovdb::FloatGrid* nanoGrid(const VdbFieldDesc& v) {
+    return static_cast<const nanovdb::FloatGrid*>(v.nanoGrid);
+}
+
+/// World AABB of an index-space box through the grid's affine map.
+Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi) {
+    Box b{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
+    for (int k = 0; k < 8; ++k) {
+        const nanovdb::Vec3f c(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
+        const nanovdb::Vec3f w = g.indexToWorldF(c);
+        b.lo = glm::min(b.lo, vec3(w[0], w[1], w[2]));
+        b.hi = glm::max(b.hi, vec3(w[0], w[1], w[2]));
+    }
+    return b;
+}
+
+} // namespace
+
+bool Field::forEachDensityNodeImpl(void (*fn)(void*, const Box&, float), void* ctx) const {
+    if (kind != FieldKind::Vdb) return false;
+    const nanovdb::FloatGrid* g = nanoGrid(vdb);
+    if (!g) return true;
+    const auto& tree = g->tree();
+    // trilinear sampling at index point x reads the voxels floor(x) .. floor(x) + 1: a node
+    // covering voxels [o, o + n) influences index points in (o - 1, o + n)
+    auto emit = [&](const nanovdb::Coord& o, int n, float m) {
+        if (m <= 0.0f) return;
+        const vec3 lo(float(o[0]) - 1.0f, float(o[1]) - 1.0f, float(o[2]) - 1.0f);
+        fn(ctx, worldBoxOf(*g, lo, lo + vec3(float(n) + 1.0f)), m * vdb.density);
+    };
+    const auto* leaf = tree.getFirstLeaf();
+    for (uint32_t i = 0; i < tree.nodeCount(0); ++i) emit(leaf[i].origin(), 8, leaf[i].maximum());
+    const auto* lower = tree.getFirstLower();
+    for (uint32_t i = 0; i < tree.nodeCount(1); ++i)
+        if (!lower[i].data()->mValueMask.isOff()) emit(lower[i].origin(), 128, lower[i].maximum());
+    const auto* upper = tree.getFirstUpper();
+    for (uint32_t i = 0; i < tree.nodeCount(2); ++i)
+        if (!upper[i].data()->mValueMask.isOff()) emit(upper[i].origin(), 4096, upper[i].maximum());
+    return true;
+}
+
 float Field::density(vec3 p) const {
     switch (kind) {
+    case FieldKind::Vdb: {
+        const nanovdb::FloatGrid* g = nanoGrid(vdb);
+        if (!g || !box.contains(p)) return 0.0f;
+        const nanovdb::Vec3f x = g->worldToIndexF(nanovdb::Vec3f(p.x, p.y, p.z));
+        auto acc = g->getAccessor();
+        auto sampler = nanovdb::createSampler<1>(acc);
+        return std::max(0.0f, sampler(x)) * vdb.density;
+    }
     case FieldKind::Homogeneous:
         return box.contains(p) ? homogeneous.density : 0.0f;
     case FieldKind::Cumulus: {
@@ -156,6 +214,15 @@ float Field::majorant(const Box& b) const {
     Box c{glm::max(b.lo, box.lo), glm::min(b.hi, box.hi)};
     if (c.lo.x > c.hi.x || c.lo.y > c.hi.y || c.lo.z > c.hi.z) return 0.0f;
     switch (kind) {
+    case FieldKind::Vdb: {
+        float m = 0.0f;
+        forEachDensityNode([&](const Box& n, float v) {
+            if (n.lo.x <= c.hi.x && n.hi.x >= c.lo.x && n.lo.y <= c.hi.y && n.hi.y >= c.lo.y &&
+                n.lo.z <= c.hi.z && n.hi.z >= c.lo.z)
+                m = std::max(m, v);
+        });
+        return m;
+    }
     case FieldKind::Homogeneous:
         return homogeneous.density;
     case FieldKind::Cumulus: {

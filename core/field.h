@@ -48,12 +48,23 @@ struct Field {
     vec3 detailOffset{0.0f};                       ///< (wind + detailWind) * time
     std::shared_ptr<const NoiseVolume> baseBake;   ///< null: evaluate directly
     std::shared_ptr<const NoiseVolume> detailBake; ///< null: evaluate directly
+    VdbFieldDesc vdb;
 
     const Box& bounds() const { return box; }
     float density(vec3 p) const;
     /// Upper bound of density over the box (conservative, rigorous).
     float majorant(const Box& b) const;
+    /// Grid fields: calls visit(worldBox, maxDensity) for every tree node that holds density
+    /// (leaves, and internal nodes with active tiles), boxes grown by the trilinear support.
+    /// Returns false for fields that are not grids.
+    template <class F> bool forEachDensityNode(F&& visit) const;
+    bool forEachDensityNodeImpl(void (*fn)(void*, const Box&, float), void* ctx) const;
 };
+
+template <class F> bool Field::forEachDensityNode(F&& visit) const {
+    return forEachDensityNodeImpl(
+        [](void* ctx, const Box& b, float m) { (*static_cast<F*>(ctx))(b, m); }, &visit);
+}
 
 /// The field of one frame at time `time` (seconds). Pass bakes to read baked noise.
 Field makeField(const FieldDesc& desc, float time,

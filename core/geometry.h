@@ -40,6 +40,7 @@ struct Box {
 inline bool intersectBox(const Ray& r, const Box& b, float tmin, float tmax, float& t0, float& t1) {
     t0 = tmin;
     t1 = tmax;
+    if (b.empty()) return false;
     for (int a = 0; a < 3; ++a) {
         float inv = 1.0f / r.d[a];
         float tn = (b.lo[a] - r.o[a]) * inv;

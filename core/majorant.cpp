@@ -22,6 +22,21 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding) {
     g.cellSize = ext / vec3(g.res);
     g.maj.assign(size_t(g.res.x) * g.res.y * g.res.z, 0.0f);
     const vec3 pad = g.cellSize * padding;
+    // grid fields: every tree node writes its maximum into the cells its support overlaps
+    // (one pass over the nodes instead of one tree query per cell)
+    if (field.forEachDensityNode([&](const Box& n, float v) {
+            const ivec3 a = glm::clamp(ivec3(glm::floor((n.lo - pad - g.bounds.lo) / g.cellSize)),
+                                       ivec3(0), g.res - ivec3(1));
+            const ivec3 b = glm::clamp(ivec3(glm::floor((n.hi + pad - g.bounds.lo) / g.cellSize)),
+                                       ivec3(0), g.res - ivec3(1));
+            for (int z = a.z; z <= b.z; ++z)
+                for (int y = a.y; y <= b.y; ++y)
+                    for (int x = a.x; x <= b.x; ++x) {
+                        float& m = g.maj[(size_t(z) * g.res.y + y) * g.res.x + x];
+                        m = std::max(m, v);
+                    }
+        }))
+        return g;
     tbb::parallel_for(0, g.res.z, [&](int z) {
         for (int y = 0; y < g.res.y; ++y)
             for (int x = 0; x < g.res.x; ++x) {

@@ -23,6 +23,9 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// march uses the majorant grid only when at least this share of its cells is empty.
+constexpr double kSkipMinEmptyFraction = 0.5;
+
 float autoMajorantCell(const SceneDesc& s, const Box& b) {
     if (s.render.majorantCell > 0.0f) return s.render.majorantCell;
     // about four primary steps per cell, at most 256 cells along any axis
@@ -77,15 +80,16 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
                 maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
     p.skipEmpty = s.render.skipEmpty;
-    const Box bounds =
-        s.field.kind == FieldKind::Cumulus ? s.field.cumulus.bounds : s.field.homogeneous.box;
+    Box bounds = s.field.homogeneous.box;
+    if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
+    if (s.field.kind == FieldKind::Vdb) bounds = s.field.vdb.bounds;
     p.majorantCell = autoMajorantCell(s, bounds);
     p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
                     s.render.shadow == ShadowMethod::Volume;
     p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
 
     if (s.field.kind != FieldKind::Cumulus) {
-        p.noiseDecision = "no noise in this field";
+        p.noiseDecision = "not a procedural field";
         return p;
     }
     const CumulusDesc& c = s.field.cumulus;
@@ -153,7 +157,13 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         }
         stats.majorantSeconds = secondsSince(t0);
 
-        const MajorantGrid* g = plan.skipEmpty ? &grid : nullptr;
+        // marching through a mostly full grid costs more in cell steps than it saves in
+        // lookups (measured: smoke1, 37% empty cells, 1.9 s with the grid vs 1.2 s without);
+        // the path tracer always wants the tighter majorants
+        stats.majorantUsed =
+            plan.skipEmpty && (s.render.integrator == Integrator::PathTrace ||
+                               stats.majorantEmptyFraction >= kSkipMinEmptyFraction);
+        const MajorantGrid* g = stats.majorantUsed ? &grid : nullptr;
         LightVolume lv;
         if (plan.lightVolume) {
             t0 = std::chrono::steady_clock::now();

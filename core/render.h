@@ -45,7 +45,8 @@ struct RenderStats {
     std::uint64_t nonFinite = 0;      ///< pixels that were NaN/Inf (replaced by 0); should be 0
     std::size_t majorantCells = 0;
     double majorantEmptyFraction = 0.0;
-    double bakeSeconds = 0.0; ///< noise baking charged to this frame (0 when reused)
+    bool majorantUsed = false; ///< march skips with it only when at least half its cells are empty
+    double bakeSeconds = 0.0;  ///< noise baking charged to this frame (0 when reused)
     double majorantSeconds = 0.0;
     double lightVolumeSeconds = 0.0;
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it

@@ -67,7 +67,7 @@ struct MediumDesc {
     std::shared_ptr<const MieTable> mieTable;
 };
 
-enum class FieldKind { Homogeneous, Cumulus };
+enum class FieldKind { Homogeneous, Cumulus, Vdb };
 enum class NoiseEval { Auto, Direct, Baked };
 
 /// A box of constant density (tests, fog layers).
@@ -106,8 +106,23 @@ struct CumulusDesc {
     int detailBakeResolution = 64; ///< voxels per detail tile when baked
 };
 
+/// A density grid from a VDB file, rendered from NanoVDB. core/ never reads files: the host
+/// (plugin/vdb) loads the grid named here and fills in `nanoGrid`, `owner` and `bounds`.
+struct VdbFieldDesc {
+    std::string path;             ///< file or per-frame pattern (`smoke.####.vdb`, `$F4`)
+    std::string grid = "density"; ///< grid name
+    bool levelsetToFog = false;   ///< convert a level set instead of refusing it
+    bool hold = false;            ///< a missing frame repeats the last one instead of failing
+    float density = 1.0f;         ///< multiplies the grid values
+    // filled in by the host:
+    std::shared_ptr<const void> owner; ///< keeps the grid's memory alive
+    const void* nanoGrid = nullptr;    ///< a nanovdb::FloatGrid
+    Box bounds;                        ///< world bounds of the density (trilinear support)
+};
+
 struct FieldDesc {
     FieldKind kind = FieldKind::Cumulus;
+    VdbFieldDesc vdb;
     HomogeneousDesc homogeneous;
     CumulusDesc cumulus;
 };

@@ -10,6 +10,7 @@ PACKAGES=(
   libtomlplusplus-dev libcli11-dev                       # plugin: scene files, command line
   libopenvdb-dev libnanovdb-dev libboost-iostreams-dev   # plugin/vdb: VDB reading, baking
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
+  gnuplot-nox                                            # nimbus converge --plot
 )
 
 missing=()

@@ -22,6 +22,7 @@
 #include "plugin/io/image_output.h"
 #include "plugin/io/scene_file.h"
 #include "plugin/io/scene_setup.h"
+#include "plugin/vdb/vdb_field.h"
 
 namespace nimbus::cli {
 
@@ -145,8 +146,25 @@ int runRender(const RenderOptions& o) {
             }
     }
 
-    Renderer renderer(f.scene);
+    const bool vdbField = f.scene.field.kind == FieldKind::Vdb;
+    const std::string sceneDir = std::filesystem::path(f.path).parent_path().string();
+    // a VDB field is loaded per frame (only the named grid of that frame's file)
+    auto attach = [&](int frame, SceneDesc& s) {
+        std::vector<std::string> warnings;
+        try {
+            vdb::attachVdbField(s.field, sceneDir, frame, warnings);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame,
+                         e.what());
+            return false;
+        }
+        for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+        return true;
+    };
+    std::optional<Renderer> shared;
+    if (!vdbField) shared.emplace(f.scene);
     if (o.explain) {
+        Renderer& renderer = shared ? *shared : shared.emplace(f.scene);
         std::printf("scene %s\ncolour: %s, working space %s, output %s\n", f.path.c_str(),
                     ls.cs->description().c_str(), io::workingSpace(*ls.cs).c_str(),
                     f.output.colorSpace.c_str());
@@ -178,6 +196,13 @@ int runRender(const RenderOptions& o) {
                              out.c_str());
             continue;
         }
+        std::optional<Renderer> own;
+        if (vdbField) {
+            SceneDesc s = f.scene;
+            if (!attach(frame, s)) return kExitBadInput;
+            own.emplace(s);
+        }
+        Renderer& renderer = vdbField ? *own : *shared;
         const FramePlan plan = renderer.plan(frame, f.output.aovs);
         Framebuffer fb;
         RenderStats st;
@@ -229,12 +254,13 @@ int runRender(const RenderOptions& o) {
             std::fprintf(stderr,
                          "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s, march %.2f s), "
                          "%.1f M density lookups (%.1f M/s, %.0f%% in shadow rays), "
-                         "%.0f%% of majorant cells empty -> %s\n",
+                         "%.0f%% of majorant cells empty%s -> %s\n",
                          frame, seconds, plan.bakeNoise ? "baked" : "direct", st.bakeSeconds,
                          st.majorantSeconds, st.integrateSeconds, lookups * 1e-6,
                          lookups * 1e-6 / std::max(st.integrateSeconds, 1e-9),
                          100.0 * double(st.shadowSamples) / std::max(lookups, 1.0),
-                         100.0 * st.majorantEmptyFraction, out.c_str());
+                         100.0 * st.majorantEmptyFraction,
+                         st.majorantUsed ? "" : " (grid not used: too full)", out.c_str());
         }
     }
     progress.finishLine();

@@ -509,7 +509,8 @@ std::string nonZero(const Value& v) {
 }
 
 const WordTable<FieldKind> kFieldKinds = {{"cumulus", FieldKind::Cumulus},
-                                          {"homogeneous", FieldKind::Homogeneous}};
+                                          {"homogeneous", FieldKind::Homogeneous},
+                                          {"vdb", FieldKind::Vdb}};
 
 std::string fieldKindName(FieldKind k) {
     for (const auto& [name, e] : kFieldKinds)
@@ -700,8 +701,9 @@ const std::vector<Param>& registry() {
 
         // --- [field]
         t.push_back(word(fld, "kind", kFieldKinds,
-                         "Density field: a procedural cumulus layer (Olajos 2016) or a box of "
-                         "constant density. The other keys of [field] depend on it.",
+                         "Density field: a procedural cumulus layer (Olajos 2016), a box of "
+                         "constant density, or a grid from a VDB file. The other keys of [field] "
+                         "depend on it.",
                          NIMBUS_AT(scene.field.kind)));
         const FieldKind cu = FieldKind::Cumulus, ho = FieldKind::Homogeneous;
         t.push_back(vector(fld, "bounds_min", Type::Vec3, {},
@@ -822,6 +824,27 @@ const std::vector<Param>& registry() {
         t.push_back(number(fld, "density", atLeast(0), "Density inside the box.",
                            NIMBUS_AT(scene.field.homogeneous.density))
                         .onlyFor(ho));
+        const FieldKind vd = FieldKind::Vdb;
+        t.push_back(text(fld, "path",
+                         "VDB file, or a per-frame pattern (`smoke.####.vdb`, `$F4`); relative "
+                         "to the scene file. Required.",
+                         NIMBUS_AT(scene.field.vdb.path))
+                        .onlyFor(vd));
+        t.push_back(text(fld, "grid", "Name of the density grid; only this grid is read.",
+                         NIMBUS_AT(scene.field.vdb.grid))
+                        .onlyFor(vd));
+        t.push_back(flag(fld, "levelset_to_fog",
+                         "Convert a level set to a fog volume instead of refusing it.",
+                         NIMBUS_AT(scene.field.vdb.levelsetToFog))
+                        .onlyFor(vd));
+        t.push_back(flag(fld, "hold",
+                         "A missing frame of a sequence repeats the last existing one (with a "
+                         "warning) instead of failing.",
+                         NIMBUS_AT(scene.field.vdb.hold))
+                        .onlyFor(vd));
+        t.push_back(number(fld, "density", atLeast(0), "Multiplier of the grid values.",
+                           NIMBUS_AT(scene.field.vdb.density))
+                        .onlyFor(vd));
 
         // --- [render]
         auto pathtrace = [](const SceneFile& f) {

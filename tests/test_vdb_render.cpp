@@ -1,0 +1,133 @@
+// Rendering VDB files written by other tools, through the real CLI.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "plugin/io/image_output.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+    int exitCode = -1;
+    std::string output;
+};
+
+Result runNimbus(const std::string& args) {
+    Result r;
+    FILE* p = popen((std::string(NIMBUS_CLI_PATH) + " " + args + " 2>&1").c_str(), "r");
+    if (!p) return r;
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
+    const int st = pclose(p);
+    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return r;
+}
+
+const fs::path kData = NIMBUS_SHARED_VDB_DIR;
+
+/// A scene looking along +z at (0, cy, 0) from distance d, transparent background, 64x48.
+fs::path writeScene(const fs::path& dir, const std::string& file, const std::string& extra,
+                    float cy, float d) {
+    fs::create_directories(dir);
+    const fs::path scene = dir / "scene.toml";
+    std::ofstream f(scene);
+    f << "[camera]\nposition = [0.0, " << cy << ", " << -d << "]\nlook_at = [0.0, " << cy
+      << ", 0.0]\nfov = 40.0\nwidth = 64\nheight = 48\n"
+      << "[sun]\nelevation = 30.0\nazimuth = 60.0\nintensity = 3.0\n"
+      << "[medium]\nsigma_s = 1.0\ng = 0.6\n"
+      << "[field]\nkind = \"vdb\"\npath = \"" << (kData / file).string() << "\"\n"
+      << extra << "[render]\nstep = 0.5\nshadow_step = 1.0\nbackground = \"transparent\"\n"
+      << "[output]\npath = \"" << (dir / "out.####.exr").string() << "\"\n";
+    return scene;
+}
+
+} // namespace
+
+#define REQUIRE_DATA()                                                                             \
+    if (!fs::is_directory(kData))                                                                  \
+    GTEST_SKIP() << "shared VDB folder " << kData << " is absent: real-file render tests skipped"
+
+TEST(VdbRender, Smoke1RendersAPlume) {
+    REQUIRE_DATA();
+    const fs::path dir =
+        fs::temp_directory_path() / ("nimbus_vdbr_smoke_" + std::to_string(getpid()));
+    Result r =
+        runNimbus("render " + writeScene(dir, "openvdb_smoke1.vdb", "", 15.0f, 90.0f).string() +
+                  " --progress none");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    auto img = nimbus::io::readExr((dir / "out.0001.exr").string());
+    const int a = img.channelIndex("A");
+    for (float v : img.pixels) ASSERT_TRUE(std::isfinite(v));
+    // the plume fills the middle of the frame; the corners see nothing
+    EXPECT_GT(img.at(32, 24, a), 0.5f);
+    EXPECT_EQ(img.at(0, 0, a), 0.0f);
+    EXPECT_EQ(img.at(63, 47, a), 0.0f);
+    int covered = 0;
+    for (int y = 0; y < 48; ++y)
+        for (int x = 0; x < 64; ++x) covered += img.at(x, y, a) > 0.05f;
+    EXPECT_GT(covered, 64 * 48 / 10);
+    EXPECT_LT(covered, 64 * 48 * 9 / 10);
+    fs::remove_all(dir);
+}
+
+TEST(VdbRender, EmptyFrameRendersTransparentWithAWarning) {
+    REQUIRE_DATA();
+    const fs::path dir =
+        fs::temp_directory_path() / ("nimbus_vdbr_empty_" + std::to_string(getpid()));
+    Result r =
+        runNimbus("render " + writeScene(dir, "usd_smoke_000001.vdb", "", 0.0f, 10.0f).string() +
+                  " --progress none");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("warning"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("empty"), std::string::npos) << r.output;
+    auto img = nimbus::io::readExr((dir / "out.0001.exr").string());
+    const int a = img.channelIndex("A");
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) ASSERT_EQ(img.at(x, y, a), 0.0f);
+    fs::remove_all(dir);
+}
+
+TEST(VdbRender, LevelSetIsRefusedWithAClearMessage) {
+    REQUIRE_DATA();
+    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbr_ls_" + std::to_string(getpid()));
+    Result r = runNimbus(
+        "render " +
+        writeScene(dir, "gaffer_sphere.vdb", "grid = \"ls_sphere\"\n", 0.0f, 10.0f).string() +
+        " --progress none");
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_NE(r.output.find("gaffer_sphere.vdb"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("level set"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "out.0001.exr"));
+    // and converts when asked
+    Result c = runNimbus("render " +
+                         writeScene(dir, "gaffer_sphere.vdb",
+                                    "grid = \"ls_sphere\"\nlevelset_to_fog = true\n", 0.0f, 10.0f)
+                             .string() +
+                         " --progress none");
+    EXPECT_EQ(c.exitCode, 0) << c.output;
+    fs::remove_all(dir);
+}
+
+TEST(VdbRender, MissingGridListsTheGridsThatExist) {
+    REQUIRE_DATA();
+    const fs::path dir =
+        fs::temp_directory_path() / ("nimbus_vdbr_miss_" + std::to_string(getpid()));
+    Result r = runNimbus(
+        "render " +
+        writeScene(dir, "usd_densityAndHeat.vdb", "grid = \"smoke\"\n", 0.0f, 10.0f).string() +
+        " --progress none");
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_NE(r.output.find("heat"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("density"), std::string::npos) << r.output;
+    fs::remove_all(dir);
+}
