@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include "core/majorant.h"
 #include "core/render.h"
 #include "plugin/cli/common.h"
 #include "plugin/cli/progress.h"
@@ -23,6 +24,7 @@
 #include "plugin/io/scene_file.h"
 #include "plugin/io/scene_setup.h"
 #include "plugin/vdb/vdb_field.h"
+#include "plugin/vdb/vdb_writer.h"
 
 namespace nimbus::cli {
 
@@ -267,6 +269,76 @@ int runRender(const RenderOptions& o) {
     if (!o.quiet && rendered > 1)
         std::fprintf(stderr, "%d frames in %s (%.2f s per frame)\n", rendered,
                      formatDuration(totalSeconds).c_str(), totalSeconds / rendered);
+    return kExitOk;
+}
+
+int runBake(const BakeOptions& o) {
+    LoadedScene ls;
+    if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
+    io::SceneFile& f = ls.file;
+    std::vector<int> frames;
+    try {
+        frames = io::parseFrameSpec(o.frames.empty() ? f.frames : o.frames);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: error: --frames: %s\n", e.what());
+        return kExitBadInput;
+    }
+    if (frames.size() > 1 && !io::patternHasFrameToken(o.output)) {
+        std::fprintf(
+            stderr, "nimbus: error: %zu frames would all be written to \"%s\": add a frame token\n",
+            frames.size(), o.output.c_str());
+        return kExitBadInput;
+    }
+    const std::string sceneDir = std::filesystem::path(f.path).parent_path().string();
+    installSignalHandlers();
+    for (int frame : frames) {
+        SceneDesc s = f.scene;
+        std::vector<std::string> warnings;
+        try {
+            vdb::attachVdbField(s.field, sceneDir, frame, warnings);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame,
+                         e.what());
+            return kExitBadInput;
+        }
+        for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+        Renderer r(s);
+        const FramePlan plan = r.plan(frame);
+        const Field field = r.fieldFor(plan);
+        const MajorantGrid grid = buildMajorantGrid(field, plan.majorantCell);
+        const float voxel = o.voxel > 0.0f ? o.voxel : plan.majorantCell;
+        const Box b = field.bounds();
+        if (b.empty()) {
+            std::fprintf(stderr, "nimbus: error: frame %d: the field is empty, nothing to bake\n",
+                         frame);
+            return kExitBadInput;
+        }
+        const ivec3 res = glm::max(ivec3(glm::ceil(b.extent() / voxel)), ivec3(1));
+        const vec3 size = b.extent() / vec3(res);
+        const std::string out = io::expandFramePattern(o.output, frame);
+        const auto t0 = std::chrono::steady_clock::now();
+        try {
+            // voxel centres; cells the majorant grid proves empty are not evaluated
+            const vdb::VdbBakeStats st =
+                vdb::bakeFogVdb(out, o.grid, res, b.lo + 0.5f * size, size, [&](vec3 p) {
+                    if (gCancel) return 0.0f;
+                    const ivec3 c = glm::clamp(ivec3((p - grid.bounds.lo) / grid.cellSize),
+                                               ivec3(0), grid.res - ivec3(1));
+                    return grid.at(c) > 0.0f ? field.density(p) : 0.0f;
+                });
+            if (gCancel) {
+                std::remove(out.c_str());
+                return kExitInterrupted;
+            }
+            std::fprintf(
+                stderr, "frame %d: %dx%dx%d voxels of %g, %llu active, max %g, %.2f s -> %s\n",
+                frame, res.x, res.y, res.z, double(voxel), (unsigned long long)st.activeVoxelCount,
+                double(st.maxValue), secondsSince(t0), out.c_str());
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: frame %d: %s\n", frame, e.what());
+            return kExitIo;
+        }
+    }
     return kExitOk;
 }
 

@@ -50,7 +50,18 @@ struct CalibrateOptions {
 };
 
 int runRender(const RenderOptions& o);
+struct BakeOptions {
+    std::string scene;
+    std::vector<std::string> overrides;
+    std::string frames; ///< default: the scene's
+    std::string output; ///< VDB path pattern
+    std::string grid = "density";
+    float voxel = 0.0f; ///< 0 = the plan's majorant cell
+    int threads = -1;
+};
+
 int runConverge(const ConvergeOptions& o);
+int runBake(const BakeOptions& o);
 int runCalibrate(const CalibrateOptions& o);
 
 } // namespace nimbus::cli

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
                "  nimbus converge scene.toml --scale 0.25 --reference-spp 1024 "
                "--pathtrace-ladder 4,16,64 --plot error.png\n"
                "  nimbus calibrate scene.toml --scale 0.25\n"
+               "  nimbus bake scene.toml -o clouds.####.vdb --frames 1-24 --voxel 0.05\n"
                "  nimbus reference > scene-reference.md");
 
     cli::RenderOptions ro;
@@ -116,6 +117,25 @@ int main(int argc, char** argv) {
     calibrate->add_option("-t,--threads", ko.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024));
 
+    cli::BakeOptions bo;
+    auto* bake = app.add_subcommand(
+        "bake", "Write the density field of a scene (procedural or simulated) as fog-volume VDB "
+                "files that Houdini or Blender can read");
+    bake->add_option("scene", bo.scene, "Scene file (TOML)")->required();
+    bake->add_option("-o,--output", bo.output,
+                     std::string("VDB path pattern, e.g. clouds.####.vdb. ") +
+                         std::string(io::framePatternSyntax()))
+        ->required();
+    bake->add_option("-f,--frames", bo.frames, "Frames to bake (default: the scene's `frames`)");
+    bake->add_option("-s,--set", bo.overrides, "Override a scene value (as for render)")
+        ->allow_extra_args(false);
+    bake->add_option("--grid", bo.grid, "Name of the density grid")->capture_default_str();
+    bake->add_option("--voxel", bo.voxel,
+                     "Voxel size in world units (default: the majorant cell the plan picks)")
+        ->check(CLI::NonNegativeNumber);
+    bake->add_option("-t,--threads", bo.threads, "Worker threads (0 = all cores)")
+        ->check(CLI::Range(0, 1024));
+
     auto* reference = app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
 
     try {
@@ -129,6 +149,7 @@ int main(int argc, char** argv) {
         if (*render) return cli::runRender(ro);
         if (*converge) return cli::runConverge(co);
         if (*calibrate) return cli::runCalibrate(ko);
+        if (*bake) return cli::runBake(bo);
         if (*reference) {
             std::cout << io::sceneFileReference();
             return 0;
