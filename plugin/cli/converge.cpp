@@ -243,7 +243,7 @@ int runConverge(const ConvergeOptions& o) {
            << "set grid\nset key top right\nset datafile separator ','\n"
            << "set title 'Error against run time (reference: " << refLabel << ")'\n"
            << "plot '" << csvPath << "' using ($9):(stringcolumn(1) eq 'march' ? $11 : 1/0) "
-           << "with linespoints title 'march', '" << csvPath
+           << "with points pointsize 1.5 title 'march', '" << csvPath
            << "' using ($9):(stringcolumn(1) eq 'pathtrace' ? $11 : 1/0) with linespoints "
               "title 'pathtrace'\n";
         const std::string gpPath = o.plot + ".gp";
