@@ -1,5 +1,7 @@
 #include "core/march.h"
 
+#include "core/sky.h"
+
 #include <algorithm>
 #include <limits>
 
@@ -34,15 +36,7 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
 }
 
 vec3 MarchContext::skyRadiance(vec3 d) const {
-    switch (s_.sky.kind) {
-    case SkyKind::None:
-        return vec3(0.0f);
-    case SkyKind::Uniform:
-        return s_.sky.zenith;
-    case SkyKind::Gradient:
-        return glm::mix(s_.sky.horizon, s_.sky.zenith, std::sqrt(std::clamp(d.y, 0.0f, 1.0f)));
-    }
-    return vec3(0.0f);
+    return nimbus::skyRadiance(s_.sky, d);
 }
 
 float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, MarchCounters& cnt) const {

@@ -1,5 +1,7 @@
 #include "core/pathtrace.h"
 
+#include "core/sky.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -43,77 +45,73 @@ PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const Fi
 }
 
 vec3 PathContext::skyRadiance(vec3 d) const {
-    switch (s_.sky.kind) {
-    case SkyKind::None:
-        return vec3(0.0f);
-    case SkyKind::Uniform:
-        return s_.sky.zenith;
-    case SkyKind::Gradient:
-        return glm::mix(s_.sky.horizon, s_.sky.zenith, std::sqrt(std::clamp(d.y, 0.0f, 1.0f)));
+    return nimbus::skyRadiance(s_.sky, d);
+}
+
+template <class F>
+bool PathContext::sampleCollisions(const Ray& ray, Sampler& rng, F&& visit) const {
+    float tIn, tOut;
+    if (sigmaTMax_ <= 0.0f || !intersectBox(ray, field_.bounds(), 0.0f, kInf, tIn, tOut))
+        return true;
+    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
+    MajorantSegment seg;
+    while (it.next(seg)) {
+        const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
+        float t = seg.t0;
+        for (;;) {
+            t -= std::log(1.0f - rng.next()) / sigmaMaj;
+            if (t >= seg.t1) break;
+            if (!visit(t, field_.density(ray.at(t)), sigmaMaj)) return false;
+        }
     }
-    return vec3(0.0f);
+    return true;
 }
 
 PathContext::Event PathContext::track(const Ray& ray, Sampler& rng, int hero, vec3& f, vec3& p,
                                       float& tHit, MarchCounters& cnt) const {
-    float tIn, tOut;
-    if (sigmaTMax_ <= 0.0f || !intersectBox(ray, field_.bounds(), 0.0f, kInf, tIn, tOut))
-        return Event::Escaped;
-    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
-    MajorantSegment seg;
-    while (it.next(seg)) {
-        const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
-        float t = seg.t0;
-        for (;;) {
-            t -= std::log(1.0f - rng.next()) / sigmaMaj;
-            if (t >= seg.t1) break;
-            ++cnt.primarySamples;
-            const float rho = field_.density(ray.at(t));
-            // event probabilities of every channel's own delta tracking; the hero channel's
-            // choose the event, the path pdf of each channel is kept for spectral MIS
-            const vec3 pS = sigmaS_ * rho / sigmaMaj, pA = sigmaA_ * rho / sigmaMaj;
-            const vec3 pN = vec3(1.0f) - pS - pA;
-            const float u = rng.next();
-            if (u < pA[hero]) return Event::Absorbed; // no emission: the path ends
-            if (u < pA[hero] + pS[hero]) {
-                f *= pS;
-                p *= pS;
-                tHit = t;
-                return Event::Scattered;
-            }
-            f *= pN;
-            p *= pN;
+    Event ev = Event::Escaped;
+    sampleCollisions(ray, rng, [&](float t, float rho, float sigmaMaj) {
+        ++cnt.primarySamples;
+        // event probabilities of every channel's own delta tracking; the hero channel's choose
+        // the event, the path pdf of each channel is kept for spectral MIS
+        const vec3 pS = sigmaS_ * rho / sigmaMaj, pA = sigmaA_ * rho / sigmaMaj;
+        const vec3 pN = vec3(1.0f) - pS - pA;
+        const float u = rng.next();
+        if (u < pA[hero]) {
+            ev = Event::Absorbed; // no emission: the path ends
+            return false;
         }
-    }
-    return Event::Escaped;
+        if (u < pA[hero] + pS[hero]) {
+            f *= pS;
+            p *= pS;
+            tHit = t;
+            ev = Event::Scattered;
+            return false;
+        }
+        f *= pN;
+        p *= pN;
+        return true;
+    });
+    return ev;
 }
 
 vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const {
-    const Ray ray{p, d};
-    float tIn, tOut;
-    if (sigmaTMax_ <= 0.0f || !intersectBox(ray, field_.bounds(), 0.0f, kInf, tIn, tOut))
-        return vec3(1.0f);
     vec3 T(1.0f);
-    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
-    MajorantSegment seg;
-    while (it.next(seg)) {
-        const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
-        float t = seg.t0;
-        for (;;) {
-            t -= std::log(1.0f - rng.next()) / sigmaMaj;
-            if (t >= seg.t1) break;
-            ++cnt.shadowSamples;
-            const float rho = field_.density(ray.at(t));
-            T *= vec3(1.0f) - sigmaT_ * rho / sigmaMaj;
-            // Russian roulette on small transmittance keeps the estimator unbiased
-            const float m = maxComponent(T);
-            if (m < 0.1f) {
-                const float q = 1.0f - m / 0.1f;
-                if (rng.next() < q) return vec3(0.0f);
-                T /= 1.0f - q;
+    sampleCollisions(Ray{p, d}, rng, [&](float, float rho, float sigmaMaj) {
+        ++cnt.shadowSamples;
+        T *= vec3(1.0f) - sigmaT_ * rho / sigmaMaj;
+        // Russian roulette on small transmittance keeps the estimator unbiased
+        const float m = maxComponent(T);
+        if (m < 0.1f) {
+            const float q = 1.0f - m / 0.1f;
+            if (rng.next() < q) {
+                T = vec3(0.0f);
+                return false;
             }
+            T /= 1.0f - q;
         }
-    }
+        return true;
+    });
     return T;
 }
 

@@ -41,6 +41,10 @@ class PathContext {
 
   private:
     enum class Event { Escaped, Scattered, Absorbed };
+    /// Tentative collisions along the ray within the field, sampled segment by segment with
+    /// each segment's majorant (pbrt-v4's SampleT_maj): visit(t, density, sigma_maj) returns
+    /// false to stop. Returns true when the ray left the field.
+    template <class F> bool sampleCollisions(const Ray& ray, Sampler& rng, F&& visit) const;
     /// Delta tracking from ray.o along ray.d driven by channel `hero`; multiplies the path
     /// throughput f and the per-channel path pdf p by the events taken. On Scattered, t is the
     /// collision distance.
