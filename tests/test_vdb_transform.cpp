@@ -117,3 +117,46 @@ TEST(VdbTransform, NonUniformVoxelSizesAreHonoured) {
     EXPECT_NEAR(e.x - e.z, 20 * 0.1f - 8 * 0.15f, 1e-3f);
     fs::remove_all(dir);
 }
+
+TEST(VdbTransform, MajorantSegmentsCoverTheLeavesAndSkipTheGap) {
+    // two 8^3 leaves of density 1 at i = 0..7 and i = 24..31 (voxel size 1): trilinear density
+    // is non-zero for x in (-1, 8) and (23, 32), so along a ray down the x axis the majorant
+    // segments must cover those spans and skip most of the gap between them
+    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbmaj_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    vdb::VdbGridSpec g;
+    for (int base : {0, 24})
+        for (int k = 0; k < 8; ++k)
+            for (int j = 0; j < 8; ++j)
+                for (int i = 0; i < 8; ++i) g.voxels.push_back({ivec3(base + i, j, k), 1.0, true});
+    vdb::writeVdbGrids((dir / "leaves.vdb").string(), {g});
+    FieldDesc fd;
+    fd.kind = FieldKind::Vdb;
+    fd.vdb.path = (dir / "leaves.vdb").string();
+    std::vector<std::string> warnings;
+    vdb::attachVdbField(fd, "", 1, warnings);
+    Field f = makeField(fd, 0.0f);
+    const float cell = 0.5f;
+    MajorantGrid grid = buildMajorantGrid(f, cell);
+    const Ray ray{vec3(-20.0f, 3.5f, 3.5f), vec3(1.0f, 0.0f, 0.0f)};
+    MajorantIterator it(&grid, f.bounds(), ray, 0.0f, 1e30f, 0.0f);
+    MajorantSegment seg;
+    std::vector<MajorantSegment> segs;
+    while (it.next(seg)) segs.push_back(seg);
+    ASSERT_FALSE(segs.empty());
+    auto covered = [&](float x) {
+        for (const auto& s : segs)
+            if (x + 20.0f >= s.t0 && x + 20.0f <= s.t1) return true;
+        return false;
+    };
+    const float margin = grid.cellSize.x * 1.1f; // a cell touching the support may stick out
+    for (float x = -0.99f; x < 8.0f; x += 0.05f) EXPECT_TRUE(covered(x)) << "x = " << x;
+    for (float x = 23.01f; x < 32.0f; x += 0.05f) EXPECT_TRUE(covered(x)) << "x = " << x;
+    for (float x = 8.0f + margin; x < 23.0f - margin; x += 0.05f)
+        EXPECT_FALSE(covered(x)) << "the gap must be skipped at x = " << x;
+    for (const auto& s : segs) EXPECT_FLOAT_EQ(s.sigma_maj, 1.0f);
+    // and the density really is zero where the segments skip
+    for (float x = 8.0f + margin; x < 23.0f - margin; x += 0.25f)
+        EXPECT_EQ(f.density(ray.at(x + 20.0f)), 0.0f);
+    fs::remove_all(dir);
+}
