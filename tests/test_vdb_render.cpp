@@ -178,3 +178,28 @@ TEST(VdbBakeCli, BakedCumulusReadsBackAsTheFieldItSampled) {
     EXPECT_GT(nonzero, 10);
     fs::remove_all(dir);
 }
+
+TEST(VdbRender, ConvergeMeasuresAVdbScene) {
+    REQUIRE_DATA();
+    const fs::path dir =
+        fs::temp_directory_path() / ("nimbus_vdbr_conv_" + std::to_string(getpid()));
+    const fs::path scene = writeScene(dir, "openvdb_smoke1.vdb", "", 15.0f, 90.0f);
+    Result r = runNimbus("converge " + scene.string() +
+                         " --ladder 4,1 --reference-step 0.25 --csv " + (dir / "c.csv").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    std::ifstream f(dir / "c.csv");
+    std::string header, coarse, fine;
+    std::getline(f, header);
+    std::getline(f, coarse);
+    std::getline(f, fine);
+    auto rmse = [](const std::string& l) {
+        size_t i = 0;
+        for (int comma = 0; i < l.size() && comma < 9; ++i) comma += l[i] == ',';
+        return std::stod(l.substr(i));
+    };
+    // the grid was loaded (a field without it would give zero error everywhere) and the error
+    // falls with the step
+    EXPECT_GT(rmse(coarse), rmse(fine));
+    EXPECT_GT(rmse(fine), 0.0);
+    fs::remove_all(dir);
+}
