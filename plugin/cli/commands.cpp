@@ -74,6 +74,19 @@ int loadScene(const std::string& path, const std::vector<std::string>& overrides
     return kExitOk;
 }
 
+bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s) {
+    std::vector<std::string> warnings;
+    try {
+        vdb::attachVdbField(s.field, std::filesystem::path(f.path).parent_path().string(), frame,
+                            warnings);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame, e.what());
+        return false;
+    }
+    for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+    return true;
+}
+
 namespace {
 
 std::string fmt(const char* f, double v) {
@@ -149,20 +162,7 @@ int runRender(const RenderOptions& o) {
     }
 
     const bool vdbField = f.scene.field.kind == FieldKind::Vdb;
-    const std::string sceneDir = std::filesystem::path(f.path).parent_path().string();
     // a VDB field is loaded per frame (only the named grid of that frame's file)
-    auto attach = [&](int frame, SceneDesc& s) {
-        std::vector<std::string> warnings;
-        try {
-            vdb::attachVdbField(s.field, sceneDir, frame, warnings);
-        } catch (const std::exception& e) {
-            std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame,
-                         e.what());
-            return false;
-        }
-        for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
-        return true;
-    };
     std::optional<Renderer> shared;
     if (!vdbField) shared.emplace(f.scene);
     if (o.explain) {
@@ -201,7 +201,7 @@ int runRender(const RenderOptions& o) {
         std::optional<Renderer> own;
         if (vdbField) {
             SceneDesc s = f.scene;
-            if (!attach(frame, s)) return kExitBadInput;
+            if (!attachFrameField(f, frame, s)) return kExitBadInput;
             own.emplace(s);
         }
         Renderer& renderer = vdbField ? *own : *shared;
@@ -289,19 +289,10 @@ int runBake(const BakeOptions& o) {
             frames.size(), o.output.c_str());
         return kExitBadInput;
     }
-    const std::string sceneDir = std::filesystem::path(f.path).parent_path().string();
     installSignalHandlers();
     for (int frame : frames) {
         SceneDesc s = f.scene;
-        std::vector<std::string> warnings;
-        try {
-            vdb::attachVdbField(s.field, sceneDir, frame, warnings);
-        } catch (const std::exception& e) {
-            std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame,
-                         e.what());
-            return kExitBadInput;
-        }
-        for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+        if (!attachFrameField(f, frame, s)) return kExitBadInput;
         Renderer r(s);
         const FramePlan plan = r.plan(frame);
         const Field field = r.fieldFor(plan);

@@ -31,4 +31,8 @@ struct LoadedScene {
 int loadScene(const std::string& path, const std::vector<std::string>& overrides, int threads,
               LoadedScene& out);
 
+/// Loads what the scene's field needs for `frame` into s (a VDB field: that frame's grid);
+/// prints warnings, and errors naming the scene file and frame. False on error.
+bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s);
+
 } // namespace nimbus::cli

@@ -15,7 +15,6 @@
 #include "plugin/cli/common.h"
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/frames.h"
-#include "plugin/vdb/vdb_field.h"
 
 namespace nimbus::cli {
 
@@ -85,16 +84,7 @@ bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base) {
     base = ls.file.scene;
     base.render.background = Background::Transparent;
     if (frame == -1000000000) frame = io::parseFrameSpec(ls.file.frames).front();
-    std::vector<std::string> warnings;
-    try {
-        vdb::attachVdbField(base.field, std::filesystem::path(ls.file.path).parent_path().string(),
-                            frame, warnings);
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", ls.file.path.c_str(), frame,
-                     e.what());
-        return false;
-    }
-    for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+    if (!attachFrameField(ls.file, frame, base)) return false;
     base.camera.width = std::max(1, int(std::lround(base.camera.width * scale)));
     base.camera.height = std::max(1, int(std::lround(base.camera.height * scale)));
     Renderer probe(base);
