@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "plugin/io/frames.h"
+#include "tests/test_util.h"
 
 using nimbus::io::expandFramePattern;
 using nimbus::io::parseFrameSpec;
@@ -30,11 +31,6 @@ std::string specError(const std::string& spec) {
         return e.what();
     }
     return "";
-}
-
-testing::AssertionResult contains(const std::string& text, const std::string& part) {
-    if (text.find(part) != std::string::npos) return testing::AssertionSuccess();
-    return testing::AssertionFailure() << "\"" << part << "\" not found in: " << text;
 }
 
 } // namespace

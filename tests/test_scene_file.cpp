@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "plugin/io/scene_file.h"
+#include "tests/test_util.h"
 
 using namespace nimbus;
 using nimbus::io::parseSceneText;
@@ -21,11 +22,6 @@ using nimbus::io::SceneError;
 using nimbus::io::SceneFile;
 
 namespace {
-
-testing::AssertionResult contains(const std::string& text, const std::string& part) {
-    if (text.find(part) != std::string::npos) return testing::AssertionSuccess();
-    return testing::AssertionFailure() << "\"" << part << "\" not found in:\n" << text;
-}
 
 testing::AssertionResult startsWith(const std::string& text, const std::string& prefix) {
     if (text.rfind(prefix, 0) == 0) return testing::AssertionSuccess();

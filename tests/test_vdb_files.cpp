@@ -18,30 +18,13 @@
 #include <nanovdb/util/SampleFromVoxels.h>
 
 #include "plugin/vdb/vdb_reader.h"
+#include "tests/test_util.h"
+#include "tests/vdb_test_util.h"
 
 using namespace nimbus::vdb;
 namespace fs = std::filesystem;
 
 namespace {
-
-testing::AssertionResult contains(const std::string& text, const std::string& part) {
-    if (text.find(part) != std::string::npos) return testing::AssertionSuccess();
-    return testing::AssertionFailure() << "\"" << part << "\" not found in: " << text;
-}
-
-/// The message of the VdbError that loadVdbGrid(o) throws, or "" (and a test failure).
-std::string loadError(const VdbLoadOptions& o) {
-    try {
-        LoadedVdbGrid g = loadVdbGrid(o);
-        ADD_FAILURE() << "loading grid \"" << o.gridName << "\" of " << o.path
-                      << " did not throw; it gave " << g.activeVoxelCount << " active voxels";
-    } catch (const VdbError& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "not a VdbError: " << e.what();
-    }
-    return "";
-}
 
 /// Sum and count of the active leaf values of a NanoVDB grid (leaves are contiguous).
 struct LeafSummary {

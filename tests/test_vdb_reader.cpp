@@ -22,6 +22,8 @@
 
 #include "plugin/vdb/vdb_reader.h"
 #include "plugin/vdb/vdb_writer.h"
+#include "tests/test_util.h"
+#include "tests/vdb_test_util.h"
 
 using namespace nimbus::vdb;
 namespace fs = std::filesystem;
@@ -30,24 +32,6 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInf = std::numeric_limits<float>::infinity();
-
-testing::AssertionResult contains(const std::string& text, const std::string& part) {
-    if (text.find(part) != std::string::npos) return testing::AssertionSuccess();
-    return testing::AssertionFailure() << "\"" << part << "\" not found in: " << text;
-}
-
-std::string loadError(const VdbLoadOptions& o) {
-    try {
-        LoadedVdbGrid g = loadVdbGrid(o);
-        ADD_FAILURE() << "loading grid \"" << o.gridName << "\" of " << o.path
-                      << " did not throw; it gave " << g.activeVoxelCount << " active voxels";
-    } catch (const VdbError& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "not a VdbError: " << e.what();
-    }
-    return "";
-}
 
 std::string joined(const std::vector<std::string>& lines) {
     std::string s;

@@ -9,16 +9,12 @@
 #include <unistd.h>
 
 #include "plugin/vdb/vdb_reader.h"
+#include "tests/test_util.h"
 
 using namespace nimbus::vdb;
 namespace fs = std::filesystem;
 
 namespace {
-
-testing::AssertionResult contains(const std::string& text, const std::string& part) {
-    if (text.find(part) != std::string::npos) return testing::AssertionSuccess();
-    return testing::AssertionFailure() << "\"" << part << "\" not found in: " << text;
-}
 
 class VdbSequence : public ::testing::Test {
   protected:

@@ -119,6 +119,28 @@ std::map<std::string, std::string> settingsOf(const io::SceneFile& f,
     return m;
 }
 
+/// The frames of `cliSpec` (or of the scene's spec when empty); with several frames, every
+/// non-empty output pattern must hold a frame token. Prints the error; false on bad input.
+bool framesToRender(const std::string& cliSpec, const std::string& sceneSpec,
+                    std::initializer_list<const std::string*> patterns, std::vector<int>& frames) {
+    try {
+        frames = io::parseFrameSpec(cliSpec.empty() ? sceneSpec : cliSpec);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: error: --frames: %s\n", e.what());
+        return false;
+    }
+    if (frames.size() < 2) return true;
+    for (const std::string* p : patterns)
+        if (!p->empty() && !io::patternHasFrameToken(*p)) {
+            std::fprintf(stderr,
+                         "nimbus: error: %zu frames would all be written to \"%s\": add a frame "
+                         "token (%s)\n",
+                         frames.size(), p->c_str(), std::string(io::framePatternSyntax()).c_str());
+            return false;
+        }
+    return true;
+}
+
 bool validOutputExists(const std::string& path) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) return false;
@@ -143,23 +165,8 @@ int runRender(const RenderOptions& o) {
         return kExitBadInput;
     }
     std::vector<int> frames;
-    try {
-        frames = io::parseFrameSpec(o.frames.empty() ? f.frames : o.frames);
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: error: --frames: %s\n", e.what());
+    if (!framesToRender(o.frames, f.frames, {&f.output.path, &f.output.preview}, frames))
         return kExitBadInput;
-    }
-    if (frames.size() > 1) {
-        for (const std::string* p : {&f.output.path, &f.output.preview})
-            if (!p->empty() && !io::patternHasFrameToken(*p)) {
-                std::fprintf(stderr,
-                             "nimbus: error: %zu frames would all be written to \"%s\": add a "
-                             "frame token (%s)\n",
-                             frames.size(), p->c_str(),
-                             std::string(io::framePatternSyntax()).c_str());
-                return kExitBadInput;
-            }
-    }
 
     const bool vdbField = f.scene.field.kind == FieldKind::Vdb;
     // a VDB field is loaded per frame (only the named grid of that frame's file)
@@ -277,18 +284,7 @@ int runBake(const BakeOptions& o) {
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
     io::SceneFile& f = ls.file;
     std::vector<int> frames;
-    try {
-        frames = io::parseFrameSpec(o.frames.empty() ? f.frames : o.frames);
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: error: --frames: %s\n", e.what());
-        return kExitBadInput;
-    }
-    if (frames.size() > 1 && !io::patternHasFrameToken(o.output)) {
-        std::fprintf(
-            stderr, "nimbus: error: %zu frames would all be written to \"%s\": add a frame token\n",
-            frames.size(), o.output.c_str());
-        return kExitBadInput;
-    }
+    if (!framesToRender(o.frames, f.frames, {&o.output}, frames)) return kExitBadInput;
     installSignalHandlers();
     for (int frame : frames) {
         SceneDesc s = f.scene;
