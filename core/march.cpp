@@ -11,13 +11,13 @@ namespace nimbus {
 
 using kern::pcg;
 
-MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                           const MajorantGrid* grid, const LightVolume* lightVolume)
-    : s_(scene), plan_(plan), field_(field), grid_(grid), lightVolume_(lightVolume),
+MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
+                           const LightVolume* lightVolume, const SurfaceQuery* surfaces)
+    : s_(scene), plan_(plan), vols_(volumes), lightVolume_(lightVolume), surfaces_(surfaces),
+      skyIrradiance_(surfaces ? scene.sky : SkyDesc{SkyKind::None}, surfaces ? 65 : 2),
       camera_(scene.camera), phase_(PhaseFunction::fromMedium(scene.medium)),
       primary_(scene.render.step, scene.render.stepGrowth),
-      shadow_(scene.render.shadowStep, scene.render.shadowGrowth),
-      wholeMajorant_(field.majorant(field.bounds())) {
+      shadow_(scene.render.shadowStep, scene.render.shadowGrowth) {
     sigmaS_ = scene.medium.sigma_s * scene.medium.densityScale;
     sigmaT_ = (scene.medium.sigma_s + scene.medium.sigma_a) * scene.medium.densityScale;
     // mean sky radiance over the sphere, the in-scattered ambient of an isotropic medium
@@ -44,17 +44,35 @@ float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, MarchCounters&
     const float jitter = s_.render.jitter ? kern::hashToUnit(pcg(rng)) : 0.5f;
     // stop once the sun is blocked for every channel (transmittance < 1e-5)
     const float tauStop = 11.5f / std::max(minComponent(sigmaT_), 1e-12f);
-    float tIn, tOut;
-    if (!intersectBox(ray, field_.bounds(), 0.0f, std::numeric_limits<float>::max(), tIn, tOut))
-        return 0.0f;
-    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
+    RayVolumes rv;
+    if (!rv.begin(vols_, ray, 0.0f, std::numeric_limits<float>::max())) return 0.0f;
     float tau = 0.0f;
-    marchSegments(it, shadow_, tIn, tOut, jitter, [&](float t, float dt, std::int64_t) {
+    marchSegments(rv, shadow_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t) {
         ++cnt.shadowSamples;
-        tau += field_.density(ray.at(t)) * dt;
+        tau += rv.density(t) * dt;
         return tau <= tauStop;
     });
     return tau;
+}
+
+float MarchContext::sunOpticalDepth(vec3 p, std::uint32_t rng, MarchCounters& cnt) const {
+    if (surfaces_ &&
+        surfaces_->occluded(Ray{p, s_.sun.direction}, 1e-4f, std::numeric_limits<float>::max()))
+        return std::numeric_limits<float>::infinity();
+    if (lightVolume_ && lightVolume_->bounds.contains(p)) return lightVolume_->sample(p);
+    return sunDensityIntegral(p, rng, cnt);
+}
+
+vec3 MarchContext::surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::uint32_t rng,
+                                   MarchCounters& cnt) const {
+    // Lambertian: albedo / pi times the irradiance of the sun (shadowed by every volume and
+    // surface) and of the sky (clouds ignored: an approximation pathtrace does not make)
+    const vec3 p = ray.at(hit.t) + hit.normal * (1e-4f * std::max(1.0f, hit.t));
+    vec3 E = skyIrradiance_(hit.normal);
+    const float cosSun = glm::dot(hit.normal, s_.sun.direction);
+    if (plan_.shadows && cosSun > 0.0f)
+        E += s_.sun.irradiance * cosSun * kern::beerLambert(sigmaT_ * sunOpticalDepth(p, rng, cnt));
+    return hit.albedo * E * 0.318309886f;
 }
 
 float MarchContext::inScatterFactor(float rho, float tau) const {
@@ -83,7 +101,7 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
 
     const vec3 sunDir = s_.sun.direction;
     const float cosTheta = glm::dot(ray.d, sunDir);
-    const Box& b = field_.bounds();
+    const Box& b = vols_.bounds;
     const float span = std::max(b.hi.y - b.lo.y, 1e-20f);
 
     vec3 L(0.0f), T(1.0f);
@@ -91,49 +109,61 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
     bool depthSet = false;
     const float eps = s_.render.epsilon;
 
-    float tIn, tOut;
-    if (intersectBox(ray, b, 0.0f, std::numeric_limits<float>::max(), tIn, tOut)) {
-        MajorantIterator it(grid_, b, ray, tIn, tOut, wholeMajorant_);
-        marchSegments(it, primary_, tIn, tOut, jitter, [&](float t, float dt, std::int64_t n) {
-            const vec3 p = ray.at(t);
-            ++cnt.primarySamples;
-            const float rho = field_.density(p);
-            if (rho <= 0.0f) return true;
-            vec3 S(0.0f);
-            if (plan_.shadows) {
-                const float tau =
-                    lightVolume_ ? lightVolume_->sample(p)
-                                 : sunDensityIntegral(
-                                       p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt);
-                vec3 sun(0.0f);
-                float weight = 1.0f, extinction = 1.0f;
-                PhaseFunction octavePhase = phase_;
-                for (int i = 0; i < s_.render.octaves; ++i) {
-                    sun += weight * octavePhase.eval(cosTheta) *
-                           kern::beerLambert(sigmaT_ * (tau * extinction));
-                    weight *= s_.render.octaveContribution;
-                    extinction *= s_.render.octaveExtinction;
-                    octavePhase = octavePhase.octave(s_.render.octaveEccentricity);
+    float tMax = std::numeric_limits<float>::max();
+    SurfaceHit hit;
+    const bool surface = surfaces_ && surfaces_->intersect(ray, 0.0f, tMax, hit);
+    if (surface) tMax = hit.t;
+
+    RayVolumes rv;
+    if (rv.begin(vols_, ray, 0.0f, tMax)) {
+        marchSegments(
+            rv, primary_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t n) {
+                const vec3 p = ray.at(t);
+                ++cnt.primarySamples;
+                const float rho = rv.density(t);
+                if (rho <= 0.0f) return true;
+                vec3 S(0.0f);
+                if (plan_.shadows) {
+                    const float tau =
+                        sunOpticalDepth(p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt);
+                    if (std::isfinite(tau)) { // not behind a surface
+                        vec3 sun(0.0f);
+                        float weight = 1.0f, extinction = 1.0f;
+                        PhaseFunction octavePhase = phase_;
+                        for (int i = 0; i < s_.render.octaves; ++i) {
+                            sun += weight * octavePhase.eval(cosTheta) *
+                                   kern::beerLambert(sigmaT_ * (tau * extinction));
+                            weight *= s_.render.octaveContribution;
+                            extinction *= s_.render.octaveExtinction;
+                            octavePhase = octavePhase.octave(s_.render.octaveEccentricity);
+                        }
+                        S += s_.sun.irradiance * sun * inScatterFactor(rho, tau);
+                    }
                 }
-                S += s_.sun.irradiance * sun * inScatterFactor(rho, tau);
-            }
-            if (plan_.ambient) {
-                // cheap occlusion (Olajos 2016): light from the sky dome reaches the top of the
-                // layer; near its base half the sphere sees the darker ground instead
-                const float h = std::clamp((p.y - b.lo.y) / span, 0.0f, 1.0f);
-                S += ambient_ * (kAmbientGround + (1.0f - kAmbientGround) * h);
-            }
-            kern::integrateStep(S * (sigmaS_ * rho), sigmaT_ * rho, dt, L, T);
-            if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
-                depth = t;
-                depthSet = true;
-            }
-            return maxComponent(T) >= eps;
-        });
+                if (plan_.ambient) {
+                    // cheap occlusion (Olajos 2016): light from the sky dome reaches the top of the
+                    // layer; near its base half the sphere sees the darker ground instead
+                    const float h = std::clamp((p.y - b.lo.y) / span, 0.0f, 1.0f);
+                    S += ambient_ * (kAmbientGround + (1.0f - kAmbientGround) * h);
+                }
+                kern::integrateStep(S * (sigmaS_ * rho), sigmaT_ * rho, dt, L, T);
+                if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
+                    depth = t;
+                    depthSet = true;
+                }
+                return maxComponent(T) >= eps;
+            });
     }
 
     float alpha = 1.0f - (T.x + T.y + T.z) / 3.0f;
-    if (s_.render.background == Background::Sky) {
+    if (surface && hit.holdout) {
+        // a matte: nothing of it or behind it, alpha only where the cloud in front is
+    } else if (surface) {
+        if (maxComponent(T) >= eps)
+            L += T * surfaceRadiance(ray, hit, pcg(pixelKey ^ 0x51ed27u), cnt);
+        alpha = 1.0f;
+        if (!depthSet) depth = hit.t;
+    } else if (s_.render.background == Background::Sky) {
         L += T * skyRadiance(ray.d);
         alpha = 1.0f;
     }

@@ -19,6 +19,8 @@
 #include "core/majorant.h"
 #include "core/phase.h"
 #include "core/render.h"
+#include "core/sky.h"
+#include "core/volumes.h"
 
 namespace nimbus {
 
@@ -52,9 +54,9 @@ struct StepSchedule {
 /// its sample sits at the fraction `jitter` of the clipped step and is visited only if it lies
 /// in a non-empty segment, so skipping changes no sample that can see density. The callback
 /// gets (t, dt, n) and returns false to stop.
-template <class F>
-void marchSegments(MajorantIterator& it, const StepSchedule& sched, double tIn, double tOut,
-                   float jitter, F&& visit) {
+template <class Segments, class F>
+void marchSegments(Segments& it, const StepSchedule& sched, double tIn, double tOut, float jitter,
+                   F&& visit) {
     MajorantSegment seg;
     std::int64_t nNext = 0;
     while (it.next(seg)) {
@@ -87,12 +89,18 @@ class MarchContext {
     /// Share of the sky ambient left at the base of the layer (below, the ground is seen).
     static constexpr float kAmbientGround = 0.3f;
 
-    MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                 const MajorantGrid* grid, const LightVolume* lightVolume = nullptr);
+    MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
+                 const LightVolume* lightVolume = nullptr, const SurfaceQuery* surfaces = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
 
     /// Density integral along the ray from p toward the sun (shadow march).
     float sunDensityIntegral(vec3 p, std::uint32_t rng, MarchCounters& cnt) const;
+    /// Density integral toward the sun from p: light volume or shadow march; infinite when a
+    /// surface blocks the sun.
+    float sunOpticalDepth(vec3 p, std::uint32_t rng, MarchCounters& cnt) const;
+    /// Radiance leaving a diffuse surface toward the camera.
+    vec3 surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::uint32_t rng,
+                         MarchCounters& cnt) const;
     /// Olajos in-scatter or Schneider powder multiplier on the sun term.
     float inScatterFactor(float rho, float tau) const;
     /// Sky radiance seen along direction d.
@@ -101,13 +109,13 @@ class MarchContext {
   private:
     const SceneDesc& s_;
     const FramePlan& plan_;
-    const Field& field_;
-    const MajorantGrid* grid_;
+    const VolumeSet& vols_;
     const LightVolume* lightVolume_; ///< when set, replaces the shadow marches
+    const SurfaceQuery* surfaces_;   ///< null: no surfaces
+    SkyIrradiance skyIrradiance_;
     Camera camera_;
     PhaseFunction phase_;
     StepSchedule primary_, shadow_;
-    float wholeMajorant_;
     vec3 sigmaS_, sigmaT_; ///< per unit density, density scale folded in
     vec3 ambient_;         ///< sky ambient radiance at the top of the layer
     std::uint32_t frameKey_;

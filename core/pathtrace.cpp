@@ -32,11 +32,10 @@ vec3 aroundAxis(vec3 axis, float cosTheta, float u) {
 
 } // namespace
 
-PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                         const MajorantGrid* grid)
-    : s_(scene), plan_(plan), field_(field), grid_(grid), camera_(scene.camera),
-      phase_(PhaseFunction::fromMedium(scene.medium)),
-      wholeMajorant_(field.majorant(field.bounds())) {
+PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
+                         const SurfaceQuery* surfaces)
+    : s_(scene), plan_(plan), vols_(volumes), surfaces_(surfaces), camera_(scene.camera),
+      phase_(PhaseFunction::fromMedium(scene.medium)) {
     sigmaS_ = scene.medium.sigma_s * scene.medium.densityScale;
     sigmaA_ = scene.medium.sigma_a * scene.medium.densityScale;
     sigmaT_ = sigmaS_ + sigmaA_;
@@ -49,28 +48,26 @@ vec3 PathContext::skyRadiance(vec3 d) const {
 }
 
 template <class F>
-bool PathContext::sampleCollisions(const Ray& ray, Sampler& rng, F&& visit) const {
-    float tIn, tOut;
-    if (sigmaTMax_ <= 0.0f || !intersectBox(ray, field_.bounds(), 0.0f, kInf, tIn, tOut))
-        return true;
-    MajorantIterator it(grid_, field_.bounds(), ray, tIn, tOut, wholeMajorant_);
+bool PathContext::sampleCollisions(const Ray& ray, float tmax, Sampler& rng, F&& visit) const {
+    RayVolumes rv;
+    if (sigmaTMax_ <= 0.0f || !rv.begin(vols_, ray, 0.0f, tmax)) return true;
     MajorantSegment seg;
-    while (it.next(seg)) {
+    while (rv.nextSegment(seg)) {
         const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
         float t = seg.t0;
         for (;;) {
             t -= std::log(1.0f - rng.next()) / sigmaMaj;
             if (t >= seg.t1) break;
-            if (!visit(t, field_.density(ray.at(t)), sigmaMaj)) return false;
+            if (!visit(t, rv.density(t), sigmaMaj)) return false;
         }
     }
     return true;
 }
 
-PathContext::Event PathContext::track(const Ray& ray, Sampler& rng, int hero, vec3& f, vec3& p,
-                                      float& tHit, MarchCounters& cnt) const {
+PathContext::Event PathContext::track(const Ray& ray, float tmax, Sampler& rng, int hero, vec3& f,
+                                      vec3& p, float& tHit, MarchCounters& cnt) const {
     Event ev = Event::Escaped;
-    sampleCollisions(ray, rng, [&](float t, float rho, float sigmaMaj) {
+    sampleCollisions(ray, tmax, rng, [&](float t, float rho, float sigmaMaj) {
         ++cnt.primarySamples;
         // event probabilities of every channel's own delta tracking; the hero channel's choose
         // the event, the path pdf of each channel is kept for spectral MIS
@@ -95,9 +92,15 @@ PathContext::Event PathContext::track(const Ray& ray, Sampler& rng, int hero, ve
     return ev;
 }
 
-vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const {
+vec3 PathContext::visibility(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const {
+    if (surfaces_ && surfaces_->occluded(Ray{p, d}, 1e-4f, kInf)) return vec3(0.0f);
+    return transmittance(p, d, rng, cnt);
+}
+
+vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt,
+                                float tmax) const {
     vec3 T(1.0f);
-    sampleCollisions(Ray{p, d}, rng, [&](float, float rho, float sigmaMaj) {
+    sampleCollisions(Ray{p, d}, tmax, rng, [&](float, float rho, float sigmaMaj) {
         ++cnt.shadowSamples;
         T *= vec3(1.0f) - sigmaT_ * rho / sigmaMaj;
         // Russian roulette on small transmittance keeps the estimator unbiased
@@ -115,15 +118,24 @@ vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt
     return T;
 }
 
-vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, float& depthOut,
-                            MarchCounters& cnt) const {
+vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, float& alphaOut,
+                            float& depthOut, MarchCounters& cnt) const {
     const bool sky = s_.sky.kind != SkyKind::None;
     constexpr float kSkyPdf = 0.0795774715459f; // uniform sphere, 1 / (4 pi)
+    constexpr float kInvPi = 0.318309886184f;
+
+    SurfaceHit hit;
+    float tSurf = kInf;
+    bool surf = surfaces_ && surfaces_->intersect(cameraRay, 0.0f, kInf, hit);
+    if (surf) tSurf = hit.t;
 
     // camera-ray transmittance for alpha and the AOV (ratio tracking, independent stream)
     Sampler trng{rng.key ^ 0xa511e9b3u, 0};
-    Tcam = transmittance(cameraRay.o, cameraRay.d, trng, cnt);
+    Tcam = transmittance(cameraRay.o, cameraRay.d, trng, cnt, tSurf);
     depthOut = 0.0f;
+    alphaOut = (surf && !hit.holdout) || (!surf && s_.render.background == Background::Sky)
+                   ? 1.0f
+                   : std::clamp(1.0f - mean3(Tcam), 0.0f, 1.0f);
 
     // Spectral MIS (one-sample over the channel that drives the tracking): f is the path
     // throughput and p the path pdf under each channel's own tracking; the estimate of channel
@@ -132,49 +144,71 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
     vec3 L(0.0f), f(1.0f), p(1.0f);
     Ray ray = cameraRay;
     float lastPhasePdf = 0.0f; // pdf of the phase sample that made the current ray
+    bool fromSurface = false;  // the current ray left a surface (no sky NEE was taken there)
     for (int depth = 0;; ++depth) {
+        if (depth > 0) {
+            surf = surfaces_ && surfaces_->intersect(ray, 1e-4f, kInf, hit);
+            tSurf = surf ? hit.t : kInf;
+        }
         float t = 0.0f;
-        const Event ev = track(ray, rng, hero, f, p, t, cnt);
+        const Event ev = track(ray, tSurf, rng, hero, f, p, t, cnt);
         if (ev == Event::Absorbed) break;
         const vec3 beta = f / mean3(p);
-        if (ev == Event::Escaped) {
+        if (ev == Event::Escaped && surf) {
+            // an opaque diffuse surface (a holdout absorbs: it is a black matte for paths)
+            if (hit.holdout) break;
+            const vec3 pos = ray.at(hit.t) + hit.normal * (1e-4f * std::max(1.0f, hit.t));
+            if (depth == 0) depthOut = hit.t;
+            const float cosSun = glm::dot(hit.normal, s_.sun.direction);
+            if (plan_.shadows && cosSun > 0.0f)
+                L += beta * hit.albedo * (kInvPi * cosSun) * s_.sun.irradiance *
+                     visibility(pos, s_.sun.direction, rng, cnt);
+            if (depth + 1 >= s_.render.maxDepth) break;
+            // cosine-weighted bounce: weight albedo
+            const float u0 = rng.next(), u1 = rng.next();
+            ray = Ray{pos, aroundAxis(hit.normal, std::sqrt(u0), u1)};
+            f *= hit.albedo;
+            fromSurface = true;
+        } else if (ev == Event::Escaped) {
             if (depth == 0) {
                 if (s_.render.background == Background::Sky) L += beta * skyRadiance(ray.d);
             } else if (sky) {
-                const float w = lastPhasePdf / (lastPhasePdf + kSkyPdf);
+                const float w = fromSurface ? 1.0f : lastPhasePdf / (lastPhasePdf + kSkyPdf);
                 L += beta * skyRadiance(ray.d) * w;
             }
             break;
-        }
-        const vec3 pos = ray.at(t);
-        if (depth == 0) depthOut = t;
+        } else {
+            const vec3 pos = ray.at(t);
+            if (depth == 0) depthOut = t;
 
-        // next-event estimation: the sun
-        if (plan_.shadows) {
-            const vec3 ph = phase_.eval(glm::dot(ray.d, s_.sun.direction));
-            L += beta * s_.sun.irradiance * ph * transmittance(pos, s_.sun.direction, rng, cnt);
+            // next-event estimation: the sun
+            if (plan_.shadows) {
+                const vec3 ph = phase_.eval(glm::dot(ray.d, s_.sun.direction));
+                L += beta * s_.sun.irradiance * ph * visibility(pos, s_.sun.direction, rng, cnt);
+            }
+            // next-event estimation: the sky, MIS with phase sampling
+            if (sky) {
+                const float z = 1.0f - 2.0f * rng.next();
+                const vec3 wi = aroundAxis(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
+                const float cosTheta = glm::dot(ray.d, wi);
+                const float w = kSkyPdf / (kSkyPdf + phase_.pdf(cosTheta));
+                const vec3 Tr = visibility(pos, wi, rng, cnt);
+                L += beta * skyRadiance(wi) * Tr * phase_.eval(cosTheta) * (w / kSkyPdf);
+            }
+            if (depth + 1 >= s_.render.maxDepth) break;
+            // continue by sampling the phase function (the same direction for every channel, so
+            // its weight eval / pdf goes into the throughput alone)
+            const float u0 = rng.next(), u1 = rng.next();
+            const PhaseSample ps = phase_.sample(vec2(u0, u1));
+            if (!(ps.pdf > 0.0f)) break;
+            const vec3 d = aroundAxis(ray.d, ps.cosTheta, rng.next());
+            f *= ps.weight;
+            lastPhasePdf = ps.pdf;
+            fromSurface = false;
+            ray = Ray{pos, d};
         }
-        // next-event estimation: the sky, MIS with phase sampling
-        if (sky) {
-            const float z = 1.0f - 2.0f * rng.next();
-            const vec3 wi = aroundAxis(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
-            const float cosTheta = glm::dot(ray.d, wi);
-            const float w = kSkyPdf / (kSkyPdf + phase_.pdf(cosTheta));
-            const vec3 Tr = transmittance(pos, wi, rng, cnt);
-            L += beta * skyRadiance(wi) * Tr * phase_.eval(cosTheta) * (w / kSkyPdf);
-        }
-        if (depth + 1 >= s_.render.maxDepth) break;
-        // continue by sampling the phase function (the same direction for every channel, so
-        // its weight eval / pdf goes into the throughput alone)
-        const float u0 = rng.next(), u1 = rng.next();
-        const PhaseSample ps = phase_.sample(vec2(u0, u1));
-        if (!(ps.pdf > 0.0f)) break;
-        const vec3 d = aroundAxis(ray.d, ps.cosTheta, rng.next());
-        f *= ps.weight;
-        lastPhasePdf = ps.pdf;
-        ray = Ray{pos, d};
         if (depth + 1 >= s_.render.rrDepth) {
-            const float q = std::max(0.05f, 1.0f - maxComponent(beta));
+            const float q = std::max(0.05f, 1.0f - maxComponent(f / mean3(p)));
             if (rng.next() < q) break;
             f /= 1.0f - q;
         }
@@ -186,6 +220,7 @@ void PathContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt)
     const int spp = std::max(1, s_.render.spp);
     vec3 L(0.0f), T(0.0f);
     double depthSum = 0.0;
+    float alphaSum = 0.0f;
     int depthCount = 0;
     for (int s = 0; s < spp; ++s) {
         Sampler rng = Sampler::forPixel(x, y, frameKey_, std::uint32_t(s));
@@ -194,8 +229,9 @@ void PathContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt)
         const Ray ray = camera_.generate(float(x) + jx, float(y) + jy);
         ++cnt.rays;
         vec3 Ts;
-        float depth;
-        vec3 Ls = tracePath(ray, rng, Ts, depth, cnt);
+        float depth, a;
+        vec3 Ls = tracePath(ray, rng, Ts, a, depth, cnt);
+        alphaSum += a;
         if (!(std::isfinite(Ls.x) && std::isfinite(Ls.y) && std::isfinite(Ls.z))) {
             ++cnt.nonFinite;
             Ls = vec3(0.0f);
@@ -210,8 +246,7 @@ void PathContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt)
     L /= float(spp);
     T /= float(spp);
     const size_t i = size_t(y) * fb.width + x;
-    const float alpha =
-        s_.render.background == Background::Sky ? 1.0f : std::clamp(1.0f - mean3(T), 0.0f, 1.0f);
+    const float alpha = alphaSum / float(spp);
     fb.rgba[4 * i + 0] = L.x;
     fb.rgba[4 * i + 1] = L.y;
     fb.rgba[4 * i + 2] = L.z;

@@ -22,43 +22,47 @@
 #include "core/phase.h"
 #include "core/render.h"
 #include "core/sampler.h"
+#include "core/volumes.h"
 
 namespace nimbus {
 
 class PathContext {
   public:
-    PathContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                const MajorantGrid* grid);
+    PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
+                const SurfaceQuery* surfaces = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
 
-    /// Ratio-tracking estimate of the transmittance from p along d to the edge of the field.
-    vec3 transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const;
+    /// Ratio-tracking estimate of the transmittance from p along d up to tmax (volumes only).
+    vec3 transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt,
+                       float tmax = 3.4e38f) const;
+    /// Transmittance toward a light: 0 when a surface blocks the way, else ratio tracking.
+    vec3 visibility(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const;
 
-    /// One path from the camera through pixel position (px, py); returns radiance, and the
-    /// ratio-tracked transmittance of the camera ray in T.
-    vec3 tracePath(const Ray& cameraRay, Sampler& rng, vec3& T, float& depth,
+    /// One path from the camera through pixel position (px, py); returns radiance, the
+    /// ratio-tracked transmittance of the camera ray in T and the sample's alpha.
+    vec3 tracePath(const Ray& cameraRay, Sampler& rng, vec3& T, float& alpha, float& depth,
                    MarchCounters& cnt) const;
 
   private:
     enum class Event { Escaped, Scattered, Absorbed };
-    /// Tentative collisions along the ray within the field, sampled segment by segment with
-    /// each segment's majorant (pbrt-v4's SampleT_maj): visit(t, density, sigma_maj) returns
+    /// Tentative collisions along the ray within the volumes up to tmax, sampled segment by segment
+    /// with each segment's majorant (pbrt-v4's SampleT_maj): visit(t, density, sigma_maj) returns
     /// false to stop. Returns true when the ray left the field.
-    template <class F> bool sampleCollisions(const Ray& ray, Sampler& rng, F&& visit) const;
+    template <class F>
+    bool sampleCollisions(const Ray& ray, float tmax, Sampler& rng, F&& visit) const;
     /// Delta tracking from ray.o along ray.d driven by channel `hero`; multiplies the path
     /// throughput f and the per-channel path pdf p by the events taken. On Scattered, t is the
     /// collision distance.
-    Event track(const Ray& ray, Sampler& rng, int hero, vec3& f, vec3& p, float& t,
+    Event track(const Ray& ray, float tmax, Sampler& rng, int hero, vec3& f, vec3& p, float& t,
                 MarchCounters& cnt) const;
     vec3 skyRadiance(vec3 d) const;
 
     const SceneDesc& s_;
     const FramePlan& plan_;
-    const Field& field_;
-    const MajorantGrid* grid_;
+    const VolumeSet& vols_;
+    const SurfaceQuery* surfaces_;
     Camera camera_;
     PhaseFunction phase_;
-    float wholeMajorant_;
     vec3 sigmaS_, sigmaA_, sigmaT_; ///< per unit density, density scale folded in
     float sigmaTMax_;               ///< max channel of sigmaT_: turns density bounds into majorants
     std::uint32_t frameKey_;

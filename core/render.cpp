@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include <tbb/blocked_range.h>
@@ -54,6 +55,13 @@ std::string FramePlan::explain() const {
                         : std::string("shadow march per sample"))
       << "\n";
     o << "  sky ambient: " << (ambient ? "yes" : "no") << "\n";
+    o << "  volumes: " << volumes << ", instances: " << instances;
+    if (instanced)
+        o << " ("
+          << (hierarchical ? "instance boxes, then each volume's majorant grid"
+                           : "one coarse world majorant grid")
+          << ")";
+    o << "\n  surfaces: " << (surfaces ? "ground and/or meshes (Embree)" : "none") << "\n";
     o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
       << (aovs.depth ? ", depth" : "") << "\n";
     return o.str();
@@ -84,8 +92,15 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
     if (s.field.kind == FieldKind::Vdb) bounds = s.field.vdb.bounds;
     p.majorantCell = autoMajorantCell(s, bounds);
+    p.volumes = 1 + int(s.volumes.size());
+    p.instances = s.instances.empty() ? 1 : int(s.instances.size());
+    p.instanced = s.instances.size() > 1 ||
+                  (s.instances.size() == 1 && instanceTransform(s.instances[0]) != glm::mat4(1.0f));
+    p.hierarchical = s.render.hierarchicalSkip;
+    p.surfaces = s.ground.enabled || !s.meshes.empty();
+    // the light-attenuation volume covers one untransformed volume; instanced scenes march
     p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
-                    s.render.shadow == ShadowMethod::Volume;
+                    s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty();
     p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
 
     if (s.field.kind != FieldKind::Cumulus) {
@@ -138,6 +153,62 @@ Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
     return makeField(scene_.field, plan.time, baseBake_, detailBake_);
 }
 
+VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
+    const SceneDesc& s = scene_;
+    VolumeSet vs;
+    vs.fields.push_back(fieldFor(plan, &stats.bakeSeconds));
+    for (const NamedVolumeDesc& v : s.volumes) vs.fields.push_back(makeField(v.field, plan.time));
+    const auto t0 = std::chrono::steady_clock::now();
+    vs.instances = makeInstances(vs.fields, s.instances);
+    vs.bounds =
+        Box{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
+    for (const VolumeInstance& in : vs.instances) {
+        vs.bounds.lo = glm::min(vs.bounds.lo, in.worldBounds.lo);
+        vs.bounds.hi = glm::max(vs.bounds.hi, in.worldBounds.hi);
+    }
+    if (vs.instances.empty()) vs.bounds = Box{};
+    const size_t n = vs.fields.size();
+    vs.grids.resize(n);
+    vs.useGrid.assign(n, 0);
+    vs.wholeMajorant.resize(n);
+    std::vector<char> instanced(n, 0);
+    for (const VolumeInstance& in : vs.instances) instanced[size_t(in.volume)] = 1;
+    vs.useCoarse = plan.skipEmpty && plan.instanced && !plan.hierarchical;
+    double emptyCells = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        const Field& f = vs.fields[i];
+        vs.wholeMajorant[i] = f.majorant(f.bounds());
+        if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
+        // each volume's grid in its own space; the plan's cell for `field`
+        const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds());
+        vs.grids[i] = buildMajorantGrid(f, cell);
+        stats.majorantCells += vs.grids[i].cellCount();
+        const double empty = vs.grids[i].emptyFraction();
+        emptyCells += empty * double(vs.grids[i].cellCount());
+        // marching through a mostly full grid costs more in cell steps than it saves in
+        // lookups (measured: smoke1, 37% empty cells, 1.9 s with the grid vs 1.2 s without);
+        // the path tracer always wants the tighter majorants
+        vs.useGrid[i] =
+            s.render.integrator == Integrator::PathTrace || empty >= kSkipMinEmptyFraction;
+        stats.majorantUsed = stats.majorantUsed || vs.useGrid[i];
+    }
+    if (vs.useCoarse) {
+        vs.coarse = buildCoarseMajorantGrid(vs, autoMajorantCell(s, vs.bounds));
+        stats.majorantCells = vs.coarse.cellCount();
+        emptyCells = vs.coarse.emptyFraction() * double(vs.coarse.cellCount());
+        stats.majorantUsed = true;
+    }
+    if (stats.majorantCells) stats.majorantEmptyFraction = emptyCells / double(stats.majorantCells);
+    if (!vs.single() && geometry_) {
+        std::vector<Box> boxes;
+        boxes.reserve(vs.instances.size());
+        for (const VolumeInstance& in : vs.instances) boxes.push_back(in.worldBounds);
+        vs.query = geometry_->instances(boxes);
+    }
+    stats.majorantSeconds = secondsSince(t0);
+    return vs;
+}
+
 bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
                       const RenderCallbacks& cb) {
     const SceneDesc& s = scene_;
@@ -147,40 +218,27 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
     bool completed = true;
 
     arena.execute([&] {
-        Field field = fieldFor(plan, &stats.bakeSeconds);
+        VolumeSet vs = volumesFor(plan, stats);
         auto t0 = std::chrono::steady_clock::now();
-        MajorantGrid grid;
-        if (plan.skipEmpty) {
-            grid = buildMajorantGrid(field, plan.majorantCell);
-            stats.majorantCells = grid.cellCount();
-            stats.majorantEmptyFraction = grid.emptyFraction();
-        }
-        stats.majorantSeconds = secondsSince(t0);
-
-        // marching through a mostly full grid costs more in cell steps than it saves in
-        // lookups (measured: smoke1, 37% empty cells, 1.9 s with the grid vs 1.2 s without);
-        // the path tracer always wants the tighter majorants
-        stats.majorantUsed =
-            plan.skipEmpty && (s.render.integrator == Integrator::PathTrace ||
-                               stats.majorantEmptyFraction >= kSkipMinEmptyFraction);
-        const MajorantGrid* g = stats.majorantUsed ? &grid : nullptr;
         LightVolume lv;
-        if (plan.lightVolume) {
+        if (plan.lightVolume && !vs.fields.empty()) {
             t0 = std::chrono::steady_clock::now();
-            lv = buildLightVolume(field, s.sun.direction, plan.lightVolumeCell, g);
+            lv = buildLightVolume(vs.fields[0], s.sun.direction, plan.lightVolumeCell,
+                                  vs.useGrid[0] ? &vs.grids[0] : nullptr);
             stats.lightVolumeSeconds = secondsSince(t0);
             stats.lightVolumeLookups = lv.densityLookups;
         }
+        const SurfaceQuery* surfaces = geometry_ ? geometry_->surfaces() : nullptr;
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:
             completed =
-                renderTiles(MarchContext(s, plan, field, g, plan.lightVolume ? &lv : nullptr), s,
-                            fb, stats, cb);
+                renderTiles(MarchContext(s, plan, vs, plan.lightVolume ? &lv : nullptr, surfaces),
+                            s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
-            completed = renderTiles(PathContext(s, plan, field, g), s, fb, stats, cb);
+            completed = renderTiles(PathContext(s, plan, vs, surfaces), s, fb, stats, cb);
             break;
         }
         stats.integrateSeconds = secondsSince(t0);

@@ -19,6 +19,7 @@
 #include "core/image.h"
 #include "core/majorant.h"
 #include "core/scene.h"
+#include "core/volumes.h"
 
 namespace nimbus {
 
@@ -35,6 +36,11 @@ struct FramePlan {
     bool lightVolume = false; ///< sun transmittance from a precomputed light-attenuation volume
     float lightVolumeCell = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
+    int volumes = 1;           ///< `field` and the [[volume]] entries
+    int instances = 1;         ///< placements (1: `field` untransformed)
+    bool instanced = false;    ///< more than one instance or a transformed one
+    bool hierarchical = true;  ///< instanced: instance boxes + per-volume grids (else coarse)
+    bool surfaces = false;     ///< ground or meshes
     std::string explain() const;
 };
 
@@ -47,7 +53,7 @@ struct RenderStats {
     double majorantEmptyFraction = 0.0;
     bool majorantUsed = false; ///< march skips with it only when at least half its cells are empty
     double bakeSeconds = 0.0;  ///< noise baking charged to this frame (0 when reused)
-    double majorantSeconds = 0.0;
+    double majorantSeconds = 0.0; ///< majorant grids and the instance query
     double lightVolumeSeconds = 0.0;
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
     double integrateSeconds = 0.0;
@@ -73,11 +79,19 @@ class Renderer {
                 const RenderCallbacks& cb = {});
     /// The field of a frame as the plan builds it (bakes noise on first use when planned).
     Field fieldFor(const FramePlan& plan, double* bakeSeconds = nullptr);
+    /// Every volume of the frame with majorant grids, instances and the instance query.
+    VolumeSet volumesFor(const FramePlan& plan, RenderStats& stats);
+    /// Surfaces and the instance query come from the host (Embree in plugin/geom); without a
+    /// backend instances are found by a linear scan and there are no surfaces.
+    void setGeometry(std::shared_ptr<const GeometryBackend> geometry) {
+        geometry_ = std::move(geometry);
+    }
 
   private:
     SceneDesc scene_;
     std::mutex bakeMutex_;
     std::shared_ptr<const NoiseVolume> baseBake_, detailBake_;
+    std::shared_ptr<const GeometryBackend> geometry_;
 };
 
 } // namespace nimbus

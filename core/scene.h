@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/geometry.h"
 
@@ -127,6 +128,42 @@ struct FieldDesc {
     CumulusDesc cumulus;
 };
 
+/// A further VDB volume beside `field` (scene file `[[volume]]`), referred to by name.
+struct NamedVolumeDesc {
+    std::string name;
+    FieldDesc field; ///< kind Vdb
+};
+
+/// One placement of a volume: world = translate + R * (scale * local), R = Rz Ry Rx.
+struct InstanceDesc {
+    int volume = 0; ///< 0 = `field`, i = volumes[i - 1]
+    vec3 translate{0.0f};
+    vec3 rotate{0.0f}; ///< degrees about x, then y, then z
+    vec3 scale{1.0f};
+    float density = 1.0f; ///< multiplies the volume's density
+};
+
+/// Opaque diffuse surfaces (Embree, plugin/geom): a ground plane and OBJ meshes.
+struct SurfaceMaterialDesc {
+    vec3 albedo{0.5f};
+    bool holdout = false; ///< matte: hides what is behind, alpha 0, no colour of its own
+};
+
+struct GroundDesc {
+    bool enabled = false;
+    float height = 0.0f;   ///< y of the plane
+    float extent = 1.0e4f; ///< half side of the square, centred under the camera
+    SurfaceMaterialDesc material;
+};
+
+struct MeshDesc {
+    std::string path; ///< OBJ file
+    vec3 translate{0.0f};
+    vec3 rotate{0.0f};
+    vec3 scale{1.0f};
+    SurfaceMaterialDesc material;
+};
+
 enum class InScatter { None, Olajos, Powder };
 enum class Integrator { March, PathTrace };
 enum class ShadowMethod { March, Volume };
@@ -146,7 +183,10 @@ struct RenderDesc {
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
     float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
     bool skipEmpty = true;        ///< use the majorant grid to skip empty space
-    float majorantCell = 0.0f;    ///< majorant cell size; 0 = chosen by the plan
+    /// Instanced volumes: per-instance majorant grids found through the instance boxes
+    /// (hierarchical), or one coarse world grid over all instances (false; for comparison).
+    bool hierarchicalSkip = true;
+    float majorantCell = 0.0f; ///< majorant cell size; 0 = chosen by the plan
     /// Multiple-scattering octaves (Wrenninge 2015; Hillaire 2016): octave i adds the sun term
     /// with weight contribution^i, sun optical depth scaled by extinction^i and phase g scaled
     /// by eccentricity^i. 1 = single scattering only. Energy: contribution <= extinction.
@@ -170,6 +210,11 @@ struct SceneDesc {
     SkyDesc sky;
     MediumDesc medium;
     FieldDesc field;
+    std::vector<NamedVolumeDesc> volumes; ///< further volumes, referred to by instances
+    /// Placements of the volumes; empty = `field` once, untransformed.
+    std::vector<InstanceDesc> instances;
+    GroundDesc ground;
+    std::vector<MeshDesc> meshes;
     RenderDesc render;
 };
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/scene.h"
 
@@ -21,5 +22,41 @@ inline vec3 skyRadiance(const SkyDesc& sky, vec3 d) {
     }
     return vec3(0.0f);
 }
+
+/// Irradiance of the sky on a surface by normal: the cosine-weighted integral of skyRadiance
+/// over the hemisphere around n, ignoring clouds. The sky depends on d.y only, so the
+/// irradiance depends on n.y only: tabulated once, interpolated.
+class SkyIrradiance {
+  public:
+    explicit SkyIrradiance(const SkyDesc& sky, int entries = 65) : table_(size_t(entries)) {
+        constexpr float kPi = 3.14159265358979f;
+        const int nt = 48, np = 96; // midpoint quadrature over (cos theta, phi)
+        for (int e = 0; e < entries; ++e) {
+            const float ny = -1.0f + 2.0f * float(e) / float(entries - 1);
+            const vec3 n(std::sqrt(std::max(0.0f, 1.0f - ny * ny)), ny, 0.0f);
+            // orthonormal frame around n
+            const vec3 a = std::abs(n.y) < 0.9f ? vec3(0.0f, 1.0f, 0.0f) : vec3(1.0f, 0.0f, 0.0f);
+            const vec3 t1 = glm::normalize(glm::cross(a, n)), t2 = glm::cross(n, t1);
+            vec3 sum(0.0f);
+            for (int i = 0; i < nt; ++i) {
+                const float c = (float(i) + 0.5f) / float(nt), sn = std::sqrt(1.0f - c * c);
+                for (int j = 0; j < np; ++j) {
+                    const float phi = 2.0f * kPi * (float(j) + 0.5f) / float(np);
+                    const vec3 d = c * n + sn * (std::cos(phi) * t1 + std::sin(phi) * t2);
+                    sum += skyRadiance(sky, d) * c;
+                }
+            }
+            table_[size_t(e)] = sum * (2.0f * kPi / float(nt * np));
+        }
+    }
+    vec3 operator()(vec3 n) const {
+        const float x = (std::clamp(n.y, -1.0f, 1.0f) + 1.0f) * 0.5f * float(table_.size() - 1);
+        const size_t i = std::min(size_t(x), table_.size() - 2);
+        return glm::mix(table_[i], table_[i + 1], x - float(i));
+    }
+
+  private:
+    std::vector<vec3> table_;
+};
 
 } // namespace nimbus

@@ -189,8 +189,10 @@ TEST(PathTrace, RatioTrackingIsUnbiasedInHeterogeneousMedium) {
     Renderer r(s);
     FramePlan plan = r.plan(1);
     Field field = r.fieldFor(plan);
-    MajorantGrid grid = buildMajorantGrid(field, 0.25f);
-    PathContext ctx(s, plan, field, &grid);
+    RenderStats stats;
+    VolumeSet vs = r.volumesFor(plan, stats);
+    ASSERT_TRUE(vs.useGrid[0]);
+    PathContext ctx(s, plan, vs);
     // a horizontal ray through the layer at 2.2 km
     const vec3 o(-6.0f, 2.2f, 0.3f), d(1.0f, 0.0f, 0.0f);
     double tau = 0.0;

@@ -1,0 +1,105 @@
+/// @file volumes.h
+/// @brief Several volumes, each placed any number of times (instances with a transform and a
+/// density scale), and what a ray sees of them: the summed density and merged majorant segments.
+///
+/// Two levels of empty-space skipping (the hierarchy of the VDB issue): an InstanceQuery (Embree
+/// in plugin/geom, or a linear scan here) finds the instance boxes a ray crosses; inside each box
+/// the ray, taken to the volume's own space, walks that volume's majorant grid (filled from the
+/// NanoVDB tree's node maxima for grids). Where instances overlap their extinctions add, and so do
+/// their majorants. For comparison, `coarse` is one world-space grid over all instances without
+/// the first level. Affine transforms keep the ray parameter: t means the same distance in world
+/// and local space, so steps and optical depths need no conversion.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/accel.h"
+#include "core/field.h"
+#include "core/majorant.h"
+
+namespace nimbus {
+
+struct VolumeInstance {
+    int volume = 0;
+    glm::mat4 worldFromLocal{1.0f};
+    glm::mat4 localFromWorld{1.0f};
+    float density = 1.0f;
+    bool identity = true; ///< worldFromLocal is the identity
+    Box worldBounds;      ///< world box around the volume's transformed bounds
+};
+
+/// The transform of an instance description: translate * Rz * Ry * Rx * scale.
+glm::mat4 instanceTransform(const InstanceDesc& d);
+
+/// The volumes of one frame, their majorant grids and their instances.
+struct VolumeSet {
+    std::vector<Field> fields;        ///< one per volume, in its own space
+    std::vector<MajorantGrid> grids;  ///< per volume; used where `useGrid`
+    std::vector<char> useGrid;        ///< per volume
+    std::vector<float> wholeMajorant; ///< per volume: bound over all its bounds
+    std::vector<VolumeInstance> instances;
+    Box bounds;                           ///< union of the instances' world boxes
+    std::unique_ptr<InstanceQuery> query; ///< null: linear scan over `instances`
+    MajorantGrid coarse;                  ///< world grid, used when `useCoarse`
+    bool useCoarse = false;
+
+    /// One untransformed instance of one volume: the common case, no query needed.
+    bool single() const { return instances.size() == 1 && instances[0].identity; }
+    /// Summed density at a world point (linear scan; for tests and light volumes).
+    float densityAt(vec3 p) const;
+    /// Upper bound of the summed density over a world box (linear scan).
+    float majorantOver(const Box& b) const;
+};
+
+/// Makes the instances of `descs` (empty: volume 0 once, untransformed) and their world boxes.
+/// Instances of empty volumes are left out. Throws std::invalid_argument for a bad volume index.
+std::vector<VolumeInstance> makeInstances(const std::vector<Field>& fields,
+                                          const std::vector<InstanceDesc>& descs);
+
+/// Builds the world-space coarse grid over all instances (each instance adds its bound to the
+/// cells its box overlaps).
+MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padding = 0.05f);
+
+/// What one ray sees of a VolumeSet between tmin and tmax. density() must be asked at
+/// non-decreasing t (as marching and tracking do); nextSegment() yields non-empty majorant
+/// segments in order, the sum over the instances active on each.
+class RayVolumes {
+  public:
+    /// False when the ray crosses no instance.
+    bool begin(const VolumeSet& vs, const Ray& ray, float tmin, float tmax);
+    float tIn() const { return tIn_; }
+    float tOut() const { return tOut_; }
+    float density(float t);
+    bool nextSegment(MajorantSegment& seg);
+    /// Iterator-style adapter for marchSegments()
+    bool next(MajorantSegment& seg) { return nextSegment(seg); }
+
+  private:
+    struct Span {
+        int instance;
+        float t0, t1;
+        Ray local;
+    };
+    struct Walker {
+        MajorantIterator it;
+        MajorantSegment seg;
+        float scale;
+    };
+    const VolumeSet* vs_ = nullptr;
+    Ray ray_{};
+    float tIn_ = 0.0f, tOut_ = 0.0f;
+    std::vector<Span> spans_; ///< sorted by t0
+    std::vector<InstanceHit> hits_;
+    size_t densityNext_ = 0;
+    std::vector<int> densityActive_;
+    size_t segNext_ = 0;
+    std::vector<Walker> walkers_;
+    float cur_ = 0.0f;
+    bool coarseStarted_ = false;
+    MajorantIterator coarse_{nullptr, Box{}, Ray{}, 0.0f, 0.0f, 0.0f};
+};
+
+} // namespace nimbus
