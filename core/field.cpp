@@ -1,8 +1,11 @@
 #include "core/field.h"
 
 #include <algorithm>
+#include <atomic>
+#include <cstdint>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <nanovdb/NanoVDB.h>
 #include <nanovdb/util/SampleFromVoxels.h>
@@ -118,10 +121,13 @@ Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVo
         f.homogeneous = desc.homogeneous;
         f.box = desc.homogeneous.box;
         break;
-    case FieldKind::Vdb:
+    case FieldKind::Vdb: {
+        static std::atomic<std::uint64_t> serials{0};
         f.vdb = desc.vdb;
         f.box = desc.vdb.bounds;
+        f.serial = ++serials;
         break;
+    }
     case FieldKind::Cumulus:
         f.cumulus = desc.cumulus;
         f.box = desc.cumulus.bounds;
@@ -184,8 +190,19 @@ float Field::density(vec3 p) const {
         const nanovdb::FloatGrid* g = nanoGrid(vdb);
         if (!g || !box.contains(p)) return 0.0f;
         const nanovdb::Vec3f x = g->worldToIndexF(nanovdb::Vec3f(p.x, p.y, p.z));
-        auto acc = g->getAccessor();
-        auto sampler = nanovdb::createSampler<1>(acc);
+        // one accessor per thread and grid: successive lookups along a ray mostly fall in the
+        // same leaf, and the accessor's cached node path skips the walk from the root
+        // (measured: getValue was 42% of a frame with a fresh accessor per lookup)
+        using Accessor = nanovdb::DefaultReadAccessor<float>;
+        // keyed by the Field's serial, not the grid's address: a later frame's grid may be
+        // allocated where a freed one was
+        thread_local std::uint64_t cachedSerial = 0;
+        thread_local std::optional<Accessor> acc;
+        if (cachedSerial != serial) {
+            acc.emplace(g->getAccessor());
+            cachedSerial = serial;
+        }
+        auto sampler = nanovdb::createSampler<1>(*acc);
         return std::max(0.0f, sampler(x)) * vdb.density;
     }
     case FieldKind::Homogeneous:

@@ -8,6 +8,7 @@
 /// sequence (NoiseVolume); the frame plan decides which.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -49,6 +50,7 @@ struct Field {
     std::shared_ptr<const NoiseVolume> baseBake;   ///< null: evaluate directly
     std::shared_ptr<const NoiseVolume> detailBake; ///< null: evaluate directly
     VdbFieldDesc vdb;
+    std::uint64_t serial = 0; ///< unique per makeField() of a grid: keys per-thread accessors
 
     const Box& bounds() const { return box; }
     float density(vec3 p) const;

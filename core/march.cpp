@@ -46,6 +46,12 @@ float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, MarchCounters&
     const float tauStop = 11.5f / std::max(minComponent(sigmaT_), 1e-12f);
     RayVolumes rv;
     if (!rv.begin(vols_, ray, 0.0f, std::numeric_limits<float>::max())) return 0.0f;
+    if (rv.tIn() > 0.0f) {
+        // from outside every volume (a surface, a gap between instances): the step schedule
+        // starts where the volumes do, not at p, so its steps have not grown on the way
+        const Ray entry{ray.at(rv.tIn()), ray.d};
+        if (!rv.begin(vols_, entry, 0.0f, std::numeric_limits<float>::max())) return 0.0f;
+    }
     float tau = 0.0f;
     marchSegments(rv, shadow_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t) {
         ++cnt.shadowSamples;

@@ -156,7 +156,14 @@ Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
 VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
     const SceneDesc& s = scene_;
     VolumeSet vs;
-    vs.fields.push_back(fieldFor(plan, &stats.bakeSeconds));
+    bool fieldPlaced = s.instances.empty();
+    for (const InstanceDesc& d : s.instances) fieldPlaced = fieldPlaced || d.volume == 0;
+    // a [field] no instance places is never built (no noise baked, no grid read)
+    vs.fields.push_back(
+        fieldPlaced
+            ? fieldFor(plan, &stats.bakeSeconds)
+            : makeField(FieldDesc{FieldKind::Homogeneous, {}, HomogeneousDesc{Box{}, 0.0f}, {}},
+                        0.0f));
     for (const NamedVolumeDesc& v : s.volumes) vs.fields.push_back(makeField(v.field, plan.time));
     const auto t0 = std::chrono::steady_clock::now();
     vs.instances = makeInstances(vs.fields, s.instances);
@@ -199,11 +206,11 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
         stats.majorantUsed = true;
     }
     if (stats.majorantCells) stats.majorantEmptyFraction = emptyCells / double(stats.majorantCells);
-    if (!vs.single() && geometry_) {
+    if (!vs.single() && s.geometry) {
         std::vector<Box> boxes;
         boxes.reserve(vs.instances.size());
         for (const VolumeInstance& in : vs.instances) boxes.push_back(in.worldBounds);
-        vs.query = geometry_->instances(boxes);
+        vs.query = s.geometry->instances(boxes);
     }
     stats.majorantSeconds = secondsSince(t0);
     return vs;
@@ -228,7 +235,7 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             stats.lightVolumeSeconds = secondsSince(t0);
             stats.lightVolumeLookups = lv.densityLookups;
         }
-        const SurfaceQuery* surfaces = geometry_ ? geometry_->surfaces() : nullptr;
+        const SurfaceQuery* surfaces = s.geometry ? s.geometry->surfaces() : nullptr;
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {

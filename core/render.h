@@ -81,17 +81,11 @@ class Renderer {
     Field fieldFor(const FramePlan& plan, double* bakeSeconds = nullptr);
     /// Every volume of the frame with majorant grids, instances and the instance query.
     VolumeSet volumesFor(const FramePlan& plan, RenderStats& stats);
-    /// Surfaces and the instance query come from the host (Embree in plugin/geom); without a
-    /// backend instances are found by a linear scan and there are no surfaces.
-    void setGeometry(std::shared_ptr<const GeometryBackend> geometry) {
-        geometry_ = std::move(geometry);
-    }
 
   private:
     SceneDesc scene_;
     std::mutex bakeMutex_;
     std::shared_ptr<const NoiseVolume> baseBake_, detailBake_;
-    std::shared_ptr<const GeometryBackend> geometry_;
 };
 
 } // namespace nimbus

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/accel.h"
 #include "core/geometry.h"
 
 namespace nimbus {
@@ -216,6 +217,9 @@ struct SceneDesc {
     GroundDesc ground;
     std::vector<MeshDesc> meshes;
     RenderDesc render;
+    /// Filled by the host (plugin/geom, Embree) when the scene has surfaces or instances; null:
+    /// instances are found by a linear scan and there are no surfaces.
+    std::shared_ptr<const GeometryBackend> geometry;
 };
 
 } // namespace nimbus

@@ -15,6 +15,7 @@
 
 #include "core/majorant.h"
 #include "core/render.h"
+#include "core/volumes.h"
 #include "plugin/cli/common.h"
 #include "plugin/cli/progress.h"
 #include "plugin/io/atomic_file.h"
@@ -22,6 +23,7 @@
 #include "plugin/io/frames.h"
 #include "plugin/io/image_output.h"
 #include "plugin/io/scene_file.h"
+#include "plugin/geom/embree_geometry.h"
 #include "plugin/io/scene_setup.h"
 #include "plugin/vdb/vdb_field.h"
 #include "plugin/vdb/vdb_writer.h"
@@ -71,14 +73,42 @@ int loadScene(const std::string& path, const std::vector<std::string>& overrides
         return kExitBadInput;
     }
     for (const auto& w : out.file.warnings) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
+    // Embree only for scenes that need it: surfaces, or instances to find
+    SceneDesc& s = out.file.scene;
+    const bool instanced =
+        s.instances.size() > 1 ||
+        (s.instances.size() == 1 && instanceTransform(s.instances[0]) != glm::mat4(1.0f));
+    if (s.ground.enabled || !s.meshes.empty() || instanced) {
+        std::vector<std::string> warnings;
+        try {
+            s.geometry = geom::makeEmbreeGeometry(
+                s, std::filesystem::path(out.file.path).parent_path().string(), warnings);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: %s: %s\n", out.file.path.c_str(), e.what());
+            return kExitBadInput;
+        }
+        for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+    }
     return kExitOk;
 }
 
 bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s) {
     std::vector<std::string> warnings;
+    const std::string dir = std::filesystem::path(f.path).parent_path().string();
     try {
-        vdb::attachVdbField(s.field, std::filesystem::path(f.path).parent_path().string(), frame,
-                            warnings);
+        bool fieldPlaced = s.instances.empty();
+        for (const InstanceDesc& d : s.instances) fieldPlaced = fieldPlaced || d.volume == 0;
+        if (fieldPlaced) vdb::attachVdbField(s.field, dir, frame, warnings);
+        for (size_t i = 0; i < s.volumes.size(); ++i) {
+            bool placed = false;
+            for (const InstanceDesc& d : s.instances) placed = placed || d.volume == int(i) + 1;
+            if (!placed) continue; // never read
+            try {
+                vdb::attachVdbField(s.volumes[i].field, dir, frame, warnings);
+            } catch (const std::exception& e) {
+                throw std::runtime_error("volume \"" + s.volumes[i].name + "\": " + e.what());
+            }
+        }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame, e.what());
         return false;
@@ -168,7 +198,7 @@ int runRender(const RenderOptions& o) {
     if (!framesToRender(o.frames, f.frames, {&f.output.path, &f.output.preview}, frames))
         return kExitBadInput;
 
-    const bool vdbField = f.scene.field.kind == FieldKind::Vdb;
+    const bool vdbField = f.scene.field.kind == FieldKind::Vdb || !f.scene.volumes.empty();
     // a VDB field is loaded per frame (only the named grid of that frame's file)
     std::optional<Renderer> shared;
     if (!vdbField) shared.emplace(f.scene);

@@ -316,6 +316,28 @@ struct Staging {
     std::optional<double> sunAzimuth;   ///< degrees from +z toward +x
     float sunIntensity = 1.0f;
     std::map<std::string, Where> given; ///< "section.key" -> location of its value
+
+    // [[array]] tables
+    size_t element = 0; ///< index of the element being read
+    struct Placement {
+        std::string volume = "field";
+        Where where;
+    };
+    std::vector<Placement> instanceVolumes; ///< per [[instance]]: the volume's name
+    std::vector<Where> volumeWhere;         ///< per [[volume]]
+    std::vector<Where> meshWhere;           ///< per [[mesh]]
+    struct Scatter {
+        std::string volume = "field";
+        Where where;
+        std::int64_t count = 100;
+        std::uint32_t seed = 1;
+        vec3 regionMin{-10.0f, 2.0f, -10.0f};
+        vec3 regionMax{10.0f, 3.0f, 10.0f};
+        float scaleMin = 1.0f, scaleMax = 1.0f;
+        float yawMin = 0.0f, yawMax = 360.0f;
+        float densityMin = 1.0f, densityMax = 1.0f;
+    };
+    std::vector<Scatter> scatters;
 };
 
 struct Param {
@@ -846,6 +868,29 @@ const std::vector<Param>& registry() {
                            NIMBUS_AT(scene.field.vdb.density))
                         .onlyFor(vd));
 
+        // --- [ground]
+        const std::string gnd = "ground";
+        auto groundOn = [](const SceneFile& f) { return f.scene.ground.enabled; };
+        t.push_back(flag(gnd, "enabled",
+                         "An opaque diffuse ground plane (Embree): stops camera rays and "
+                         "receives the clouds' shadows.",
+                         NIMBUS_AT(scene.ground.enabled)));
+        t.push_back(
+            number(gnd, "height", {}, "Height (y) of the plane.", NIMBUS_AT(scene.ground.height))
+                .usedWhen("ground.enabled = true", groundOn));
+        t.push_back(number(gnd, "extent", above(0),
+                           "Half the side of the square plane, centred under the camera.",
+                           NIMBUS_AT(scene.ground.extent))
+                        .usedWhen("ground.enabled = true", groundOn));
+        t.push_back(vector(gnd, "albedo", Type::Rgb, closed(0, 1), "Diffuse reflectance.",
+                           NIMBUS_AT(scene.ground.material.albedo))
+                        .usedWhen("ground.enabled = true", groundOn));
+        t.push_back(flag(gnd, "holdout",
+                         "A matte: hides what is behind it with alpha 0 and no colour of its "
+                         "own (for compositing over a plate).",
+                         NIMBUS_AT(scene.ground.material.holdout))
+                        .usedWhen("ground.enabled = true", groundOn));
+
         // --- [render]
         auto pathtrace = [](const SceneFile& f) {
             return f.scene.render.integrator == Integrator::PathTrace;
@@ -904,6 +949,13 @@ const std::vector<Param>& registry() {
                            NIMBUS_AT(scene.render.shadowGrowth)));
         t.push_back(flag(ren, "skip_empty", "Skip empty space with the majorant grid.",
                          NIMBUS_AT(scene.render.skipEmpty)));
+        t.push_back(flag(ren, "hierarchical_skip",
+                         "Instanced volumes: find the instance boxes a ray crosses (Embree), then "
+                         "walk each volume's own majorant grid; false = one coarse world grid "
+                         "over all instances (for comparison).",
+                         NIMBUS_AT(scene.render.hierarchicalSkip))
+                        .usedWhen("render.skip_empty = true",
+                                  [](const SceneFile& f) { return f.scene.render.skipEmpty; }));
         t.push_back(number(ren, "majorant_cell", atLeast(0),
                            "Majorant grid cell size (world units); 0 = chosen by the plan.",
                            NIMBUS_AT(scene.render.majorantCell))
@@ -1019,6 +1071,135 @@ const std::vector<Param>& registry() {
 }
 
 #undef NIMBUS_AT
+
+/// An array of tables (`[[instance]]`): each element is read with the rows of its section in
+/// arrayRegistry(), the accessors reaching the element Staging::element.
+struct ArraySection {
+    std::string name;
+    std::string doc;
+    std::function<void(Staging&, Where)> grow; ///< appends a default element
+};
+
+const std::vector<ArraySection>& arraySections() {
+    static const std::vector<ArraySection> table = {
+        {"volume",
+         "A further VDB volume beside `[field]`, referred to by its `name` from `[[instance]]` "
+         "and `[[scatter]]` (the `[field]` volume is called \"field\"). Without any "
+         "`[[instance]]` or `[[scatter]]`, `[field]` and every `[[volume]]` are placed once, "
+         "untransformed. Only grids of volumes that are placed are read.",
+         [](Staging& s, Where w) {
+             NamedVolumeDesc v;
+             v.field.kind = FieldKind::Vdb;
+             s.file.scene.volumes.push_back(v);
+             s.volumeWhere.push_back(w);
+         }},
+        {"instance",
+         "One placement of a volume: world = translate + R (scale * p), R = Rz Ry Rx. Where "
+         "instances overlap their densities add.",
+         [](Staging& s, Where w) {
+             s.file.scene.instances.push_back(InstanceDesc{});
+             s.instanceVolumes.push_back({"field", w});
+         }},
+        {"scatter",
+         "`count` instances of a volume at random positions in a box (a cloudscape), with "
+         "random uniform scale, rotation about y and density in the given ranges; "
+         "deterministic per `seed`.",
+         [](Staging& s, Where w) {
+             Staging::Scatter sc;
+             sc.where = w;
+             s.scatters.push_back(sc);
+         }},
+        {"mesh",
+         "A triangle mesh from an OBJ file (Embree): opaque, diffuse, two-sided; stops camera "
+         "rays, casts and receives shadows.",
+         [](Staging& s, Where w) {
+             s.file.scene.meshes.push_back(MeshDesc{});
+             s.meshWhere.push_back(w);
+         }},
+    };
+    return table;
+}
+
+// clang-format off
+#define NIMBUS_EL(vec, member) [](Staging& s) -> auto& { return s.vec[s.element].member; }
+// clang-format on
+
+const std::vector<Param>& arrayRegistry() {
+    static const std::vector<Param> table = [] {
+        std::vector<Param> t;
+        const std::string vol = "volume", ins = "instance", sct = "scatter", msh = "mesh";
+        t.push_back(text(vol, "name", "Name the instances use. Required, unique, not \"field\".",
+                         NIMBUS_EL(file.scene.volumes, name))
+                        .checkedBy(nonEmpty));
+        t.push_back(text(vol, "path",
+                         "VDB file, or a per-frame pattern (`smoke.####.vdb`, `$F4`); relative "
+                         "to the scene file. Required.",
+                         NIMBUS_EL(file.scene.volumes, field.vdb.path))
+                        .checkedBy(nonEmpty));
+        t.push_back(text(vol, "grid", "Name of the density grid; only this grid is read.",
+                         NIMBUS_EL(file.scene.volumes, field.vdb.grid))
+                        .checkedBy(nonEmpty));
+        t.push_back(flag(vol, "levelset_to_fog",
+                         "Convert a level set to a fog volume instead of refusing it.",
+                         NIMBUS_EL(file.scene.volumes, field.vdb.levelsetToFog)));
+        t.push_back(flag(vol, "hold", "A missing frame repeats the last existing one.",
+                         NIMBUS_EL(file.scene.volumes, field.vdb.hold)));
+        t.push_back(number(vol, "density", atLeast(0), "Multiplier of the grid values.",
+                           NIMBUS_EL(file.scene.volumes, field.vdb.density)));
+
+        t.push_back(text(ins, "volume", "The volume placed: \"field\" or a `[[volume]]` name.",
+                         NIMBUS_EL(instanceVolumes, volume))
+                        .checkedBy(nonEmpty));
+        t.push_back(vector(ins, "translate", Type::Vec3, {}, "Translation (world units).",
+                           NIMBUS_EL(file.scene.instances, translate)));
+        t.push_back(vector(ins, "rotate", Type::Vec3, {},
+                           "Rotation in degrees about x, then y, then z.",
+                           NIMBUS_EL(file.scene.instances, rotate)));
+        t.push_back(vector(ins, "scale", Type::Vec3, above(0), "Scale along x, y and z.",
+                           NIMBUS_EL(file.scene.instances, scale)));
+        t.push_back(number(ins, "density", atLeast(0), "Multiplier of the volume's density.",
+                           NIMBUS_EL(file.scene.instances, density)));
+
+        t.push_back(text(sct, "volume", "The volume placed: \"field\" or a `[[volume]]` name.",
+                         NIMBUS_EL(scatters, volume))
+                        .checkedBy(nonEmpty));
+        t.push_back(integer(sct, "count", closed(1, 1000000), "Number of instances.",
+                            NIMBUS_EL(scatters, count)));
+        t.push_back(integer(sct, "seed", kUInt32, "Random seed of the placement.",
+                            NIMBUS_EL(scatters, seed)));
+        t.push_back(vector(sct, "region_min", Type::Vec3, {},
+                           "Lower corner of the box the instance origins are drawn from.",
+                           NIMBUS_EL(scatters, regionMin)));
+        t.push_back(vector(sct, "region_max", Type::Vec3, {}, "Upper corner of that box.",
+                           NIMBUS_EL(scatters, regionMax)));
+        t.push_back(pair(sct, "scale", above(0), "Uniform scale range.",
+                         NIMBUS_EL(scatters, scaleMin), NIMBUS_EL(scatters, scaleMax)));
+        t.push_back(pair(sct, "rotate_y", {}, "Rotation about y range, degrees.",
+                         NIMBUS_EL(scatters, yawMin), NIMBUS_EL(scatters, yawMax)));
+        t.push_back(pair(sct, "density", atLeast(0), "Density multiplier range.",
+                         NIMBUS_EL(scatters, densityMin), NIMBUS_EL(scatters, densityMax)));
+
+        t.push_back(text(msh, "path", "OBJ file, relative to the scene file. Required.",
+                         NIMBUS_EL(file.scene.meshes, path))
+                        .checkedBy(nonEmpty));
+        t.push_back(vector(msh, "translate", Type::Vec3, {}, "Translation (world units).",
+                           NIMBUS_EL(file.scene.meshes, translate)));
+        t.push_back(vector(msh, "rotate", Type::Vec3, {},
+                           "Rotation in degrees about x, then y, then z.",
+                           NIMBUS_EL(file.scene.meshes, rotate)));
+        t.push_back(vector(msh, "scale", Type::Vec3, above(0), "Scale along x, y and z.",
+                           NIMBUS_EL(file.scene.meshes, scale)));
+        t.push_back(vector(msh, "albedo", Type::Rgb, closed(0, 1), "Diffuse reflectance.",
+                           NIMBUS_EL(file.scene.meshes, material.albedo)));
+        t.push_back(flag(msh, "holdout",
+                         "A matte: hides what is behind it with alpha 0 and no colour of its own.",
+                         NIMBUS_EL(file.scene.meshes, material.holdout)));
+        return t;
+    }();
+    return table;
+}
+
+#undef NIMBUS_EL
 
 std::vector<std::string> sectionNames() {
     std::vector<std::string> out;
@@ -1369,6 +1550,10 @@ void validate(const toml::table& root, Staging& s, const Context& cx, Problems& 
     // Unknown top-level keys and sections that are not tables.
     for (auto&& [k, node] : root) {
         std::string name(k.str());
+        const auto& arrays = arraySections();
+        if (std::any_of(arrays.begin(), arrays.end(),
+                        [&](const ArraySection& a) { return a.name == name; }))
+            continue; // read below
         if (std::find(sections.begin(), sections.end(), name) != sections.end()) {
             if (!node.is_table())
                 pr.add(cx.at(node),
@@ -1381,6 +1566,10 @@ void validate(const toml::table& root, Staging& s, const Context& cx, Problems& 
         candidates.insert(candidates.end(), sections.begin(), sections.end());
         std::vector<std::string> bracketed;
         for (const std::string& sec : sections) bracketed.push_back("[" + sec + "]");
+        for (const ArraySection& a : arraySections()) {
+            candidates.push_back(a.name);
+            bracketed.push_back("[[" + a.name + "]]");
+        }
         pr.add(cx.atKey(k, node), "unknown key " + quote(name) + suggestion(name, candidates) +
                                       "; the top level accepts " + join(topKeys, ", ") +
                                       " and the sections " + join(bracketed, ", "));
@@ -1436,6 +1625,115 @@ void validate(const toml::table& root, Staging& s, const Context& cx, Problems& 
                                           "] accepts " + join(keys, ", "));
         }
     }
+}
+
+/// Reads the [[array]] tables of @p root.
+void validateArrays(const toml::table& root, Staging& s, const Context& cx, Problems& pr) {
+    for (const ArraySection& a : arraySections()) {
+        const toml::node* n = root.get(a.name);
+        if (!n) continue;
+        const toml::array* arr = n->as_array();
+        if (!arr || !arr->is_array_of_tables()) {
+            pr.add(cx.at(*n),
+                   a.name + ": expected [[" + a.name + "]] tables, found " + describe(*n));
+            continue;
+        }
+        std::vector<std::string> keys;
+        for (const Param& p : arrayRegistry())
+            if (p.section == a.name) keys.push_back(p.key);
+        for (size_t i = 0; i < arr->size(); ++i) {
+            const toml::table& tbl = *arr->get(i)->as_table();
+            a.grow(s, cx.at(tbl));
+            s.element = i;
+            for (auto&& [k, node] : tbl) {
+                const std::string key(k.str());
+                const Param* p = nullptr;
+                for (const Param& q : arrayRegistry())
+                    if (q.section == a.name && q.key == key) p = &q;
+                if (!p) {
+                    pr.add(cx.atKey(k, node), "unknown key " + quote(a.name + "." + key) +
+                                                  suggestion(key, keys) + "; [[" + a.name +
+                                                  "]] accepts " + join(keys, ", "));
+                    continue;
+                }
+                Param named = *p;
+                named.section = a.name + "[" + std::to_string(i) + "]";
+                if (std::optional<Value> v = read(named, node, cx, pr)) p->set(s, *v);
+            }
+        }
+    }
+}
+
+/// Required keys, names, scatter expansion and the default placements.
+void resolveArrays(Staging& s, Problems& pr) {
+    SceneDesc& sc = s.file.scene;
+    std::vector<std::string> names{"field"};
+    for (size_t i = 0; i < sc.volumes.size(); ++i) {
+        const std::string& n = sc.volumes[i].name;
+        const std::string label = "volume[" + std::to_string(i) + "]";
+        if (n.empty())
+            pr.add(s.volumeWhere[i], label + ": `name` is required");
+        else if (std::find(names.begin(), names.end(), n) != names.end())
+            pr.add(s.volumeWhere[i], label + ".name: " + quote(n) +
+                                         (n == "field" ? " is the name of [field]"
+                                                       : " is used by an earlier [[volume]]"));
+        if (sc.volumes[i].field.vdb.path.empty())
+            pr.add(s.volumeWhere[i], label + ": `path` is required");
+        names.push_back(n);
+    }
+    for (size_t i = 0; i < sc.meshes.size(); ++i)
+        if (sc.meshes[i].path.empty())
+            pr.add(s.meshWhere[i], "mesh[" + std::to_string(i) + "]: `path` is required");
+    auto indexOf = [&](const std::string& name, const Where& w, const std::string& label) {
+        const auto it = std::find(names.begin(), names.end(), name);
+        if (it != names.end()) return int(it - names.begin());
+        pr.add(w, label + ".volume: no volume " + quote(name) + suggestion(name, names) +
+                      "; known: " + quotedList(names));
+        return 0;
+    };
+    const bool placed = !sc.instances.empty() || !s.scatters.empty();
+    for (size_t i = 0; i < sc.instances.size(); ++i)
+        sc.instances[i].volume = indexOf(s.instanceVolumes[i].volume, s.instanceVolumes[i].where,
+                                         "instance[" + std::to_string(i) + "]");
+    for (size_t i = 0; i < s.scatters.size(); ++i) {
+        const Staging::Scatter& c = s.scatters[i];
+        const int v = indexOf(c.volume, c.where, "scatter[" + std::to_string(i) + "]");
+        if (glm::any(glm::greaterThan(c.regionMin, c.regionMax)))
+            pr.add(c.where, "scatter[" + std::to_string(i) + "]: region_min " +
+                                "must not exceed region_max on any axis");
+        std::uint32_t state = c.seed * 747796405u + 2891336453u;
+        auto uniform = [&state]() { // PCG-style hash chain: deterministic, seed-local
+            state = state * 747796405u + 2891336453u;
+            std::uint32_t w = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+            return float((w >> 22u) ^ w) * (1.0f / 4294967296.0f);
+        };
+        for (std::int64_t k = 0; k < c.count; ++k) {
+            InstanceDesc d;
+            d.volume = v;
+            const vec3 u(uniform(), uniform(), uniform());
+            d.translate = glm::mix(c.regionMin, c.regionMax, u);
+            d.scale = vec3(glm::mix(c.scaleMin, c.scaleMax, uniform()));
+            d.rotate = vec3(0.0f, glm::mix(c.yawMin, c.yawMax, uniform()), 0.0f);
+            d.density = glm::mix(c.densityMin, c.densityMax, uniform());
+            sc.instances.push_back(d);
+        }
+    }
+    if (!placed && !sc.volumes.empty())
+        for (int v = 0; v <= int(sc.volumes.size()); ++v) {
+            InstanceDesc d;
+            d.volume = v;
+            sc.instances.push_back(d);
+        }
+    if (placed) // volumes nobody places are never read
+        for (size_t i = 0; i < sc.volumes.size(); ++i) {
+            bool used = false;
+            for (const InstanceDesc& d : sc.instances) used = used || d.volume == int(i) + 1;
+            if (!used && i < s.volumeWhere.size())
+                s.file.warnings.push_back(s.volumeWhere[i].prefix + ": warning: volume " +
+                                          quote(sc.volumes[i].name) +
+                                          " is not placed by any [[instance]] or [[scatter]]; "
+                                          "it is not read");
+        }
 }
 
 /// Keys given although their value is ignored (e.g. medium.g with an isotropic phase).
@@ -1567,12 +1865,15 @@ SceneFile parseSceneText(const std::string& text, const std::string& sourceName,
     s.file.path = sourceName;
     Problems pr;
     validate(root, s, cx, pr);
+    validateArrays(root, s, cx, pr);
+    if (!pr.empty()) pr.raise();
+    resolveArrays(s, pr);
     if (!pr.empty()) pr.raise();
     for (const Rule& r : rules()) r.apply(s, cx, pr);
     if (!pr.empty()) pr.raise();
 
     s.file.scene.sun.irradiance *= s.sunIntensity;
-    s.file.warnings = ignoredKeyWarnings(s);
+    for (std::string& w : ignoredKeyWarnings(s)) s.file.warnings.push_back(std::move(w));
     return s.file;
 }
 
@@ -1635,6 +1936,24 @@ std::string sceneFileReference() {
             tableOf(md, sec, kind, true);
         }
         md << "Keys of the other kind are errors.\n\n";
+    }
+    for (const ArraySection& a : arraySections()) {
+        md << "## [[" << a.name << "]]\n\n"
+           << a.doc << " Any number of tables.\n\n"
+           << "| Key | Type | Default | Allowed | Description |\n"
+           << "|---|---|---|---|---|\n";
+        for (const Param& p : arrayRegistry()) {
+            if (p.section != a.name) continue;
+            Staging st;
+            a.grow(st, Where{});
+            st.element = 0;
+            const std::optional<Value> v = p.get(st);
+            const std::string def = v ? toToml(p, *v) : "";
+            md << "| `" << p.key << "` | " << cell(typeName(p.type)) << " | "
+               << (def.empty() || def == "\"\"" ? "unset" : cell(code(def))) << " | "
+               << cell(code(allowedOf(p))) << " | " << cell(p.doc) << " |\n";
+        }
+        md << "\n";
     }
     md << "## Rules across keys\n\n";
     for (const Rule& r : rules()) md << "- **[" << r.section << "]** " << r.doc << "\n";

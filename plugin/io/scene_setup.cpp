@@ -46,6 +46,11 @@ void resolveColours(SceneFile& f, const ColorSystem& cs) {
     // a wide-gamut conversion can push a saturated colour slightly negative: light is >= 0
     for (vec3* c : {&s.sun.irradiance, &s.sky.zenith, &s.sky.horizon})
         *c = glm::max(*c, vec3(0.0f));
+    // reflectances stay in [0, 1]: a surface never reflects more than it receives
+    std::vector<vec3*> albedos{&s.ground.material.albedo};
+    for (MeshDesc& m : s.meshes) albedos.push_back(&m.material.albedo);
+    for (vec3* a : albedos)
+        *a = glm::clamp(cs.convert(*a, f.inputColorSpace, ws), vec3(0.0f), vec3(1.0f));
 }
 
 } // namespace nimbus::io
