@@ -239,16 +239,19 @@ bool writeReply(int fd, ReplyKind kind, const std::string& meta, const nanovdb::
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (getppid() != parent) _exit(kChildWriteFailed);
 
-    if (logFd >= 0) {
-        dup2(logFd, STDOUT_FILENO);
-        dup2(logFd, STDERR_FILENO);
+    // stdout/stderr go to the log, the reply pipe becomes fd 3 (both first copied above 10: the
+    // caller may have closed stdout, and the pipe may be fd 1), and every other descriptor is
+    // closed: a copy of another load's pipe held here would hide that load's end of file from
+    // its parent, and nothing else of the caller's is needed.
+    const int reply = fcntl(replyFd, F_DUPFD, 10);
+    const int log = logFd >= 0 ? fcntl(logFd, F_DUPFD, 10) : -1;
+    if (reply < 0) _exit(kChildWriteFailed);
+    if (log >= 0) {
+        dup2(log, STDOUT_FILENO);
+        dup2(log, STDERR_FILENO);
     }
-    // Keep only the reply pipe (as fd 3): a copy of another load's pipe held here would hide
-    // that load's end of file from its parent, and nothing else of the caller's is needed.
-    if (replyFd != 3) {
-        if (dup2(replyFd, 3) < 0) _exit(kChildWriteFailed);
-        replyFd = 3;
-    }
+    if (dup2(reply, 3) < 0) _exit(kChildWriteFailed);
+    replyFd = 3;
     close_range(4, ~0u, 0);
     const rlimit noCore{0, 0};
     setrlimit(RLIMIT_CORE, &noCore); // a crash here is expected; no core file per corrupt file
@@ -434,15 +437,17 @@ class Child {
         return Read::Ok;
     }
 
-    /// Waits (until the deadline) for the child to end. False on timeout.
-    bool wait() {
+    /// Waits for the child to end, until the deadline or @p until if that is earlier. False if
+    /// it is still running.
+    bool wait(Clock::time_point until = Clock::time_point::max()) {
+        const Clock::time_point deadline = std::min(deadline_, until);
 #ifdef SYS_pidfd_open
         // A pidfd becomes readable when the process ends: no polling interval to wait out.
         const int pidfd = int(::syscall(SYS_pidfd_open, pid_, 0));
         if (pidfd >= 0) {
             while (!reap(false)) {
                 const auto left =
-                    std::chrono::duration_cast<std::chrono::milliseconds>(deadline_ - Clock::now())
+                    std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now())
                         .count();
                 if (left <= 0) break;
                 pollfd pfd{pidfd, POLLIN, 0};
@@ -454,7 +459,7 @@ class Child {
 #endif
         for (int sleepUs = 100; !reaped_; sleepUs = std::min(sleepUs * 2, 20000)) {
             if (reap(false)) break;
-            if (Clock::now() >= deadline_) return false;
+            if (Clock::now() >= deadline) return false;
             ::usleep(useconds_t(sleepUs));
         }
         return true;
@@ -609,6 +614,13 @@ LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
         }
     }
     if (r == Child::Read::End && invalid.empty()) invalid = "it is incomplete (short)";
+    if (r == Child::Read::Ok && !invalid.empty() &&
+        !child.wait(Clock::now() + std::chrono::seconds(1))) {
+        // A garbled reply from a child that goes on (perhaps blocked writing the rest): stop it.
+        child.kill();
+        throw VdbError(ctx + "the process reading the grid sent an invalid reply: " + invalid +
+                       " (it was stopped)");
+    }
     if (r == Child::Read::Timeout || !child.wait()) {
         child.kill();
         throw VdbError(ctx + "the OpenVDB reader did not finish within " + secondsText(timeout) +
