@@ -37,7 +37,15 @@ int main(int argc, char** argv) {
                "--pathtrace-ladder 4,16,64 --plot error.png\n"
                "  nimbus calibrate scene.toml --scale 0.25\n"
                "  nimbus bake scene.toml -o clouds.####.vdb --frames 1-24 --voxel 0.05\n"
-               "  nimbus reference > scene-reference.md");
+               "  nimbus reference > scene-reference.md\n"
+               "Environment:\n"
+               "  NIMBUS_VDB_ISOLATE=0        read VDB grids in process (trusted files only; "
+               "default 1:\n"
+               "                              in a child process, so a corrupt file cannot crash "
+               "nimbus)\n"
+               "  NIMBUS_VDB_TIMEOUT=600      seconds before that child is stopped\n"
+               "  NIMBUS_VDB_MEMORY_LIMIT=16G memory it may map beyond nimbus (default: physical "
+               "memory)");
 
     cli::RenderOptions ro;
     auto* render = app.add_subcommand("render", "Render the frames of a scene to EXR files");

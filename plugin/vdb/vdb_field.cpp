@@ -1,5 +1,8 @@
 #include "plugin/vdb/vdb_field.h"
 
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 
@@ -7,6 +10,45 @@
 #include "plugin/vdb/vdb_reader.h"
 
 namespace nimbus::vdb {
+
+void applyVdbEnvironment(VdbLoadOptions& o) {
+    auto bad = [](const char* name, const char* value, const char* allowed) {
+        throw VdbError(std::string(name) + "=\"" + value + "\": " + allowed);
+    };
+    if (const char* v = std::getenv("NIMBUS_VDB_ISOLATE"); v && *v) {
+        const std::string s = v;
+        if (s == "0")
+            o.isolate = false;
+        else if (s == "1")
+            o.isolate = true;
+        else
+            bad("NIMBUS_VDB_ISOLATE", v,
+                "expected 1 (read VDB grids in a child process, the default) or 0 (in "
+                "process: trusted files only)");
+    }
+    if (const char* v = std::getenv("NIMBUS_VDB_TIMEOUT"); v && *v) {
+        char* end = nullptr;
+        errno = 0;
+        const double s = std::strtod(v, &end);
+        if (errno || *end || !std::isfinite(s) || !(s > 0.0))
+            bad("NIMBUS_VDB_TIMEOUT", v, "expected a positive number of seconds, e.g. 600");
+        o.timeoutSeconds = s;
+    }
+    if (const char* v = std::getenv("NIMBUS_VDB_MEMORY_LIMIT"); v && *v) {
+        char* end = nullptr;
+        errno = 0;
+        const double n = std::strtod(v, &end);
+        const std::string unit = end ? end : "";
+        const double scale = unit == "M" || unit == "MiB"   ? double(1ull << 20)
+                             : unit == "G" || unit == "GiB" ? double(1ull << 30)
+                                                            : 0.0;
+        if (errno || !(scale > 0.0) || !std::isfinite(n) || !(n * scale >= double(1ull << 20)) ||
+            n * scale > 1e18)
+            bad("NIMBUS_VDB_MEMORY_LIMIT", v,
+                "expected an amount of memory with a unit, at least 1M, e.g. 512M or 16G");
+        o.memoryLimitBytes = std::uint64_t(n * scale);
+    }
+}
 
 void attachVdbField(FieldDesc& field, const std::string& sceneDir, int frame,
                     std::vector<std::string>& warnings) {
@@ -24,6 +66,7 @@ void attachVdbField(FieldDesc& field, const std::string& sceneDir, int frame,
     opt.path = file.path;
     opt.gridName = v.grid;
     opt.levelsetToFog = v.levelsetToFog;
+    applyVdbEnvironment(opt);
     auto loaded = std::make_shared<LoadedVdbGrid>(loadVdbGrid(opt));
     for (const auto& w : loaded->warnings) warnings.push_back(w);
     if (loaded->empty()) {

@@ -8,12 +8,23 @@
 #include <vector>
 
 #include "core/scene.h"
+#include "plugin/vdb/vdb_reader.h"
 
 namespace nimbus::vdb {
 
+/// Applies the environment variables of the nimbus command to @p o (unset ones leave it alone):
+///  - NIMBUS_VDB_ISOLATE=0 reads grids in process (trusted files only; default 1: in a child
+///    process, see "Isolation" in vdb_reader.h);
+///  - NIMBUS_VDB_TIMEOUT=seconds, the time limit of that process (default 600);
+///  - NIMBUS_VDB_MEMORY_LIMIT=<n>M or <n>G, the address space it may map beyond the caller's
+///    (default: the machine's physical memory).
+/// @throws VdbError naming the variable, its value and what is allowed.
+void applyVdbEnvironment(VdbLoadOptions& o);
+
 /// For field.kind = vdb: loads frame `frame` of field.vdb.path (relative paths are taken from
 /// `sceneDir`) and fills nanoGrid, owner and bounds. Other kinds are left alone. Warnings (empty
-/// grid, sanitised voxels, held frames) are appended. @throws VdbError with file and grid.
+/// grid, sanitised voxels, held frames) are appended. Reads in a child process unless the
+/// environment says otherwise (applyVdbEnvironment). @throws VdbError with file and grid.
 void attachVdbField(FieldDesc& field, const std::string& sceneDir, int frame,
                     std::vector<std::string>& warnings);
 

@@ -2,6 +2,7 @@
 /// @brief loadVdbGrid() and listVdbGrids() (see vdb_reader.h). The only translation unit that
 ///        reads OpenVDB files: OpenVDB's headers cost ~20 s and ~600 MB per translation unit.
 #include "plugin/vdb/vdb_reader.h"
+#include "plugin/vdb/vdb_isolate.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
@@ -462,6 +463,14 @@ std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
 }
 
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
+    // Before a fork: the child inherits the registered grid types instead of registering them
+    // again for every load.
+    openvdb::initialize(); // idempotent and thread-safe
+    return options.isolate ? detail::loadVdbGridIsolated(options)
+                           : detail::loadVdbGridInProcess(options);
+}
+
+LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid) {
     openvdb::initialize(); // idempotent and thread-safe
     const std::string& path = options.path;
     const std::string ctx = gridContext(path, options.gridName);
@@ -629,6 +638,12 @@ LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
         if (out.activeVoxelCount > 0) {
             out.minValue = nano->tree().root().minimum();
             out.maxValue = nano->tree().root().maximum();
+        }
+        // What reaches core/ must be safe to traverse whatever the file held (a corrupted tree
+        // that OpenVDB read without noticing must not become out-of-range offsets or NaNs).
+        if (checkGrid) {
+            const std::string problem = detail::checkNanoGrid(out);
+            if (!problem.empty()) throw VdbError(detail::invalidGridMessage(out, problem));
         }
     } catch (const VdbError&) {
         throw;

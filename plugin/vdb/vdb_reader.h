@@ -28,13 +28,35 @@
 ///    anything, the header, every grid descriptor and the chosen grid's metadata are scanned
 ///    with each length and offset checked against the file (OpenVDB trusts them: a garbage
 ///    string length makes it allocate gigabytes and loop for a minute).
-///    @note Corruption INSIDE a grid's tree data can still crash the process in OpenVDB 10.0.1
-///          itself: io::bloscFromStream reads a chunk of the size the file claims into a
-///          fixed leaf buffer before checking that size (a heap overflow), and with delayed
-///          loading DelayedLoadMetadata::getMask asserts on a corrupted leaf count (Debian's
-///          build keeps asserts). Measured with 1-8 random bit flips anywhere in the file: 0
-///          crashes in 1,500 runs confined to headers/descriptors, but e.g. 20 of 60 runs on
-///          vpt_dragon.vdb crash. Load untrusted files in a child process if that matters.
+///  - files whose TREE data is corrupted (bit flips inside the blosc/zip-compressed leaf
+///    buffers, the node masks, the leaf counts): OpenVDB 10.0.1 trusts these too, and can crash
+///    (io::bloscFromStream reads a chunk of the size the file claims into a fixed leaf buffer
+///    before checking that size, a heap overflow; DelayedLoadMetadata::getMask asserts on a
+///    corrupted leaf count, and Debian's build keeps asserts), loop or allocate gigabytes. So by
+///    default (VdbLoadOptions::isolate) the grid is read in a forked child process, see
+///    "Isolation" below: a crash, a hang or an exhausted memory limit there becomes a VdbError
+///    such as `x.vdb: grid "density": the OpenVDB reader crashed (SIGSEGV, segmentation fault)
+///    while reading the grid: the file is corrupt`.
+///
+/// Isolation (VdbLoadOptions::isolate, on by default): loadVdbGrid() fork()s; the child opens the
+/// file, reads and converts the grid exactly as the in-process path does (inside a one-thread
+/// tbb::task_arena: the parent's TBB worker threads do not exist in a forked child), and writes
+/// the NanoVDB buffer and every other field of LoadedVdbGrid into a pipe; the parent rebuilds
+/// LoadedVdbGrid and checks the NanoVDB grid (every node offset inside the buffer, finite
+/// non-negative values) before anything traverses it. A VdbError of the child (a refusal: a
+/// level set, a missing grid, ...) reaches the caller with its exact message. The child runs
+/// with an address-space limit (VdbLoadOptions::memoryLimitBytes beyond what the caller has
+/// mapped; by default the machine's physical memory), no core dumps, an out-of-memory-killer
+/// score of 1000 (it goes first, not the caller) and is killed after
+/// VdbLoadOptions::timeoutSeconds. Its stderr is captured: forwarded to the caller's stderr
+/// after a normal end, quoted in the message after a crash. The memory it peaked at is returned
+/// when it exits. Cost: one fork and one copy of the NanoVDB grid through a pipe (README,
+/// "Performance"). With isolate = false the grid is read in the calling process: for trusted
+/// files only.
+///    @note Forking while another thread of the caller holds a lock the reader needs (e.g. one
+///          inside OpenVDB's grid registry, taken by a concurrent in-process load or
+///          listVdbGrids()) makes the child wait for a lock nobody will release: it then ends
+///          by the time limit. Isolated loads concurrent with each other are fine (tested).
 ///
 /// Sanitising (counted, one warning per kind): NaN/Inf values become 0; negative densities are
 /// clamped to 0; inactive voxels and tiles whose value is not 0 are set to 0; a non-zero
@@ -87,6 +109,13 @@ struct VdbLoadOptions {
     std::string gridName = "density"; ///< the one grid to read (names are case-sensitive)
     bool levelsetToFog = false;       ///< convert a level set to a fog volume (as
                                       ///< openvdb::tools::sdfToFogVolume) instead of refusing it
+    /// Read in a forked child process (see "Isolation" in the file comment): a corrupted file
+    /// that crashes or hangs OpenVDB's reader gives a VdbError instead of ending the caller.
+    /// false reads in the calling process: trusted files only.
+    bool isolate = true;
+    double timeoutSeconds = 600.0;      ///< isolate: kill the child after this long (a hang)
+    std::uint64_t memoryLimitBytes = 0; ///< isolate: address space the child may map beyond the
+                                        ///< caller's (0 = the machine's physical memory)
 };
 
 /// One grid in a file, as its descriptor says (no tree is read to list these).
@@ -145,9 +174,11 @@ struct LoadedVdbGrid {
     bool empty() const { return activeVoxelCount == 0; }
 };
 
-/// Reads options.gridName from options.path (see the file comment for what is accepted).
+/// Reads options.gridName from options.path (see the file comment for what is accepted), in a
+/// child process unless options.isolate is false.
 /// Thread-safe: independent calls may run concurrently.
-/// @throws VdbError for every refusal and every failure (file, format, grid, memory).
+/// @throws VdbError for every refusal and every failure (file, format, grid, memory, a crash,
+///         hang or invalid reply of the child process).
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options);
 
 /// Lists the grids of a VDB file (names and value types) from its grid descriptors, without
