@@ -127,11 +127,11 @@ TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
         fs::temp_directory_path() / ("nimbus_benchvdb_smoke1_" + std::to_string(getpid()));
     // early exit 1e-4 for both (VolumeRender's cutoff follows render.epsilon), so the remaining
     // difference is VolumeRender's step error
-    Result r =
-        runNimbus("bench-vdb-render " + writeScene(dir, "openvdb_smoke1.vdb").string() +
-                  " --set render.epsilon=1e-4 --reference-step 0.5 --ladder 4 "
-                  "--vdb-ladder 0.5 --vdb-steps \"\" --no-vdb-defaults --threads 2 --output-dir " +
-                  (dir / "img").string());
+    Result r = runNimbus(
+        "bench-vdb-render " + writeScene(dir, "openvdb_smoke1.vdb").string() +
+        " --set render.epsilon=1e-4 --reference-step 0.5 --ladder 4 "
+        "--vdb-ladder 0.5 --vdb-steps \"\" --no-vdb-defaults --repeat 1 --threads 2 --output-dir " +
+        (dir / "img").string());
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_TRUE(contains(r.output, "| nimbus       | step 1 (2.1 vx)"));
     EXPECT_TRUE(contains(r.output, "| VolumeRender | step 0.5 vx (0.2381), shadow 1.5 vx"));

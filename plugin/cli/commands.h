@@ -78,6 +78,7 @@ struct BenchVdbOptions {
     bool vdbDefaults = true;      ///< also run vdb_render's defaults (1, 3 voxels, cutoff 0.005)
     double referenceStep = 0.125; ///< step multiplier of the nimbus reference
     bool checkReference = false;  ///< also render at twice that step and compare
+    int repeat = 3;               ///< rounds over the rungs; each rung's fastest time is kept
     std::string outputDir;        ///< write every image (EXR + PNG) here
     std::string csv;
 };

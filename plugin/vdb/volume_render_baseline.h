@@ -31,7 +31,11 @@
 ///    view at the film's aspect ratio (checked: the rays of both cameras agree to 1e-5 rad),
 ///  - steps in voxels (Nimbus steps are world lengths: divide by the voxel size).
 /// What still differs: VolumeRender samples a fixed lattice without jitter (banding, a bias
-/// that vanishes with the step); it marches the active nodes its intersector finds (as in
+/// that vanishes with the step). Its shadow samples sit at whole shadow steps from the point,
+/// the first one a full step away, each weighted by a whole step: the sun's optical depth misses
+/// about sigma_t * rho * shadowStep / 2 at the start, a first-order bias toward too much light
+/// that dominates its error on smoke1 (Nimbus samples the middle of each step, or a jittered
+/// point in it, from the point on). It marches the active nodes its intersector finds (as in
 /// vdb_render: HDDA over upper internal nodes, clipped to the bounding box of the active leaf
 /// nodes), Nimbus the box of the active voxels padded by one voxel (the density between is 0 for
 /// both); its cutoff ignores densities below it and ends shadow rays early (a light leak of up to
