@@ -60,7 +60,31 @@ struct BakeOptions {
     int threads = -1;
 };
 
+/// `nimbus bench-vdb-render`: OpenVDB's VolumeRender against Nimbus march (bench_vdb.cpp).
+struct BenchVdbOptions {
+    std::string scene;
+    std::vector<std::string> overrides;
+    int frame = -1000000000; ///< sentinel: first frame of the scene
+    double scale = 1.0;      ///< resolution multiplier
+    int threads = -1;        ///< both renderers; -1: render.threads
+    std::vector<double> ladder{8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.5}; ///< nimbus step multipliers
+    std::vector<double> vdbLadder{2.0, 1.0, 0.5, 0.25}; ///< VolumeRender step multipliers
+    double vdbStep = 1.0;       ///< VolumeRender primary step at multiplier 1, voxels
+    double vdbShadowStep = 3.0; ///< VolumeRender shadow step at multiplier 1, voxels
+    /// more VolumeRender rungs, "primary:shadow" in voxels (a finer shadow step than vdb_render's
+    /// 1:3 ratio is VolumeRender's better trade on smoke1)
+    std::vector<std::string> vdbSteps{"4:2", "3:1.5", "2:1", "1.5:0.75", "1:0.5"};
+    double vdbCutoff = -1.0;      ///< < 0: 3 render.epsilon^2, the early exit of march
+    bool vdbDefaults = true;      ///< also run vdb_render's defaults (1, 3 voxels, cutoff 0.005)
+    double referenceStep = 0.125; ///< step multiplier of the nimbus reference
+    bool checkReference = false;  ///< also render at twice that step and compare
+    int repeat = 3;               ///< rounds over the rungs; each rung's fastest time is kept
+    std::string outputDir;        ///< write every image (EXR + PNG) here
+    std::string csv;
+};
+
 int runConverge(const ConvergeOptions& o);
+int runBenchVdb(const BenchVdbOptions& o);
 int runBake(const BakeOptions& o);
 int runCalibrate(const CalibrateOptions& o);
 

@@ -27,13 +27,16 @@ struct Rung {
     double stepMultiplier = 1.0;
 };
 
-struct Measured {
-    double seconds = 0.0;
-    RenderStats stats;
-    Framebuffer fb;
-};
+std::string percent(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f%%", 100.0 * v);
+    return buf;
+}
 
-/// The whole step schedule scales: base steps and distance growth alike.
+} // namespace
+
+// shared with bench-vdb-render (declared in common.h)
+
 SceneDesc withSteps(const SceneDesc& base, double f) {
     SceneDesc s = base;
     s.render.step = float(base.render.step * f);
@@ -42,8 +45,6 @@ SceneDesc withSteps(const SceneDesc& base, double f) {
     return s;
 }
 
-/// Renders twice (the first pass bakes noise so the timing is the integrator's); returns false
-/// when interrupted.
 bool measure(const SceneDesc& s, int frame, Measured& m) {
     Renderer r(s);
     const FramePlan plan = r.plan(frame);
@@ -65,21 +66,12 @@ double rmse(const Framebuffer& a, const Framebuffer& ref) {
     return std::sqrt(sq / double(ref.rgba.size()));
 }
 
-std::string percent(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.2f%%", 100.0 * v);
-    return buf;
-}
-
 double rms(const Framebuffer& a) {
     double sq = 0.0;
     for (float v : a.rgba) sq += double(v) * v;
     return std::sqrt(sq / double(a.rgba.size()));
 }
 
-/// Scene prepared for measuring: clouds alone (a noise-free sky would dilute the error), the
-/// noise evaluation the scene's own plan picks (so the error is that of the setting alone),
-/// resolution scaled.
 bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base) {
     base = ls.file.scene;
     base.render.background = Background::Transparent;
@@ -105,8 +97,6 @@ bool writeText(const std::string& path, const std::string& text) {
     }
     return true;
 }
-
-} // namespace
 
 int runConverge(const ConvergeOptions& o) {
     LoadedScene ls;
