@@ -88,7 +88,8 @@ class MarchContext {
     static constexpr float kAmbientGround = 0.3f;
 
     MarchContext(const SceneDesc& scene, const FramePlan& plan, const Field& field,
-                 const MajorantGrid* grid, const LightVolume* lightVolume = nullptr);
+                 const MajorantGrid* grid, const LightVolume* lightVolume = nullptr,
+                 ScatterVolumes volumes = {});
     void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
 
     /// Density integral along the ray from p toward the sun (shadow march).
@@ -97,6 +98,8 @@ class MarchContext {
     float inScatterFactor(float rho, float tau) const;
     /// Sky radiance seen along direction d.
     vec3 skyRadiance(vec3 d) const;
+    /// In-scattered sky radiance at p (isotropic) by the render.sky_occlusion model.
+    vec3 skyInScatter(vec3 p) const;
 
   private:
     const SceneDesc& s_;
@@ -104,12 +107,17 @@ class MarchContext {
     const Field& field_;
     const MajorantGrid* grid_;
     const LightVolume* lightVolume_; ///< when set, replaces the shadow marches
+    ScatterVolumes volumes_;
     Camera camera_;
     PhaseFunction phase_;
     StepSchedule primary_, shadow_;
     float wholeMajorant_;
     vec3 sigmaS_, sigmaT_; ///< per unit density, density scale folded in
     vec3 ambient_;         ///< sky ambient radiance at the top of the layer
+    vec3 skyUp_, skyDown_; ///< mean sky radiance over the upper / lower hemisphere, x ambient
+    float g_;              ///< mean cosine of the phase function
+    vec3 sigmaTr_;         ///< transport extinction sigma_a + sigma_s (1 - g) per unit density
+    vec3 kappa_;           ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))
     std::uint32_t frameKey_;
 };
 

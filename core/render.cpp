@@ -10,6 +10,7 @@
 #include <tbb/task_arena.h>
 
 #include "core/camera.h"
+#include "core/diffusion.h"
 #include "core/light_volume.h"
 #include "core/march.h"
 #include "core/mie.h"
@@ -38,6 +39,29 @@ template <class Context>
 bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, RenderStats& stats,
                  const RenderCallbacks& cb);
 
+/// The diffusion solve's medium and lights: the sky of each face direction as march's column
+/// model sees the hemispheres (a gradient sky mixes horizon and zenith by sqrt(y), whose mean
+/// over the upper hemisphere is 2/3; below the horizon it is the horizon radiance).
+DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan) {
+    DiffusionParams p;
+    p.sigma_s = s.medium.sigma_s * s.medium.densityScale;
+    p.sigma_a = s.medium.sigma_a * s.medium.densityScale;
+    p.g = PhaseFunction::fromMedium(s.medium).meanCosine();
+    // the scale of the sun's multiply scattered light; the solve is linear, so scaling its
+    // source leaves the sky's part alone (which the diffusion gets right: white furnace)
+    if (plan.shadows) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+    if (plan.ambient) {
+        const SkyDesc& k = s.sky;
+        p.skyUp = p.skyDown = k.zenith * k.ambient;
+        if (k.kind == SkyKind::Gradient) {
+            p.skyUp = (k.horizon + 2.0f * k.zenith) / 3.0f * k.ambient;
+            p.skyDown = k.horizon * k.ambient;
+        }
+        p.skySide = 0.5f * (p.skyUp + p.skyDown);
+    }
+    return p;
+}
+
 } // namespace
 
 std::string FramePlan::explain() const {
@@ -53,7 +77,15 @@ std::string FramePlan::explain() const {
           : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
                         : std::string("shadow march per sample"))
       << "\n";
-    o << "  sky ambient: " << (ambient ? "yes" : "no") << "\n";
+    o << "  multiple scattering: "
+      << (diffusion ? "diffusion solved on the light-volume grid (sun and sky)" : "octaves only")
+      << "\n";
+    o << "  sky ambient: "
+      << (!ambient        ? std::string("no")
+          : diffusion     ? std::string("in the diffusion grid")
+          : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
+                          : std::string("height occlusion"))
+      << "\n";
     o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
       << (aovs.depth ? ", depth" : "") << "\n";
     return o.str();
@@ -87,6 +119,11 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
                     s.render.shadow == ShadowMethod::Volume;
     p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
+    const bool marching = s.render.integrator == Integrator::March;
+    p.diffusion = marching && (p.shadows || p.ambient) &&
+                  s.render.multipleScattering == MultipleScattering::Grid;
+    p.columnVolumes = marching && p.ambient && !p.diffusion &&
+                      s.render.skyOcclusion == SkyOcclusion::Column;
 
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision = "not a procedural field";
@@ -164,20 +201,48 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             plan.skipEmpty && (s.render.integrator == Integrator::PathTrace ||
                                stats.majorantEmptyFraction >= kSkipMinEmptyFraction);
         const MajorantGrid* g = stats.majorantUsed ? &grid : nullptr;
-        LightVolume lv;
-        if (plan.lightVolume) {
+        // every light-attenuation volume the plan names, from one pass of density lookups
+        std::vector<vec3> dirs;
+        const bool toward = plan.lightVolume || (plan.diffusion && plan.shadows);
+        if (toward) dirs.push_back(s.sun.direction);
+        if (plan.columnVolumes) {
+            dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
+            dirs.push_back(vec3(0.0f, -1.0f, 0.0f));
+        }
+        std::vector<LightVolume> volumes;
+        std::vector<float> rho;
+        if (plan.diffusion && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
+        if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
-            lv = buildLightVolume(field, s.sun.direction, plan.lightVolumeCell, g);
+            volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
+                                        plan.diffusion ? &rho : nullptr);
             stats.lightVolumeSeconds = secondsSince(t0);
-            stats.lightVolumeLookups = lv.densityLookups;
+            stats.lightVolumeLookups = volumes.front().densityLookups;
+        }
+        size_t next = 0;
+        const LightVolume* towardVolume = toward ? &volumes[next++] : nullptr;
+        const LightVolume* lv = plan.lightVolume ? towardVolume : nullptr;
+        ScatterVolumes sv;
+        if (plan.columnVolumes) {
+            sv.up = &volumes[next++];
+            sv.down = &volumes[next++];
+        }
+        DiffusionVolume dv;
+        if (plan.diffusion) {
+            t0 = std::chrono::steady_clock::now();
+            dv = solveDiffusion(volumes.front(), rho,
+                                towardVolume ? towardVolume->tau : std::vector<float>{},
+                                diffusionParams(s, plan));
+            sv.diffusion = &dv;
+            stats.diffusionSeconds = secondsSince(t0);
+            stats.diffusionIterations = dv.iterations;
         }
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:
             completed =
-                renderTiles(MarchContext(s, plan, field, g, plan.lightVolume ? &lv : nullptr), s,
-                            fb, stats, cb);
+                renderTiles(MarchContext(s, plan, field, g, lv, sv), s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
             completed = renderTiles(PathContext(s, plan, field, g), s, fb, stats, cb);
