@@ -58,7 +58,8 @@ vec3 DiffusionVolume::sample(vec3 p, vec3 grad[3]) const {
     const vec3 c0 = glm::mix(c00, c10, f.y), c1 = glm::mix(c01, c11, f.y);
     // a clamped axis (one voxel, or outside the outer centres) has no slope
     const vec3 dx = glm::mix(glm::mix(c100 - c000, c110 - c010, f.y),
-                             glm::mix(c101 - c001, c111 - c011, f.y), f.z) / voxel.x;
+                             glm::mix(c101 - c001, c111 - c011, f.y), f.z) /
+                    voxel.x;
     const vec3 dy = glm::mix(c10 - c00, c11 - c01, f.z) / voxel.y;
     const vec3 dz = (c1 - c0) / voxel.z;
     for (int c = 0; c < 3; ++c) grad[c] = vec3(dx[c], dy[c], dz[c]);
@@ -98,7 +99,8 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     tbb::parallel_for(size_t(0), cells.size(), [&](size_t k) {
         Cell& c = cells[k];
         const size_t i = c.idx;
-        const int x = int(i % res.x), y = int((i / res.x) % res.y), z = int(i / (size_t(res.x) * res.y));
+        const int x = int(i % res.x), y = int((i / res.x) % res.y),
+                  z = int(i / (size_t(res.x) * res.y));
         // h / 2D = 1.5 h sigma_t' per axis
         const vec3 sTr = sigmaTr * rho[i];
         vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f);
@@ -134,7 +136,8 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     std::vector<std::uint32_t> colour[2];
     for (size_t k = 0; k < cells.size(); ++k) {
         const size_t i = cells[k].idx;
-        const int x = int(i % res.x), y = int((i / res.x) % res.y), z = int(i / (size_t(res.x) * res.y));
+        const int x = int(i % res.x), y = int((i / res.x) % res.y),
+                  z = int(i / (size_t(res.x) * res.y));
         colour[(x + y + z) & 1].push_back(std::uint32_t(k));
     }
     const float omega = 1.85f; // over-relaxation; SOR converges for 0 < omega < 2 (SPD system)

@@ -29,7 +29,7 @@ void propagate(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
     for (int k = 1; k < 3; ++k)
         if (std::abs(sunDir[k]) > std::abs(sunDir[a])) a = k;
     const int b = (a + 1) % 3, c = (a + 2) % 3;
-    if (std::abs(sunDir[a]) < 1e-6f) return; // degenerate: no direction
+    if (std::abs(sunDir[a]) < 1e-6f) return;    // degenerate: no direction
     const int step = sunDir[a] > 0.0f ? -1 : 1; // walk away from the sun
     const int first = sunDir[a] > 0.0f ? lv.res[a] - 1 : 0;
     const float l = lv.voxel[a] / std::abs(sunDir[a]); // path length between slice planes

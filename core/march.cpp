@@ -16,8 +16,7 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
                            const MajorantGrid* grid, const LightVolume* lightVolume,
                            ScatterVolumes volumes)
     : s_(scene), plan_(plan), field_(field), grid_(grid), lightVolume_(lightVolume),
-      volumes_(volumes),
-      camera_(scene.camera), phase_(PhaseFunction::fromMedium(scene.medium)),
+      volumes_(volumes), camera_(scene.camera), phase_(PhaseFunction::fromMedium(scene.medium)),
       primary_(scene.render.step, scene.render.stepGrowth),
       shadow_(scene.render.shadowStep, scene.render.shadowGrowth),
       wholeMajorant_(field.majorant(field.bounds())) {
@@ -172,8 +171,8 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
                     vec3 F = -grad[c] / (3.0f * sigmaTr_[c] * rho + 1e-30f);
                     const float len = glm::length(F);
                     if (len > phi[c]) F *= phi[c] / len;
-                    ms[c] = std::max(0.0f, phi[c] + 3.0f * g_ * s_.render.msP1 *
-                                                        glm::dot(F, -ray.d));
+                    ms[c] =
+                        std::max(0.0f, phi[c] + 3.0f * g_ * s_.render.msP1 * glm::dot(F, -ray.d));
                 }
                 S += ms * kern::NB_INV_4PI;
             } else if (plan_.ambient) {

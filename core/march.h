@@ -7,6 +7,13 @@
 /// shadow march (Beer-Lambert), the medium's phase function (core/phase.h), the Olajos in-scatter
 /// or Schneider beer-powder term, and sky ambient; Hillaire's energy-conserving step integration;
 /// early exit when transmittance < epsilon. Olajos 2016 ch. 3; Hillaire 2016; Schneider 2015.
+///
+/// Multiple scattering: Wrenninge's octaves (the short-range, forward part along the shadow
+/// ray) and, with render.multiple_scattering = "grid", the fluence of the light scattered at
+/// least once from a diffusion solve per frame (core/diffusion.h; Stam 1995), which also carries
+/// all of the sky light: its P1 radiance (phi + 3 g F.w) / 4 pi is the in-scattered radiance.
+/// Without the grid, the sky enters as an ambient term, occluded by height (v1) or by the
+/// normalised openness of the vertical column (render.sky_occlusion = "column").
 #pragma once
 
 #include <algorithm>

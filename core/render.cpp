@@ -122,8 +122,8 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     const bool marching = s.render.integrator == Integrator::March;
     p.diffusion = marching && (p.shadows || p.ambient) &&
                   s.render.multipleScattering == MultipleScattering::Grid;
-    p.columnVolumes = marching && p.ambient && !p.diffusion &&
-                      s.render.skyOcclusion == SkyOcclusion::Column;
+    p.columnVolumes =
+        marching && p.ambient && !p.diffusion && s.render.skyOcclusion == SkyOcclusion::Column;
 
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision = "not a procedural field";
@@ -241,8 +241,7 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:
-            completed =
-                renderTiles(MarchContext(s, plan, field, g, lv, sv), s, fb, stats, cb);
+            completed = renderTiles(MarchContext(s, plan, field, g, lv, sv), s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
             completed = renderTiles(PathContext(s, plan, field, g), s, fb, stats, cb);

@@ -32,9 +32,9 @@ struct FramePlan {
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
     bool skipEmpty = true;
-    bool lightVolume = false; ///< sun transmittance from a precomputed light-attenuation volume
+    bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
-    bool diffusion = false; ///< march: multiple scattering of sun and sky solved on a grid
+    bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     float lightVolumeCell = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     std::string explain() const;

@@ -162,7 +162,7 @@ struct RenderDesc {
     /// on the light-volume grid (core/diffusion.h); it replaces the sky ambient term. msStrength
     /// scales its sun part (diffusion loses light in moderately thick, porous cloud),
     /// msP1 weights its flux (P1) term. Octaves still add the short-range, forward part.
-    MultipleScattering multipleScattering = MultipleScattering::None;
+    MultipleScattering multipleScattering = MultipleScattering::Grid;
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

@@ -66,6 +66,7 @@ SceneDesc thickBox() {
     s.render.inScatter = InScatter::None;
     s.render.background = Background::Transparent;
     s.render.jitter = false; // pathtrace samples pixel centres, as march does
+    s.render.multipleScattering = MultipleScattering::None; // single scattering unless set
     return s;
 }
 
@@ -95,7 +96,8 @@ TEST(Diffusion, WhiteFurnaceInCumulusReturnsTheSky) {
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.7f, 1.0f, 1.3f);
     for (int model = 0; model < 2; ++model) {
-        s.render.multipleScattering = model == 0 ? MultipleScattering::Grid : MultipleScattering::None;
+        s.render.multipleScattering =
+            model == 0 ? MultipleScattering::Grid : MultipleScattering::None;
         s.render.skyOcclusion = SkyOcclusion::Column;
         Framebuffer fb = render(s, AovSet{true, false});
         int cloudy = 0;
@@ -155,8 +157,10 @@ TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
                     }
                 }
         EXPECT_NEAR((out + absorbed) / source, 1.0, 2e-3) << "sigma_a " << sigmaA;
-        if (sigmaA == 0.0f) EXPECT_NEAR(out / source, 1.0, 2e-3);
-        else EXPECT_LT(out / source, 0.9);
+        if (sigmaA == 0.0f)
+            EXPECT_NEAR(out / source, 1.0, 2e-3);
+        else
+            EXPECT_LT(out / source, 0.9);
     }
 }
 

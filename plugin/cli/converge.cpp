@@ -188,8 +188,8 @@ int runConverge(const ConvergeOptions& o) {
     }
     const double refRms = rms(ref.fb);
     if (refRms > 0)
-        std::fprintf(stderr, "reference noise (two halves): RMSE %.3g, %.2f%% relative\n",
-                     refNoise, 100.0 * refNoise / refRms);
+        std::fprintf(stderr, "reference noise (two halves): RMSE %.3g, %.2f%% relative\n", refNoise,
+                     100.0 * refNoise / refRms);
 
     // the rungs
     std::vector<Rung> rungs;
@@ -264,11 +264,12 @@ int runConverge(const ConvergeOptions& o) {
         const double perRay =
             double(r.m.stats.lookups()) / std::max<double>(1.0, double(r.m.stats.rays));
         const double rel = refRms > 0 ? corrected(r.err, refNoise) / refRms : 0.0;
-        std::snprintf(line, sizeof line,
-                      "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s | %-9s |\n",
-                      r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : rd.step,
-                      pt ? std::to_string(rd.spp).c_str() : "-", perRay, r.m.seconds, r.err,
-                      percent(r.rel).c_str(), percent(rel).c_str());
+        std::snprintf(
+            line, sizeof line,
+            "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s | %-9s |\n",
+            r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : rd.step,
+            pt ? std::to_string(rd.spp).c_str() : "-", perRay, r.m.seconds, r.err,
+            percent(r.rel).c_str(), percent(rel).c_str());
         table << line;
         csv << r.rung->integrator << "," << r.rung->label << "," << (pt ? 0.0 : rd.step) << ","
             << (pt ? 0.0 : rd.shadowStep) << "," << (pt ? 0 : rd.octaves) << ","
@@ -397,28 +398,43 @@ int runCalibrate(const CalibrateOptions& o) {
         return s.render.multipleScattering != MultipleScattering::None;
     };
     const std::vector<Knob> knobs = {
-        {"render", "octave_extinction", [](SceneDesc& s) { return &s.render.octaveExtinction; },
-         octavesOn, {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
-        {"render", "octave_contribution",
-         [](SceneDesc& s) { return &s.render.octaveContribution; }, octavesOn,
+        {"render",
+         "octave_extinction",
+         [](SceneDesc& s) { return &s.render.octaveExtinction; },
+         octavesOn,
          {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
-        {"render", "octave_eccentricity",
-         [](SceneDesc& s) { return &s.render.octaveEccentricity; }, octavesOn,
+        {"render",
+         "octave_contribution",
+         [](SceneDesc& s) { return &s.render.octaveContribution; },
+         octavesOn,
+         {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
+        {"render",
+         "octave_eccentricity",
+         [](SceneDesc& s) { return &s.render.octaveEccentricity; },
+         octavesOn,
          {0.0f, 0.25f, 0.5f, 0.75f, 1.0f}},
-        {"render", "ms_strength", [](SceneDesc& s) { return &s.render.msStrength; }, msOn,
+        {"render",
+         "ms_strength",
+         [](SceneDesc& s) { return &s.render.msStrength; },
+         msOn,
          {0.25f, 0.5f, 0.75f, 1.0f, 1.25f, 1.5f, 2.0f, 2.5f, 3.0f, 4.0f}},
-        {"render", "ms_p1", [](SceneDesc& s) { return &s.render.msP1; },
-         [](const SceneDesc& s) {
-             return s.render.multipleScattering == MultipleScattering::Grid;
-         },
+        {"render",
+         "ms_p1",
+         [](SceneDesc& s) { return &s.render.msP1; },
+         [](const SceneDesc& s) { return s.render.multipleScattering == MultipleScattering::Grid; },
          {0.0f, 0.5f, 1.0f}},
-        {"render", "sky_openness", [](SceneDesc& s) { return &s.render.skyOpenness; },
+        {"render",
+         "sky_openness",
+         [](SceneDesc& s) { return &s.render.skyOpenness; },
          [](const SceneDesc& s) {
              return s.sky.kind != SkyKind::None && s.render.skyOcclusion == SkyOcclusion::Column &&
                     s.render.multipleScattering != MultipleScattering::Grid;
          },
          {0.0f, 0.25f, 0.5f, 1.0f, 2.0f, 4.0f}},
-        {"sky", "ambient", [](SceneDesc& s) { return &s.sky.ambient; }, skyOn,
+        {"sky",
+         "ambient",
+         [](SceneDesc& s) { return &s.sky.ambient; },
+         skyOn,
          {0.25f, 0.5f, 0.75f, 1.0f, 1.25f, 1.5f, 2.0f, 3.0f}},
     };
     for (int pass = 0; pass < 2; ++pass) {
@@ -455,10 +471,9 @@ int runCalibrate(const CalibrateOptions& o) {
     std::printf("calibrated against pathtrace %d spp (%dx%d, %d march renders; reference noise "
                 "%.2f%%):\n  relative RMSE %.2f%% -> %.2f%% (%.2f%% -> %.2f%% without the "
                 "reference noise)\n\n[render]\noctaves = %d\n",
-                o.referenceSpp, base.camera.width, base.camera.height, evaluations,
-                100.0 * noise, 100.0 * startErr, 100.0 * bestErr,
-                100.0 * corrected(startErr, noise), 100.0 * corrected(bestErr, noise),
-                best.render.octaves);
+                o.referenceSpp, base.camera.width, base.camera.height, evaluations, 100.0 * noise,
+                100.0 * startErr, 100.0 * bestErr, 100.0 * corrected(startErr, noise),
+                100.0 * corrected(bestErr, noise), best.render.octaves);
     for (const char* section : {"render", "sky"}) {
         if (std::string(section) == "sky") std::printf("\n[sky]\n");
         for (const Knob& k : knobs) {

@@ -878,19 +878,18 @@ const std::vector<Param>& registry() {
                          "(Fizimayer 2008) and read trilinearly.",
                          NIMBUS_AT(scene.render.shadow))
                         .usedWhen("render.integrator = \"march\"", marching));
-        t.push_back(
-            number(ren, "light_volume_cell", atLeast(0),
-                   "Voxel size of the light-attenuation volumes (sun shadows, multiple "
-                   "scattering, column sky occlusion; world units); 0 = the majorant cell.",
-                   NIMBUS_AT(scene.render.lightVolumeCell))
-                .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
-                          "\"grid\" or render.sky_occlusion = \"column\"",
-                          [](const SceneFile& f) {
-                              const RenderDesc& r = f.scene.render;
-                              return r.shadow == ShadowMethod::Volume ||
-                                     r.multipleScattering == MultipleScattering::Grid ||
-                                     r.skyOcclusion == SkyOcclusion::Column;
-                          }));
+        t.push_back(number(ren, "light_volume_cell", atLeast(0),
+                           "Voxel size of the light-attenuation volumes (sun shadows, multiple "
+                           "scattering, column sky occlusion; world units); 0 = the majorant cell.",
+                           NIMBUS_AT(scene.render.lightVolumeCell))
+                        .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
+                                  "\"grid\" or render.sky_occlusion = \"column\"",
+                                  [](const SceneFile& f) {
+                                      const RenderDesc& r = f.scene.render;
+                                      return r.shadow == ShadowMethod::Volume ||
+                                             r.multipleScattering == MultipleScattering::Grid ||
+                                             r.skyOcclusion == SkyOcclusion::Column;
+                                  }));
         t.push_back(number(ren, "step", above(0), "Primary ray-march step (world units).",
                            NIMBUS_AT(scene.render.step)));
         t.push_back(number(ren, "step_growth", atLeast(0),
@@ -965,14 +964,21 @@ const std::vector<Param>& registry() {
                          "weighted by the openness of the vertical column above and below the "
                          "sample, normalised so that an albedo-1 medium under a uniform sky "
                          "returns the sky (white furnace).",
-                         NIMBUS_AT(scene.render.skyOcclusion)));
+                         NIMBUS_AT(scene.render.skyOcclusion))
+                        .usedWhen("render.multiple_scattering = \"none\"", [](const SceneFile& f) {
+                            return f.scene.render.multipleScattering == MultipleScattering::None;
+                        }));
         t.push_back(number(ren, "sky_openness", atLeast(0),
                            "Column sky occlusion: weights e^(-k tau) of the hemispheres, tau the "
                            "transport optical depth above / below; 0 = the mean sky.",
                            NIMBUS_AT(scene.render.skyOpenness))
-                        .usedWhen("render.sky_occlusion = \"column\"", [](const SceneFile& f) {
-                            return f.scene.render.skyOcclusion == SkyOcclusion::Column;
-                        }));
+                        .usedWhen("render.multiple_scattering = \"none\" and render.sky_occlusion "
+                                  "= \"column\"",
+                                  [](const SceneFile& f) {
+                                      return f.scene.render.multipleScattering ==
+                                                 MultipleScattering::None &&
+                                             f.scene.render.skyOcclusion == SkyOcclusion::Column;
+                                  }));
         auto inscatterOn = [](const SceneFile& f) {
             return f.scene.render.inScatter != InScatter::None;
         };
