@@ -22,59 +22,14 @@ inline float rimFactor(float u, int n) {
     return 1.0f;
 }
 
-} // namespace
-
-float LightVolume::sample(vec3 p) const {
-    // voxel centres sit at lo + (i + 0.5) * voxel; clamp to the outermost centres
-    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
-    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
-    ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
-    ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
-    vec3 f = u - vec3(i0);
-    auto at = [&](int x, int y, int z) { return tau[index(res, x, y, z)]; };
-    float c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
-    float c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
-    float c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
-    float c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
-    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
-}
-
-LightVolume buildLightVolume(const Field& field, vec3 sunDir, float cell,
-                             const MajorantGrid* grid) {
-    LightVolume lv;
-    lv.bounds = field.bounds();
-    const vec3 ext = lv.bounds.extent();
-    for (int a = 0; a < 3; ++a) lv.res[a] = std::max(2, int(std::ceil(ext[a] / cell)));
-    lv.voxel = ext / vec3(lv.res);
-    const size_t n = size_t(lv.res.x) * lv.res.y * lv.res.z;
-    lv.tau.assign(n, 0.0f);
-    std::vector<float> rho(n, 0.0f);
-    std::atomic<size_t> lookups{0};
-
-    // densities at voxel centres, skipping cells the majorant grid proves empty
-    tbb::parallel_for(0, lv.res.z, [&](int z) {
-        size_t local = 0;
-        for (int y = 0; y < lv.res.y; ++y)
-            for (int x = 0; x < lv.res.x; ++x) {
-                const vec3 p = lv.bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * lv.voxel;
-                if (grid) {
-                    ivec3 c = glm::clamp(ivec3((p - grid->bounds.lo) / grid->cellSize), ivec3(0),
-                                         grid->res - ivec3(1));
-                    if (grid->at(c) <= 0.0f) continue;
-                }
-                rho[index(lv.res, x, y, z)] = field.density(p);
-                ++local;
-            }
-        lookups += local;
-    });
-    lv.densityLookups = lookups;
-
+/// Propagates the density integral toward sunDir slice by slice (see the header).
+void propagate(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
     // dominant axis of the sun direction; slices ordered from the sun side
     int a = 0;
     for (int k = 1; k < 3; ++k)
         if (std::abs(sunDir[k]) > std::abs(sunDir[a])) a = k;
     const int b = (a + 1) % 3, c = (a + 2) % 3;
-    if (std::abs(sunDir[a]) < 1e-6f) return lv; // degenerate: no direction
+    if (std::abs(sunDir[a]) < 1e-6f) return;    // degenerate: no direction
     const int step = sunDir[a] > 0.0f ? -1 : 1; // walk away from the sun
     const int first = sunDir[a] > 0.0f ? lv.res[a] - 1 : 0;
     const float l = lv.voxel[a] / std::abs(sunDir[a]); // path length between slice planes
@@ -130,7 +85,69 @@ LightVolume buildLightVolume(const Field& field, vec3 sunDir, float cell,
             }
         });
     }
-    return lv;
+}
+
+} // namespace
+
+float LightVolume::sample(vec3 p) const {
+    // voxel centres sit at lo + (i + 0.5) * voxel; clamp to the outermost centres
+    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
+    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
+    ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
+    ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
+    vec3 f = u - vec3(i0);
+    auto at = [&](int x, int y, int z) { return tau[index(res, x, y, z)]; };
+    float c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
+    float c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
+    float c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
+    float c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
+    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
+}
+
+std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
+                                           float cell, const MajorantGrid* grid,
+                                           std::vector<float>* rhoOut) {
+    LightVolume lv;
+    lv.bounds = field.bounds();
+    const vec3 ext = lv.bounds.extent();
+    for (int a = 0; a < 3; ++a) lv.res[a] = std::max(2, int(std::ceil(ext[a] / cell)));
+    lv.voxel = ext / vec3(lv.res);
+    const size_t n = size_t(lv.res.x) * lv.res.y * lv.res.z;
+    lv.tau.assign(n, 0.0f);
+    std::vector<float> rho(n, 0.0f);
+    std::atomic<size_t> lookups{0};
+
+    // densities at voxel centres, skipping cells the majorant grid proves empty
+    tbb::parallel_for(0, lv.res.z, [&](int z) {
+        size_t local = 0;
+        for (int y = 0; y < lv.res.y; ++y)
+            for (int x = 0; x < lv.res.x; ++x) {
+                const vec3 p = lv.bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * lv.voxel;
+                if (grid) {
+                    ivec3 c = glm::clamp(ivec3((p - grid->bounds.lo) / grid->cellSize), ivec3(0),
+                                         grid->res - ivec3(1));
+                    if (grid->at(c) <= 0.0f) continue;
+                }
+                rho[index(lv.res, x, y, z)] = field.density(p);
+                ++local;
+            }
+        lookups += local;
+    });
+    lv.densityLookups = lookups;
+
+    std::vector<LightVolume> out;
+    for (const vec3& d : dirs) {
+        out.push_back(lv);
+        propagate(out.back(), rho, d);
+        if (out.size() > 1) out.back().densityLookups = 0; // counted once, on the first
+    }
+    if (rhoOut) *rhoOut = std::move(rho);
+    return out;
+}
+
+LightVolume buildLightVolume(const Field& field, vec3 sunDir, float cell,
+                             const MajorantGrid* grid) {
+    return std::move(buildLightVolumes(field, {sunDir}, cell, grid).front());
 }
 
 } // namespace nimbus

@@ -36,4 +36,21 @@ struct LightVolume {
 LightVolume buildLightVolume(const Field& field, vec3 sunDirection, float cell,
                              const MajorantGrid* grid = nullptr);
 
+/// The same for several directions at once: the densities at the voxel centres are looked up
+/// once and shared (densityLookups is counted on the first volume only).
+std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
+                                           float cell, const MajorantGrid* grid = nullptr,
+                                           std::vector<float>* rhoOut = nullptr);
+
+struct DiffusionVolume; // core/diffusion.h
+
+/// What march's multiple-scattering and sky terms read (null when unused): the density
+/// integrals straight up and straight down (the vertical column above and below a sample) and
+/// the diffusion solve.
+struct ScatterVolumes {
+    const LightVolume* up = nullptr;
+    const LightVolume* down = nullptr;
+    const DiffusionVolume* diffusion = nullptr; ///< sun and sky multiple scattering
+};
+
 } // namespace nimbus

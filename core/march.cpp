@@ -1,5 +1,6 @@
 #include "core/march.h"
 
+#include "core/diffusion.h"
 #include "core/sky.h"
 
 #include <algorithm>
@@ -12,8 +13,10 @@ namespace nimbus {
 using kern::pcg;
 
 MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
-                           const LightVolume* lightVolume, const SurfaceQuery* surfaces)
-    : s_(scene), plan_(plan), vols_(volumes), lightVolume_(lightVolume), surfaces_(surfaces),
+                           const LightVolume* lightVolume, ScatterVolumes scatter,
+                           const SurfaceQuery* surfaces)
+    : s_(scene), plan_(plan), vols_(volumes), lightVolume_(lightVolume), volumes_(scatter),
+      surfaces_(surfaces),
       skyIrradiance_(surfaces ? scene.sky : SkyDesc{SkyKind::None}, surfaces ? 65 : 2),
       camera_(scene.camera), phase_(PhaseFunction::fromMedium(scene.medium)),
       primary_(scene.render.step, scene.render.stepGrowth),
@@ -32,7 +35,48 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
         ambient_ = 0.5f * (scene.sky.zenith + scene.sky.horizon) * scene.sky.ambient;
         break;
     }
+    // the sky over each hemisphere: a gradient sky mixes horizon and zenith by sqrt(y), whose
+    // mean over the upper hemisphere (y uniform in [0, 1]) is 2/3; below the horizon it is the
+    // horizon radiance
+    skyUp_ = skyDown_ = ambient_;
+    if (scene.sky.kind == SkyKind::Gradient) {
+        skyUp_ = (scene.sky.horizon + 2.0f * scene.sky.zenith) / 3.0f * scene.sky.ambient;
+        skyDown_ = scene.sky.horizon * scene.sky.ambient;
+    }
+    // similarity relation (van de Hulst): multiply scattered light sees the medium as isotropic
+    // with sigma_s' = sigma_s (1 - g); diffusion decays by sqrt(3 sigma_a' / sigma_t') per
+    // transport optical depth (the effective transport coefficient, Jensen et al. 2001)
+    const float g = g_ = phase_.meanCosine();
+    const vec3 sigmaSr = scene.medium.sigma_s * (1.0f - g) * scene.medium.densityScale;
+    sigmaTr_ = sigmaSr + scene.medium.sigma_a * scene.medium.densityScale;
+    for (int c = 0; c < 3; ++c) {
+        const float albedo = sigmaTr_[c] > 0.0f ? sigmaSr[c] / sigmaTr_[c] : 1.0f;
+        kappa_[c] = std::sqrt(3.0f * std::max(0.0f, 1.0f - albedo));
+    }
     frameKey_ = pcg(std::uint32_t(plan.frame) ^ pcg(scene.render.seed));
+}
+
+vec3 MarchContext::skyInScatter(vec3 p) const {
+    if (!volumes_.up) {
+        // cheap occlusion (Olajos 2016): light from the sky dome reaches the top of the
+        // layer; near its base half the sphere sees the darker ground instead
+        const Box& b = vols_.bounds;
+        const float span = std::max(b.hi.y - b.lo.y, 1e-20f);
+        const float h = std::clamp((p.y - b.lo.y) / span, 0.0f, 1.0f);
+        return ambient_ * (kAmbientGround + (1.0f - kAmbientGround) * h);
+    }
+    // Each hemisphere's sky weighted by the openness of the column above / below; the weights
+    // are normalised, so an albedo-1 medium under a uniform sky returns that sky (the white
+    // furnace: multiply scattered light fills a conservative cloud evenly); absorption decays
+    // the light with the transport depth to the nearer open side.
+    const float up = volumes_.up->sample(p), down = volumes_.down->sample(p);
+    vec3 L;
+    for (int c = 0; c < 3; ++c) {
+        const float tu = sigmaTr_[c] * up, td = sigmaTr_[c] * down;
+        const float share = kern::skyUpperShare(tu, td, s_.render.skyOpenness);
+        L[c] = glm::mix(skyDown_[c], skyUp_[c], share) * std::exp(-kappa_[c] * std::min(tu, td));
+    }
+    return L;
 }
 
 vec3 MarchContext::skyRadiance(vec3 d) const {
@@ -108,7 +152,6 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
     const vec3 sunDir = s_.sun.direction;
     const float cosTheta = glm::dot(ray.d, sunDir);
     const Box& b = vols_.bounds;
-    const float span = std::max(b.hi.y - b.lo.y, 1e-20f);
 
     vec3 L(0.0f), T(1.0f);
     float depth = 0.0f;
@@ -146,11 +189,24 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
                         S += s_.sun.irradiance * sun * inScatterFactor(rho, tau);
                     }
                 }
-                if (plan_.ambient) {
-                    // cheap occlusion (Olajos 2016): light from the sky dome reaches the top of the
-                    // layer; near its base half the sphere sees the darker ground instead
-                    const float h = std::clamp((p.y - b.lo.y) / span, 0.0f, 1.0f);
-                    S += ambient_ * (kAmbientGround + (1.0f - kAmbientGround) * h);
+                if (volumes_.diffusion) {
+                    // sun light scattered more than once and all sky light (core/diffusion.h): the
+                    // P1 radiance (phi + 3 F.w) / 4 pi, F = -D grad phi the net flux, D = 1 / 3
+                    // sigma_t', scattered toward the camera by the phase function, whose first
+                    // moment is g: S = (phi + 3 g F.w_o) / 4 pi, |F| <= phi (flux limit)
+                    vec3 grad[3];
+                    const vec3 phi = volumes_.diffusion->sample(p, grad);
+                    vec3 ms;
+                    for (int c = 0; c < 3; ++c) {
+                        vec3 F = -grad[c] / (3.0f * sigmaTr_[c] * rho + 1e-30f);
+                        const float len = glm::length(F);
+                        if (len > phi[c]) F *= phi[c] / len;
+                        ms[c] = std::max(0.0f,
+                                         phi[c] + 3.0f * g_ * s_.render.msP1 * glm::dot(F, -ray.d));
+                    }
+                    S += ms * kern::NB_INV_4PI;
+                } else if (plan_.ambient) {
+                    S += skyInScatter(p);
                 }
                 kern::integrateStep(S * (sigmaS_ * rho), sigmaT_ * rho, dt, L, T);
                 if (!depthSet && (T.x + T.y + T.z) < 1.5f) {

@@ -7,6 +7,13 @@
 /// shadow march (Beer-Lambert), the medium's phase function (core/phase.h), the Olajos in-scatter
 /// or Schneider beer-powder term, and sky ambient; Hillaire's energy-conserving step integration;
 /// early exit when transmittance < epsilon. Olajos 2016 ch. 3; Hillaire 2016; Schneider 2015.
+///
+/// Multiple scattering: Wrenninge's octaves (the short-range, forward part along the shadow
+/// ray) and, with render.multiple_scattering = "grid", the fluence of the light scattered at
+/// least once from a diffusion solve per frame (core/diffusion.h; Stam 1995), which also carries
+/// all of the sky light: its P1 radiance (phi + 3 g F.w) / 4 pi is the in-scattered radiance.
+/// Without the grid, the sky enters as an ambient term, occluded by height (v1) or by the
+/// normalised openness of the vertical column (render.sky_occlusion = "column").
 #pragma once
 
 #include <algorithm>
@@ -90,7 +97,8 @@ class MarchContext {
     static constexpr float kAmbientGround = 0.3f;
 
     MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
-                 const LightVolume* lightVolume = nullptr, const SurfaceQuery* surfaces = nullptr);
+                 const LightVolume* lightVolume = nullptr, ScatterVolumes scatter = {},
+                 const SurfaceQuery* surfaces = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
 
     /// Density integral along the ray from p toward the sun (shadow march).
@@ -105,12 +113,15 @@ class MarchContext {
     float inScatterFactor(float rho, float tau) const;
     /// Sky radiance seen along direction d.
     vec3 skyRadiance(vec3 d) const;
+    /// In-scattered sky radiance at p (isotropic) by the render.sky_occlusion model.
+    vec3 skyInScatter(vec3 p) const;
 
   private:
     const SceneDesc& s_;
     const FramePlan& plan_;
     const VolumeSet& vols_;
     const LightVolume* lightVolume_; ///< when set, replaces the shadow marches
+    ScatterVolumes volumes_;         ///< multiple-scattering and sky-occlusion grids
     const SurfaceQuery* surfaces_;   ///< null: no surfaces
     SkyIrradiance skyIrradiance_;
     Camera camera_;
@@ -118,6 +129,10 @@ class MarchContext {
     StepSchedule primary_, shadow_;
     vec3 sigmaS_, sigmaT_; ///< per unit density, density scale folded in
     vec3 ambient_;         ///< sky ambient radiance at the top of the layer
+    vec3 skyUp_, skyDown_; ///< mean sky radiance over the upper / lower hemisphere, x ambient
+    float g_;              ///< mean cosine of the phase function
+    vec3 sigmaTr_;         ///< transport extinction sigma_a + sigma_s (1 - g) per unit density
+    vec3 kappa_;           ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))
     std::uint32_t frameKey_;
 };
 

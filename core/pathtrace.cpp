@@ -207,8 +207,12 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
             fromSurface = false;
             ray = Ray{pos, d};
         }
-        if (depth + 1 >= s_.render.rrDepth) {
-            const float q = std::max(0.05f, 1.0f - maxComponent(f / mean3(p)));
+        // Russian roulette only on throughput below 1 (pbrt-v4): a floor on q would divide an
+        // albedo-1 path's weight by 1 - q at every bounce (0.95^-200 = 3e4 after 200 bounces
+        // in thick cloud), unbiased but with fireflies that dominated the references' error
+        const float m = maxComponent(f / mean3(p));
+        if (depth + 1 >= s_.render.rrDepth && m < 1.0f) {
+            const float q = 1.0f - m;
             if (rng.next() < q) break;
             f /= 1.0f - q;
         }

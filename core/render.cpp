@@ -11,6 +11,7 @@
 #include <tbb/task_arena.h>
 
 #include "core/camera.h"
+#include "core/diffusion.h"
 #include "core/light_volume.h"
 #include "core/march.h"
 #include "core/mie.h"
@@ -39,6 +40,29 @@ template <class Context>
 bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, RenderStats& stats,
                  const RenderCallbacks& cb);
 
+/// The diffusion solve's medium and lights: the sky of each face direction as march's column
+/// model sees the hemispheres (a gradient sky mixes horizon and zenith by sqrt(y), whose mean
+/// over the upper hemisphere is 2/3; below the horizon it is the horizon radiance).
+DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan) {
+    DiffusionParams p;
+    p.sigma_s = s.medium.sigma_s * s.medium.densityScale;
+    p.sigma_a = s.medium.sigma_a * s.medium.densityScale;
+    p.g = PhaseFunction::fromMedium(s.medium).meanCosine();
+    // the scale of the sun's multiply scattered light; the solve is linear, so scaling its
+    // source leaves the sky's part alone (which the diffusion gets right: white furnace)
+    if (plan.shadows) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+    if (plan.ambient) {
+        const SkyDesc& k = s.sky;
+        p.skyUp = p.skyDown = k.zenith * k.ambient;
+        if (k.kind == SkyKind::Gradient) {
+            p.skyUp = (k.horizon + 2.0f * k.zenith) / 3.0f * k.ambient;
+            p.skyDown = k.horizon * k.ambient;
+        }
+        p.skySide = 0.5f * (p.skyUp + p.skyDown);
+    }
+    return p;
+}
+
 } // namespace
 
 std::string FramePlan::explain() const {
@@ -54,7 +78,15 @@ std::string FramePlan::explain() const {
           : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
                         : std::string("shadow march per sample"))
       << "\n";
-    o << "  sky ambient: " << (ambient ? "yes" : "no") << "\n";
+    o << "  multiple scattering: "
+      << (diffusion ? "diffusion solved on the light-volume grid (sun and sky)" : "octaves only")
+      << "\n";
+    o << "  sky ambient: "
+      << (!ambient        ? std::string("no")
+          : diffusion     ? std::string("in the diffusion grid")
+          : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
+                          : std::string("height occlusion"))
+      << "\n";
     o << "  volumes: " << volumes << ", instances: " << instances;
     if (instanced)
         o << " ("
@@ -102,6 +134,13 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
                     s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty();
     p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
+    const bool marching = s.render.integrator == Integrator::March;
+    // the grids of the diffusion and the column sky cover one untransformed volume
+    const bool oneVolume = !p.instanced && s.volumes.empty();
+    p.diffusion = marching && oneVolume && (p.shadows || p.ambient) &&
+                  s.render.multipleScattering == MultipleScattering::Grid;
+    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion &&
+                      s.render.skyOcclusion == SkyOcclusion::Column;
 
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision = "not a procedural field";
@@ -227,22 +266,55 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
     arena.execute([&] {
         VolumeSet vs = volumesFor(plan, stats);
         auto t0 = std::chrono::steady_clock::now();
-        LightVolume lv;
-        if (plan.lightVolume && !vs.fields.empty()) {
+        // the light-volume grids (attenuation, column sky, diffusion) cover one untransformed
+        // volume: the plan names them only then
+        const Field& field = vs.fields[0];
+        const MajorantGrid* g = vs.useGrid[0] ? &vs.grids[0] : nullptr;
+        // every light-attenuation volume the plan names, from one pass of density lookups
+        std::vector<vec3> dirs;
+        // nothing to light when the one volume is empty (an empty VDB frame)
+        const bool any = !vs.instances.empty();
+        const bool diffusion = plan.diffusion && any;
+        const bool toward = any && (plan.lightVolume || (diffusion && plan.shadows));
+        if (toward) dirs.push_back(s.sun.direction);
+        if (plan.columnVolumes && any) {
+            dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
+            dirs.push_back(vec3(0.0f, -1.0f, 0.0f));
+        }
+        std::vector<LightVolume> volumes;
+        std::vector<float> rho;
+        if (diffusion && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
+        if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
-            lv = buildLightVolume(vs.fields[0], s.sun.direction, plan.lightVolumeCell,
-                                  vs.useGrid[0] ? &vs.grids[0] : nullptr);
+            volumes =
+                buildLightVolumes(field, dirs, plan.lightVolumeCell, g, diffusion ? &rho : nullptr);
             stats.lightVolumeSeconds = secondsSince(t0);
-            stats.lightVolumeLookups = lv.densityLookups;
+            stats.lightVolumeLookups = volumes.front().densityLookups;
+        }
+        size_t next = 0;
+        const LightVolume* towardVolume = toward ? &volumes[next++] : nullptr;
+        const LightVolume* lv = plan.lightVolume && any ? towardVolume : nullptr;
+        ScatterVolumes sv;
+        if (plan.columnVolumes && any) {
+            sv.up = &volumes[next++];
+            sv.down = &volumes[next++];
+        }
+        DiffusionVolume dv;
+        if (diffusion) {
+            t0 = std::chrono::steady_clock::now();
+            dv = solveDiffusion(volumes.front(), rho,
+                                towardVolume ? towardVolume->tau : std::vector<float>{},
+                                diffusionParams(s, plan));
+            sv.diffusion = &dv;
+            stats.diffusionSeconds = secondsSince(t0);
+            stats.diffusionIterations = dv.iterations;
         }
         const SurfaceQuery* surfaces = s.geometry ? s.geometry->surfaces() : nullptr;
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:
-            completed =
-                renderTiles(MarchContext(s, plan, vs, plan.lightVolume ? &lv : nullptr, surfaces),
-                            s, fb, stats, cb);
+            completed = renderTiles(MarchContext(s, plan, vs, lv, sv, surfaces), s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
             completed = renderTiles(PathContext(s, plan, vs, surfaces), s, fb, stats, cb);

@@ -33,7 +33,9 @@ struct FramePlan {
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
     bool skipEmpty = true;
-    bool lightVolume = false; ///< sun transmittance from a precomputed light-attenuation volume
+    bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
+    bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
+    bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     float lightVolumeCell = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries
@@ -56,6 +58,8 @@ struct RenderStats {
     double majorantSeconds = 0.0; ///< majorant grids and the instance query
     double lightVolumeSeconds = 0.0;
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
+    double diffusionSeconds = 0.0;        ///< march: solving the multiple-scattering grid
+    int diffusionIterations = 0;
     double integrateSeconds = 0.0;
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }
 };

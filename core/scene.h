@@ -166,6 +166,10 @@ struct MeshDesc {
 };
 
 enum class InScatter { None, Olajos, Powder };
+/// march: approximation of the sun light scattered more than once (core/march.h).
+enum class MultipleScattering { None, Grid };
+/// march: how much of the sky a point inside the medium sees (core/march.h).
+enum class SkyOcclusion { Height, Column };
 enum class Integrator { March, PathTrace };
 enum class ShadowMethod { March, Volume };
 enum class Background { Sky, Transparent };
@@ -195,6 +199,20 @@ struct RenderDesc {
     float octaveExtinction = 0.5f;
     float octaveContribution = 0.5f;
     float octaveEccentricity = 0.5f;
+    /// Grid: the sun light scattered more than once and all sky light, from a diffusion solve
+    /// on the light-volume grid (core/diffusion.h); it replaces the sky ambient term. msStrength
+    /// scales its sun part (diffusion loses light in moderately thick, porous cloud),
+    /// msP1 weights its flux (P1) term. Octaves still add the short-range, forward part.
+    MultipleScattering multipleScattering = MultipleScattering::Grid;
+    float msStrength = 1.0f;
+    float msP1 = 1.0f;
+    /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);
+    /// Column = the sky of the upper and lower hemispheres weighted by the openness of the
+    /// vertical column above and below the sample, normalised so that an albedo-1 medium under
+    /// a uniform sky returns the sky radiance (white furnace). skyOpenness sharpens the
+    /// weighting.
+    SkyOcclusion skyOcclusion = SkyOcclusion::Height;
+    float skyOpenness = 1.0f;
     InScatter inScatter = InScatter::Olajos;
     float inScatterC = 2.0f;
     float inScatterStrength = 0.5f;

@@ -112,6 +112,7 @@ TEST(March, SingleScatterInUniformSlabMatchesClosedForm) {
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.7f, 1.0f, 1.3f);
     s.sky.ambient = 1.0f;
+    s.render.multipleScattering = MultipleScattering::None; // the v1 height-occluded ambient
     s.render.step = 0.05f;
     s.camera.height = 1; // one row of horizontal rays: constant height along each ray
     s.camera.fovY = 1.5f;

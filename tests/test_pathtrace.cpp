@@ -233,6 +233,7 @@ TEST(PathTrace, MarchAgreesInTheSingleScatteringLimit) {
     SceneDesc s = thinSlab();
     s.render.integrator = Integrator::March;
     s.render.inScatter = InScatter::None;
+    s.render.multipleScattering = MultipleScattering::None;
     s.render.step = 0.005f;
     s.render.shadowStep = 0.005f;
     s.render.shadowGrowth = 0.0f;

@@ -22,3 +22,10 @@ NB_FN void integrateStep(vec3 S, vec3 sigma_t, float dt, INOUT(vec3) L, INOUT(ve
     L += T * Sint;
     T *= exp(-sigma_t * dt);
 }
+
+// Share of the upper hemisphere in the sky a sample sees, from the transport optical depths of
+// the vertical column above (tu) and below (td) it: 1 / (1 + e^{k (tu - td)}), the weights
+// e^{-k tu} and e^{-k td} normalised (so a uniform sky is returned unchanged).
+NB_FN float skyUpperShare(float tu, float td, float k) {
+    return 1.0f / (1.0f + exp(min(k * (tu - td), 80.0f)));
+}

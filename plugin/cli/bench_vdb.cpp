@@ -55,6 +55,9 @@ std::vector<std::string> toSingleScattering(SceneDesc& s) {
         changed.push_back("render.octaves " + std::to_string(s.render.octaves) +
                           " -> 1 (single scattering)");
     s.render.octaves = 1;
+    if (s.render.multipleScattering != MultipleScattering::None)
+        changed.push_back("render.multiple_scattering -> none");
+    s.render.multipleScattering = MultipleScattering::None;
     if (s.render.inScatter != InScatter::None) changed.push_back("render.inscatter -> none");
     s.render.inScatter = InScatter::None;
     if (s.sky.kind != SkyKind::None) changed.push_back("sky.kind -> none (no ambient light)");

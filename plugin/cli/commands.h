@@ -38,6 +38,7 @@ struct ConvergeOptions {
     std::string csv;
     std::string plot; ///< PNG of error against time (gnuplot), empty = none
     int threads = -1;
+    bool boxFilter = false; ///< pathtrace averages over pixels (march samples their centres)
 };
 
 struct CalibrateOptions {
@@ -47,6 +48,7 @@ struct CalibrateOptions {
     int referenceSpp = 256;
     double scale = 0.25;
     int threads = -1;
+    bool boxFilter = false;
 };
 
 int runRender(const RenderOptions& o);

@@ -57,6 +57,33 @@ bool measure(const SceneDesc& s, int frame, Measured& m) {
     return ok;
 }
 
+/// A path-traced reference rendered as two independent halves (seeds differ): their mean is the
+/// reference and their difference measures its noise. Returns false when interrupted.
+bool measureReference(const SceneDesc& s, int frame, Measured& ref, double& noise) {
+    SceneDesc half = s;
+    half.render.spp = std::max(1, s.render.spp / 2);
+    Measured b;
+    if (!measure(half, frame, ref)) return false;
+    half.render.seed = s.render.seed ^ 0x9e3779b9u;
+    if (!measure(half, frame, b)) return false;
+    double sq = 0.0;
+    for (size_t i = 0; i < ref.fb.rgba.size(); ++i) {
+        const double d = double(ref.fb.rgba[i]) - b.fb.rgba[i];
+        sq += d * d;
+        ref.fb.rgba[i] = 0.5f * (ref.fb.rgba[i] + b.fb.rgba[i]);
+    }
+    // each half has noise sigma: their difference 2 sigma^2, the mean sigma^2 / 2
+    noise = 0.5 * std::sqrt(sq / double(ref.fb.rgba.size()));
+    ref.seconds += b.seconds;
+    return true;
+}
+
+/// The error left once the reference's own noise is taken out (independent errors add in
+/// quadrature).
+double corrected(double err, double noise) {
+    return std::sqrt(std::max(0.0, err * err - noise * noise));
+}
+
 double rmse(const Framebuffer& a, const Framebuffer& ref) {
     double sq = 0.0;
     for (size_t i = 0; i < ref.rgba.size(); ++i) {
@@ -123,11 +150,16 @@ int runConverge(const ConvergeOptions& o) {
     // the reference
     SceneDesc refScene;
     std::string refLabel;
+    // march samples pixel centres; unless asked otherwise, so do the path-traced renders
+    // (render.jitter only moves the camera ray within the pixel in pathtrace)
+    const bool centres = !o.boxFilter;
     if (o.referenceSpp > 0) {
         refScene = base;
         refScene.render.integrator = Integrator::PathTrace;
         refScene.render.spp = o.referenceSpp;
-        refLabel = "pathtrace " + std::to_string(o.referenceSpp) + " spp";
+        if (centres) refScene.render.jitter = false;
+        refLabel = "pathtrace " + std::to_string(o.referenceSpp) + " spp" +
+                   (centres ? ", pixel centres" : ", box filter");
     } else {
         refScene = withSteps(base, o.referenceStep);
         refScene.render.integrator = Integrator::March;
@@ -138,8 +170,16 @@ int runConverge(const ConvergeOptions& o) {
     std::fprintf(stderr, "reference: %s at %dx%d ...\n", refLabel.c_str(), base.camera.width,
                  base.camera.height);
     Measured ref;
-    if (!measure(refScene, frame, ref)) return kExitInterrupted;
+    double refNoise = 0.0;
+    if (o.referenceSpp > 1) {
+        if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
+    } else if (!measure(refScene, frame, ref)) {
+        return kExitInterrupted;
+    }
     const double refRms = rms(ref.fb);
+    if (refRms > 0)
+        std::fprintf(stderr, "reference noise (two halves): RMSE %.3g, %.2f%% relative\n", refNoise,
+                     100.0 * refNoise / refRms);
 
     // the rungs
     std::vector<Rung> rungs;
@@ -168,6 +208,8 @@ int runConverge(const ConvergeOptions& o) {
         Rung r{"pathtrace", std::to_string(spp) + " spp", base, 1.0};
         r.scene.render.integrator = Integrator::PathTrace;
         r.scene.render.spp = spp;
+        r.scene.render.seed = base.render.seed + 7919u; // independent of the reference
+        if (centres) r.scene.render.jitter = false;
         rungs.push_back(r);
     }
 
@@ -191,26 +233,33 @@ int runConverge(const ConvergeOptions& o) {
     std::ostringstream table, csv;
     table << "frame " << frame << ", " << base.camera.width << "x" << base.camera.height
           << ", clouds only (RGBA, background transparent); reference: " << refLabel << ", "
-          << ref.seconds << " s\n";
+          << ref.seconds << " s";
+    if (refNoise > 0.0)
+        table << ", its noise " << percent(refNoise / refRms)
+              << " (from two halves; the last column takes it out in quadrature)";
+    table << "\n";
     char line[320];
     std::snprintf(line, sizeof line,
-                  "| %-9s | %-16s | %-8s | %-8s | %-11s | %-10s | %-9s | %-9s |\n", "integrator",
-                  "setting", "step", "spp", "lookups/ray", "time (s)", "RMSE", "rel. RMSE");
+                  "| %-9s | %-16s | %-8s | %-8s | %-11s | %-10s | %-9s | %-9s | %-9s |\n",
+                  "integrator", "setting", "step", "spp", "lookups/ray", "time (s)", "RMSE",
+                  "rel. RMSE", "corrected");
     table << line
           << "|------------|------------------|----------|----------|-------------|------------|---"
-             "--------|-----------|\n";
+             "--------|-----------|-----------|\n";
     csv << "integrator,setting,step,shadow_step,octaves,shadow,spp,lookups_per_ray,seconds,rmse,"
-           "relative_rmse\n";
+           "relative_rmse,corrected_relative_rmse\n";
     for (const Row& r : rows) {
         const RenderDesc& rd = r.rung->scene.render;
         const bool pt = rd.integrator == Integrator::PathTrace;
         const double perRay =
             double(r.m.stats.lookups()) / std::max<double>(1.0, double(r.m.stats.rays));
-        std::snprintf(line, sizeof line,
-                      "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s |\n",
-                      r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : rd.step,
-                      pt ? std::to_string(rd.spp).c_str() : "-", perRay, r.m.seconds, r.err,
-                      percent(r.rel).c_str());
+        const double rel = refRms > 0 ? corrected(r.err, refNoise) / refRms : 0.0;
+        std::snprintf(
+            line, sizeof line,
+            "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s | %-9s |\n",
+            r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : rd.step,
+            pt ? std::to_string(rd.spp).c_str() : "-", perRay, r.m.seconds, r.err,
+            percent(r.rel).c_str(), percent(rel).c_str());
         table << line;
         csv << r.rung->integrator << "," << r.rung->label << "," << (pt ? 0.0 : rd.step) << ","
             << (pt ? 0.0 : rd.shadowStep) << "," << (pt ? 0 : rd.octaves) << ","
@@ -218,7 +267,32 @@ int runConverge(const ConvergeOptions& o) {
                 : rd.shadow == ShadowMethod::Volume ? "volume"
                                                     : "march")
             << "," << (pt ? rd.spp : 0) << "," << perRay << "," << r.m.seconds << "," << r.err
-            << "," << r.rel << "\n";
+            << "," << r.rel << "," << rel << "\n";
+    }
+    // pathtrace's noise falls as 1 / sqrt(spp): from its largest rung, the samples (and time)
+    // it needs to reach each march row's error, both with the reference noise taken out
+    const Row* pt = nullptr;
+    for (const Row& r : rows)
+        if (r.rung->scene.render.integrator == Integrator::PathTrace &&
+            (!pt || r.rung->scene.render.spp > pt->rung->scene.render.spp))
+            pt = &r;
+    if (pt && refRms > 0) {
+        const double ptErr = corrected(pt->err, refNoise);
+        const double spp = pt->rung->scene.render.spp;
+        const double secondsPerSpp = pt->m.seconds / spp;
+        table << "\npathtrace to reach the error of each march row (noise ~ 1/sqrt(spp), from "
+              << int(spp) << " spp: " << percent(ptErr / refRms) << "):\n";
+        for (const Row& r : rows) {
+            if (r.rung->scene.render.integrator != Integrator::March) continue;
+            const double e = corrected(r.err, refNoise);
+            if (!(e > 0.0)) continue;
+            const double need = spp * (ptErr / e) * (ptErr / e);
+            std::snprintf(line, sizeof line,
+                          "  march %-16s %7s in %7.3f s; pathtrace ~%8.1f spp, ~%9.3f s: %6.1fx\n",
+                          r.rung->label.c_str(), percent(e / refRms).c_str(), r.m.seconds, need,
+                          need * secondsPerSpp, need * secondsPerSpp / r.m.seconds);
+            table << line;
+        }
     }
     std::cout << table.str();
     std::string csvPath = o.csv;
@@ -269,10 +343,16 @@ int runCalibrate(const CalibrateOptions& o) {
     SceneDesc refScene = base;
     refScene.render.integrator = Integrator::PathTrace;
     refScene.render.spp = o.referenceSpp;
+    if (!o.boxFilter) refScene.render.jitter = false; // pixel centres, as march samples them
     std::fprintf(stderr, "reference: pathtrace %d spp at %dx%d ...\n", o.referenceSpp,
                  base.camera.width, base.camera.height);
     Measured ref;
-    if (!measure(refScene, frame, ref)) return kExitInterrupted;
+    double refNoise = 0.0;
+    if (o.referenceSpp > 1) {
+        if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
+    } else if (!measure(refScene, frame, ref)) {
+        return kExitInterrupted;
+    }
     const double refRms = rms(ref.fb);
 
     int evaluations = 0;
@@ -284,7 +364,8 @@ int runCalibrate(const CalibrateOptions& o) {
         return true;
     };
     SceneDesc best = base;
-    if (best.render.octaves < 2) best.render.octaves = 4;
+    const bool msModel = base.render.multipleScattering != MultipleScattering::None;
+    if (best.render.octaves < 2 && !msModel) best.render.octaves = 4;
     double bestErr;
     double startErr;
     if (!error(base, startErr) || !error(best, bestErr)) return kExitInterrupted;
@@ -292,30 +373,65 @@ int runCalibrate(const CalibrateOptions& o) {
         best = base;
         bestErr = startErr;
     }
-    // coordinate descent over the approximations of march, two passes
+    // coordinate descent over the approximations of march that the scene uses, two passes
     struct Knob {
+        const char* section;
         const char* name;
         float* (*get)(SceneDesc&);
+        bool (*applies)(const SceneDesc&);
         std::vector<float> values;
     };
+    using Applies = bool (*)(const SceneDesc&);
+    const Applies octavesOn = [](const SceneDesc& s) { return s.render.octaves > 1; };
+    const Applies skyOn = [](const SceneDesc& s) { return s.sky.kind != SkyKind::None; };
+    const Applies msOn = [](const SceneDesc& s) {
+        return s.render.multipleScattering != MultipleScattering::None;
+    };
     const std::vector<Knob> knobs = {
-        {"octave_extinction",
+        {"render",
+         "octave_extinction",
          [](SceneDesc& s) { return &s.render.octaveExtinction; },
-         {0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
-        {"octave_contribution",
+         octavesOn,
+         {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
+        {"render",
+         "octave_contribution",
          [](SceneDesc& s) { return &s.render.octaveContribution; },
-         {0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
-        {"octave_eccentricity",
+         octavesOn,
+         {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
+        {"render",
+         "octave_eccentricity",
          [](SceneDesc& s) { return &s.render.octaveEccentricity; },
+         octavesOn,
          {0.0f, 0.25f, 0.5f, 0.75f, 1.0f}},
-        {"sky.ambient",
+        {"render",
+         "ms_strength",
+         [](SceneDesc& s) { return &s.render.msStrength; },
+         msOn,
+         {0.25f, 0.5f, 0.75f, 1.0f, 1.25f, 1.5f, 2.0f, 2.5f, 3.0f, 4.0f}},
+        {"render",
+         "ms_p1",
+         [](SceneDesc& s) { return &s.render.msP1; },
+         [](const SceneDesc& s) { return s.render.multipleScattering == MultipleScattering::Grid; },
+         {0.0f, 0.5f, 1.0f}},
+        {"render",
+         "sky_openness",
+         [](SceneDesc& s) { return &s.render.skyOpenness; },
+         [](const SceneDesc& s) {
+             return s.sky.kind != SkyKind::None && s.render.skyOcclusion == SkyOcclusion::Column &&
+                    s.render.multipleScattering != MultipleScattering::Grid;
+         },
+         {0.0f, 0.25f, 0.5f, 1.0f, 2.0f, 4.0f}},
+        {"sky",
+         "ambient",
          [](SceneDesc& s) { return &s.sky.ambient; },
-         {0.25f, 0.5f, 0.75f, 1.0f, 1.5f, 2.0f, 3.0f, 4.0f}},
+         skyOn,
+         {0.25f, 0.5f, 0.75f, 1.0f, 1.25f, 1.5f, 2.0f, 3.0f}},
     };
     for (int pass = 0; pass < 2; ++pass) {
-        for (int octaves : {2, 4, 8}) {
+        for (int octaves : {1, 2, 4, 8}) {
             SceneDesc s = best;
             s.render.octaves = octaves;
+            if (octaves == best.render.octaves || (octaves == 1 && !msModel)) continue;
             double e;
             if (!error(s, e)) return kExitInterrupted;
             if (e < bestErr) {
@@ -324,12 +440,13 @@ int runCalibrate(const CalibrateOptions& o) {
             }
         }
         for (const Knob& k : knobs) {
+            if (!k.applies(best)) continue;
             for (float v : k.values) {
                 SceneDesc s = best;
+                if (*k.get(s) == v) continue;
                 *k.get(s) = v;
                 // energy conservation: contribution <= extinction
                 if (s.render.octaveContribution > s.render.octaveExtinction) continue;
-                if (k.name == std::string("sky.ambient") && s.sky.kind == SkyKind::None) continue;
                 double e;
                 if (!error(s, e)) return kExitInterrupted;
                 if (e < bestErr) {
@@ -340,14 +457,21 @@ int runCalibrate(const CalibrateOptions& o) {
         }
         std::fprintf(stderr, "pass %d: rel. RMSE %.2f%%\n", pass + 1, 100.0 * bestErr);
     }
-    std::printf("calibrated against pathtrace %d spp (%dx%d, %d march renders):\n"
-                "  relative RMSE %.2f%% -> %.2f%%\n\n"
-                "[render]\noctaves = %d\noctave_extinction = %g\noctave_contribution = %g\n"
-                "octave_eccentricity = %g\n\n[sky]\nambient = %g\n",
-                o.referenceSpp, base.camera.width, base.camera.height, evaluations,
-                100.0 * startErr, 100.0 * bestErr, best.render.octaves,
-                best.render.octaveExtinction, best.render.octaveContribution,
-                best.render.octaveEccentricity, best.sky.ambient);
+    const double noise = refNoise / std::max(refRms, 1e-30);
+    std::printf("calibrated against pathtrace %d spp (%dx%d, %d march renders; reference noise "
+                "%.2f%%):\n  relative RMSE %.2f%% -> %.2f%% (%.2f%% -> %.2f%% without the "
+                "reference noise)\n\n[render]\noctaves = %d\n",
+                o.referenceSpp, base.camera.width, base.camera.height, evaluations, 100.0 * noise,
+                100.0 * startErr, 100.0 * bestErr, 100.0 * corrected(startErr, noise),
+                100.0 * corrected(bestErr, noise), best.render.octaves);
+    for (const char* section : {"render", "sky"}) {
+        if (std::string(section) == "sky") std::printf("\n[sky]\n");
+        for (const Knob& k : knobs) {
+            SceneDesc s = best;
+            if (section == std::string(k.section) && k.applies(s))
+                std::printf("%s = %g\n", k.name, *k.get(s));
+        }
+    }
     return kExitOk;
 }
 

@@ -108,6 +108,10 @@ int main(int argc, char** argv) {
     converge->add_option("--plot", co.plot, "Also draw error against time, log-log (PNG, gnuplot)");
     converge->add_option("-t,--threads", co.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024));
+    converge->add_flag("--box-filter", co.boxFilter,
+                       "pathtrace renders average over each pixel (by default they sample the "
+                       "pixel centres, as march does, so the error is the lighting's, not "
+                       "aliasing)");
 
     cli::CalibrateOptions ko;
     auto* calibrate = app.add_subcommand(
@@ -125,6 +129,9 @@ int main(int argc, char** argv) {
         ->check(CLI::PositiveNumber);
     calibrate->add_option("-t,--threads", ko.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024));
+    calibrate->add_flag("--box-filter", ko.boxFilter,
+                        "The reference averages over each pixel (default: pixel centres, as "
+                        "march samples them)");
 
     cli::BakeOptions bo;
     auto* bake = app.add_subcommand(

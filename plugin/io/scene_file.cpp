@@ -924,12 +924,17 @@ const std::vector<Param>& registry() {
                          NIMBUS_AT(scene.render.shadow))
                         .usedWhen("render.integrator = \"march\"", marching));
         t.push_back(number(ren, "light_volume_cell", atLeast(0),
-                           "Voxel size of the light-attenuation volume (world units); 0 = the "
-                           "majorant cell.",
+                           "Voxel size of the light-attenuation volumes (sun shadows, multiple "
+                           "scattering, column sky occlusion; world units); 0 = the majorant cell.",
                            NIMBUS_AT(scene.render.lightVolumeCell))
-                        .usedWhen("render.shadow = \"volume\"", [](const SceneFile& f) {
-                            return f.scene.render.shadow == ShadowMethod::Volume;
-                        }));
+                        .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
+                                  "\"grid\" or render.sky_occlusion = \"column\"",
+                                  [](const SceneFile& f) {
+                                      const RenderDesc& r = f.scene.render;
+                                      return r.shadow == ShadowMethod::Volume ||
+                                             r.multipleScattering == MultipleScattering::Grid ||
+                                             r.skyOcclusion == SkyOcclusion::Column;
+                                  }));
         t.push_back(number(ren, "step", above(0), "Primary ray-march step (world units).",
                            NIMBUS_AT(scene.render.step)));
         t.push_back(number(ren, "step_growth", atLeast(0),
@@ -980,6 +985,52 @@ const std::vector<Param>& registry() {
                            "Phase asymmetry g of octave i is scaled by octave_eccentricity^i.",
                            NIMBUS_AT(scene.render.octaveEccentricity))
                         .usedWhen("render.octaves > 1", multiple));
+        t.push_back(word(ren, "multiple_scattering",
+                         WordTable<MultipleScattering>{{"none", MultipleScattering::None},
+                                                       {"grid", MultipleScattering::Grid}},
+                         "Sun light scattered more than once and sky light: none (octaves and "
+                         "the sky ambient term only), or grid: solved once per frame as a "
+                         "diffusion process on the light-volume grid (Stam 1995; similarity "
+                         "relation for g, Marshak boundaries lit by the sky), read trilinearly; "
+                         "it replaces the sky ambient term, octaves add to it.",
+                         NIMBUS_AT(scene.render.multipleScattering)));
+        auto gridOn = [](const SceneFile& f) {
+            return f.scene.render.multipleScattering == MultipleScattering::Grid;
+        };
+        t.push_back(number(ren, "ms_strength", atLeast(0),
+                           "Scale of the grid's multiply scattered sun light (1 = the diffusion "
+                           "solution, which loses light in moderately thick, porous cloud; the "
+                           "sky's part is not scaled).",
+                           NIMBUS_AT(scene.render.msStrength))
+                        .usedWhen("render.multiple_scattering = \"grid\"", gridOn));
+        t.push_back(number(ren, "ms_p1", closed(0, 1),
+                           "Grid diffusion: weight of the flux term (phi + 3 g F.w) of the "
+                           "diffuse radiance scattered toward the camera; 0 = isotropic.",
+                           NIMBUS_AT(scene.render.msP1))
+                        .usedWhen("render.multiple_scattering = \"grid\"", gridOn));
+        t.push_back(word(ren, "sky_occlusion",
+                         WordTable<SkyOcclusion>{{"height", SkyOcclusion::Height},
+                                                 {"column", SkyOcclusion::Column}},
+                         "Sky light inside the medium: height (darker toward the base of the "
+                         "field, down to 0.3), or column: the upper and lower hemispheres' sky "
+                         "weighted by the openness of the vertical column above and below the "
+                         "sample, normalised so that an albedo-1 medium under a uniform sky "
+                         "returns the sky (white furnace).",
+                         NIMBUS_AT(scene.render.skyOcclusion))
+                        .usedWhen("render.multiple_scattering = \"none\"", [](const SceneFile& f) {
+                            return f.scene.render.multipleScattering == MultipleScattering::None;
+                        }));
+        t.push_back(number(ren, "sky_openness", atLeast(0),
+                           "Column sky occlusion: weights e^(-k tau) of the hemispheres, tau the "
+                           "transport optical depth above / below; 0 = the mean sky.",
+                           NIMBUS_AT(scene.render.skyOpenness))
+                        .usedWhen("render.multiple_scattering = \"none\" and render.sky_occlusion "
+                                  "= \"column\"",
+                                  [](const SceneFile& f) {
+                                      return f.scene.render.multipleScattering ==
+                                                 MultipleScattering::None &&
+                                             f.scene.render.skyOcclusion == SkyOcclusion::Column;
+                                  }));
         auto inscatterOn = [](const SceneFile& f) {
             return f.scene.render.inScatter != InScatter::None;
         };

@@ -1,5 +1,6 @@
 // Benchmarks (Google Benchmark): density lookups per second, the default frame with empty-space
-// skipping on and off, and the share of time spent in shadow marches. Run from the build dir:
+// skipping on and off, the share of time spent in shadow marches, and the cost of the
+// multiple-scattering grid (light volumes and diffusion solve). Run from the build dir:
 //   ./tests/nimbus_bench                       (all; the frame benchmarks take ~1 min on 2 cores)
 //   ./tests/nimbus_bench --benchmark_filter=Density
 #include <benchmark/benchmark.h>
@@ -62,11 +63,13 @@ void BM_Density(benchmark::State& state) {
 }
 BENCHMARK(BM_Density)->Arg(0)->Arg(1);
 
-/// One frame of the default scene. Args: skip empty space (0/1), sun (0/1).
+/// One frame of the default scene. Args: skip empty space (0/1), sun (0/1), the
+/// multiple-scattering grid (0 = off, the v1 sky ambient instead; 1 = the scene's).
 void BM_Frame(benchmark::State& state) {
     SceneDesc s = defaultScene();
     s.render.skipEmpty = state.range(0) != 0;
     s.sun.enabled = state.range(1) != 0;
+    if (state.range(2) == 0) s.render.multipleScattering = MultipleScattering::None;
     Renderer r(s);
     FramePlan plan = r.plan(1);
     Framebuffer fb;
@@ -77,13 +80,18 @@ void BM_Frame(benchmark::State& state) {
     state.counters["shadow_lookups"] = double(st.shadowSamples);
     state.counters["lookups_per_s"] =
         benchmark::Counter(double(st.lookups()), benchmark::Counter::kIsIterationInvariantRate);
+    state.counters["volumes_s"] = st.lightVolumeSeconds;
+    state.counters["diffusion_s"] = st.diffusionSeconds;
+    state.counters["diffusion_iterations"] = st.diffusionIterations;
     state.SetLabel(std::string(s.render.skipEmpty ? "skip on" : "skip off") +
-                   (s.sun.enabled ? ", sun" : ", no sun (no shadow marches)"));
+                   (s.sun.enabled ? ", sun" : ", no sun (no shadow marches)") +
+                   (plan.diffusion ? ", diffusion grid" : ", no grid"));
 }
 BENCHMARK(BM_Frame)
-    ->Args({1, 1})
-    ->Args({0, 1})
-    ->Args({1, 0})
+    ->Args({1, 1, 1})
+    ->Args({1, 1, 0})
+    ->Args({0, 1, 1})
+    ->Args({1, 0, 1})
     ->Iterations(2)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

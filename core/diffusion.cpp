@@ -1,0 +1,208 @@
+#include "core/diffusion.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+namespace nimbus {
+
+namespace {
+
+constexpr float kFourPi = 12.5663706144f;
+
+inline size_t index(const ivec3& res, int x, int y, int z) {
+    return (size_t(z) * res.y + y) * res.x + x;
+}
+
+/// One voxel with density: its neighbours (-1 = empty space, folded into rhs and diagonal),
+/// the conductances to them, 1 / diagonal and the constant part of its balance.
+struct Cell {
+    std::uint32_t idx;
+    int nb[6];
+    vec3 G[6];
+    vec3 invDiag, rhs;
+};
+
+} // namespace
+
+vec3 DiffusionVolume::sample(vec3 p) const {
+    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
+    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
+    const ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
+    const ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
+    const vec3 f = u - vec3(i0);
+    auto at = [&](int x, int y, int z) { return phi[index(res, x, y, z)]; };
+    const vec3 c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
+    const vec3 c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
+    const vec3 c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
+    const vec3 c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
+    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
+}
+
+vec3 DiffusionVolume::sample(vec3 p, vec3 grad[3]) const {
+    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
+    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
+    const ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
+    const ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
+    const vec3 f = u - vec3(i0);
+    auto at = [&](int x, int y, int z) { return phi[index(res, x, y, z)]; };
+    const vec3 c000 = at(i0.x, i0.y, i0.z), c100 = at(i1.x, i0.y, i0.z);
+    const vec3 c010 = at(i0.x, i1.y, i0.z), c110 = at(i1.x, i1.y, i0.z);
+    const vec3 c001 = at(i0.x, i0.y, i1.z), c101 = at(i1.x, i0.y, i1.z);
+    const vec3 c011 = at(i0.x, i1.y, i1.z), c111 = at(i1.x, i1.y, i1.z);
+    const vec3 c00 = glm::mix(c000, c100, f.x), c10 = glm::mix(c010, c110, f.x);
+    const vec3 c01 = glm::mix(c001, c101, f.x), c11 = glm::mix(c011, c111, f.x);
+    const vec3 c0 = glm::mix(c00, c10, f.y), c1 = glm::mix(c01, c11, f.y);
+    // a clamped axis (one voxel, or outside the outer centres) has no slope
+    const vec3 dx = glm::mix(glm::mix(c100 - c000, c110 - c010, f.y),
+                             glm::mix(c101 - c001, c111 - c011, f.y), f.z) /
+                    voxel.x;
+    const vec3 dy = glm::mix(c10 - c00, c11 - c01, f.z) / voxel.y;
+    const vec3 dz = (c1 - c0) / voxel.z;
+    for (int c = 0; c < 3; ++c) grad[c] = vec3(dx[c], dy[c], dz[c]);
+    return glm::mix(c0, c1, f.z);
+}
+
+DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>& rho,
+                               const std::vector<float>& tauSun, const DiffusionParams& p) {
+    DiffusionVolume dv;
+    dv.bounds = geo.bounds;
+    dv.res = geo.res;
+    dv.voxel = geo.voxel;
+    const ivec3 res = geo.res;
+    const size_t n = size_t(res.x) * res.y * res.z;
+    const vec3 sigmaTr = p.sigma_a + p.sigma_s * (1.0f - p.g); // transport extinction
+    const vec3 sigmaT = p.sigma_a + p.sigma_s;
+    const bool sun = maxComponent(p.sunIrradiance) > 0.0f && tauSun.size() == n;
+    // sky fluence 4 pi L seen through a face, by outward normal: -x +x -y +y -z +z
+    const vec3 skyFace[6] = {kFourPi * p.skySide, kFourPi * p.skySide, kFourPi * p.skyDown,
+                             kFourPi * p.skyUp,   kFourPi * p.skySide, kFourPi * p.skySide};
+    const vec3 skyMean = kFourPi * 0.5f * (p.skyUp + p.skyDown);
+    const float V = geo.voxel.x * geo.voxel.y * geo.voxel.z;
+
+    // the voxels with density, coloured red/black by the parity of x + y + z
+    std::vector<int> active(n, -1);
+    std::vector<Cell> cells;
+    for (int z = 0; z < res.z; ++z)
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x) {
+                const size_t i = index(res, x, y, z);
+                if (rho[i] > 0.0f) {
+                    active[i] = int(cells.size());
+                    cells.push_back(Cell{std::uint32_t(i), {}, {}, vec3(0.0f), vec3(0.0f)});
+                }
+            }
+    dv.activeVoxels = cells.size();
+    tbb::parallel_for(size_t(0), cells.size(), [&](size_t k) {
+        Cell& c = cells[k];
+        const size_t i = c.idx;
+        const int x = int(i % res.x), y = int((i / res.x) % res.y),
+                  z = int(i / (size_t(res.x) * res.y));
+        // h / 2D = 1.5 h sigma_t' per axis
+        const vec3 sTr = sigmaTr * rho[i];
+        vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f);
+        if (sun) rhs += p.sigma_s * rho[i] * p.sunIrradiance * glm::exp(-sigmaT * tauSun[i]) * V;
+        const ivec3 q(x, y, z);
+        for (int f = 0; f < 6; ++f) {
+            const int a = f / 2, b = (a + 1) % 3, cc = (a + 2) % 3;
+            const float h = geo.voxel[a], A = geo.voxel[b] * geo.voxel[cc];
+            ivec3 qn = q;
+            qn[a] += (f & 1) ? 1 : -1;
+            const bool inside = qn[a] >= 0 && qn[a] < res[a];
+            const int j = inside ? active[index(res, qn.x, qn.y, qn.z)] : -1;
+            const vec3 ri = 1.5f * h * sTr;
+            if (j >= 0) {
+                const vec3 rj = 1.5f * h * sigmaTr * rho[cells[j].idx];
+                c.nb[f] = j;
+                c.G[f] = A / (ri + rj + vec3(1e-30f));
+                diag += c.G[f];
+            } else {
+                // Marshak: no light comes back from empty space but the sky's
+                c.nb[f] = -1;
+                const vec3 Gb = A / (ri + vec3(2.0f));
+                diag += Gb;
+                rhs += Gb * skyFace[f];
+                c.G[f] = vec3(0.0f);
+            }
+        }
+        c.invDiag = 1.0f / diag;
+        c.rhs = rhs;
+    });
+
+    std::vector<vec3> phi(cells.size(), skyMean);
+    std::vector<std::uint32_t> colour[2];
+    for (size_t k = 0; k < cells.size(); ++k) {
+        const size_t i = cells[k].idx;
+        const int x = int(i % res.x), y = int((i / res.x) % res.y),
+                  z = int(i / (size_t(res.x) * res.y));
+        colour[(x + y + z) & 1].push_back(std::uint32_t(k));
+    }
+    const float omega = 1.85f; // over-relaxation; SOR converges for 0 < omega < 2 (SPD system)
+    for (int it = 0; it < p.maxIterations && !cells.empty(); ++it) {
+        float change = 0.0f, scale = 0.0f;
+        for (int col = 0; col < 2; ++col) {
+            const std::vector<std::uint32_t>& list = colour[col];
+            auto r = tbb::parallel_reduce(
+                tbb::blocked_range<size_t>(0, list.size(), 1024), glm::vec2(0.0f),
+                [&](const tbb::blocked_range<size_t>& br, glm::vec2 acc) {
+                    for (size_t m = br.begin(); m != br.end(); ++m) {
+                        const std::uint32_t k = list[m];
+                        const Cell& c = cells[k];
+                        vec3 sum = c.rhs;
+                        for (int f = 0; f < 6; ++f)
+                            if (c.nb[f] >= 0) sum += c.G[f] * phi[c.nb[f]];
+                        const vec3 gs = sum * c.invDiag;
+                        const vec3 next = glm::max(vec3(0.0f), phi[k] + omega * (gs - phi[k]));
+                        acc.x = std::max(acc.x, maxComponent(glm::abs(next - phi[k])));
+                        acc.y = std::max(acc.y, maxComponent(next));
+                        phi[k] = next;
+                    }
+                    return acc;
+                },
+                [](glm::vec2 a, glm::vec2 b) { return glm::max(a, b); });
+            change = std::max(change, r.x);
+            scale = std::max(scale, r.y);
+        }
+        dv.iterations = it + 1;
+        dv.lastChange = scale > 0.0f ? change / scale : 0.0f;
+        if (dv.lastChange < p.tolerance) break;
+    }
+
+    // fluence at every voxel centre: solved where there is density; in empty voxels next to
+    // the medium the mean of the Marshak face values phi_f = 4 pi L + 2 (phi - 4 pi L) / (r + 2)
+    // of their neighbours, elsewhere the sky's mean fluence
+    dv.phi.assign(n, skyMean);
+    tbb::parallel_for(0, res.z, [&](int z) {
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x) {
+                const size_t i = index(res, x, y, z);
+                if (active[i] >= 0) {
+                    dv.phi[i] = phi[active[i]];
+                    continue;
+                }
+                vec3 sum(0.0f);
+                int count = 0;
+                const ivec3 q(x, y, z);
+                for (int f = 0; f < 6; ++f) {
+                    const int a = f / 2;
+                    ivec3 qn = q;
+                    qn[a] += (f & 1) ? 1 : -1;
+                    if (qn[a] < 0 || qn[a] >= res[a]) continue;
+                    const int j = active[index(res, qn.x, qn.y, qn.z)];
+                    if (j < 0) continue;
+                    // the neighbour's face toward this voxel has the opposite normal
+                    const vec3 L = skyFace[f ^ 1];
+                    const vec3 r = 1.5f * geo.voxel[a] * sigmaTr * rho[cells[j].idx];
+                    sum += L + 2.0f * (phi[j] - L) / (r + vec3(2.0f));
+                    ++count;
+                }
+                if (count) dv.phi[i] = sum / float(count);
+            }
+    });
+    return dv;
+}
+
+} // namespace nimbus

@@ -1,0 +1,60 @@
+/// @file diffusion.h
+/// @brief Multiple scattering as a diffusion process on a grid (Stam 1995, "Multiple scattering
+/// as a diffusion process", EGWR), for `march`: the fluence of the light that has scattered at
+/// least once, from the sun and the sky, solved once per frame and read trilinearly.
+///
+/// Unknown: the fluence phi (RGB) at the centres of the light-attenuation volume's voxels that
+/// hold density. Equation (diffusion approximation of the radiative transfer equation, with the
+/// similarity relation sigma_s' = sigma_s (1 - g) of van de Hulst for anisotropic scattering):
+///   -div(D grad phi) + sigma_a phi = Q,   D = 1 / (3 sigma_t'),   sigma_t' = sigma_a + sigma_s',
+/// Q = sigma_s E_sun e^{-sigma_t tau_sun}, the sun light scattered for the first time (the
+/// single scattering itself is integrated exactly by march). Finite volumes on the voxel grid;
+/// between two voxels the flux is (phi_i - phi_j) / (h / 2D_i + h / 2D_j); a face toward empty
+/// space takes Marshak's boundary condition with the sky's radiance L_sky seen through that face
+/// as the incoming partial current, which gives the flux (phi_i - 4 pi L_sky) / (h / 2D_i + 2).
+/// An albedo-1 medium under a uniform sky thus solves to phi = 4 pi L_sky everywhere: the white
+/// furnace holds exactly. Solved by red-black successive over-relaxation.
+///
+/// march then adds phi / 4 pi (isotropic in-scattered radiance) to the exact single scattering
+/// of the sun; the sky needs no separate ambient term.
+#pragma once
+
+#include <vector>
+
+#include "core/geometry.h"
+#include "core/light_volume.h"
+
+namespace nimbus {
+
+struct DiffusionParams {
+    vec3 sigma_s{1.0f}, sigma_a{0.0f}; ///< per unit density, density scale folded in
+    float g = 0.0f;                    ///< mean cosine of the phase function
+    vec3 sunIrradiance{0.0f};          ///< 0 = no sun
+    /// Sky radiance seen through a face of a voxel, by the face's outward normal: up, down,
+    /// sideways (the means over those hemispheres); 0 = no sky.
+    vec3 skyUp{0.0f}, skyDown{0.0f}, skySide{0.0f};
+    int maxIterations = 400;
+    float tolerance = 1e-3f; ///< stop when no voxel changes by more than this share of the max
+};
+
+struct DiffusionVolume {
+    Box bounds;
+    ivec3 res{0};
+    vec3 voxel{0.0f};
+    std::vector<vec3> phi; ///< fluence at voxel centres (empty voxels: their faces' values)
+    int iterations = 0;
+    float lastChange = 0.0f; ///< largest relative change of the last iteration
+    std::size_t activeVoxels = 0;
+
+    /// Trilinear lookup of the fluence at world point p.
+    vec3 sample(vec3 p) const;
+    /// The same with the gradient of the trilinear interpolant (per channel: d/dx, d/dy, d/dz).
+    vec3 sample(vec3 p, vec3 grad[3]) const;
+};
+
+/// Solves on the grid of `geometry` (bounds, res, voxel) with densities rho at its voxel
+/// centres and the density integral toward the sun tauSun (may be empty when there is no sun).
+DiffusionVolume solveDiffusion(const LightVolume& geometry, const std::vector<float>& rho,
+                               const std::vector<float>& tauSun, const DiffusionParams& p);
+
+} // namespace nimbus
