@@ -1,6 +1,7 @@
 // `nimbus bench-vdb-render`: OpenVDB's VolumeRender against Nimbus march, through the real CLI.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>

@@ -4,6 +4,7 @@
 /// single scattering, in one process; time and error of each against a very-fine-step Nimbus
 /// reference, over a ladder of step sizes for both.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
