@@ -212,6 +212,8 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         std::vector<LightVolume> volumes;
         std::vector<float> rho;
         if (plan.diffusion && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
+        // an empty field (an empty VDB frame) has nothing to light: no volumes
+        if (field.bounds().empty()) dirs.clear();
         if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
             volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
@@ -220,15 +222,16 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             stats.lightVolumeLookups = volumes.front().densityLookups;
         }
         size_t next = 0;
-        const LightVolume* towardVolume = toward ? &volumes[next++] : nullptr;
+        auto take = [&](bool wanted) -> const LightVolume* {
+            return wanted && next < volumes.size() ? &volumes[next++] : nullptr;
+        };
+        const LightVolume* towardVolume = take(toward);
         const LightVolume* lv = plan.lightVolume ? towardVolume : nullptr;
         ScatterVolumes sv;
-        if (plan.columnVolumes) {
-            sv.up = &volumes[next++];
-            sv.down = &volumes[next++];
-        }
+        sv.up = take(plan.columnVolumes);
+        sv.down = take(plan.columnVolumes);
         DiffusionVolume dv;
-        if (plan.diffusion) {
+        if (plan.diffusion && !volumes.empty()) {
             t0 = std::chrono::steady_clock::now();
             dv = solveDiffusion(volumes.front(), rho,
                                 towardVolume ? towardVolume->tau : std::vector<float>{},

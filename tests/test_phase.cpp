@@ -411,6 +411,7 @@ TEST(PhaseInMarch, EveryKindScalesTheSunTermByItsPhase) {
     s.sky.kind = SkyKind::None;
     s.sun.direction = glm::normalize(vec3(0.2f, 0.1f, 1.0f)); // nearly behind the slab
     s.render.octaves = 1;
+    s.render.multipleScattering = MultipleScattering::None;
     s.render.inScatter = InScatter::None;
     s.render.background = Background::Transparent;
     s.render.jitter = false;
