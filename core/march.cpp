@@ -151,7 +151,6 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
 
     const vec3 sunDir = s_.sun.direction;
     const float cosTheta = glm::dot(ray.d, sunDir);
-    const Box& b = vols_.bounds;
 
     vec3 L(0.0f), T(1.0f);
     float depth = 0.0f;

@@ -126,8 +126,7 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     p.majorantCell = autoMajorantCell(s, bounds);
     p.volumes = 1 + int(s.volumes.size());
     p.instances = s.instances.empty() ? 1 : int(s.instances.size());
-    p.instanced = s.instances.size() > 1 ||
-                  (s.instances.size() == 1 && instanceTransform(s.instances[0]) != glm::mat4(1.0f));
+    p.instanced = isInstanced(s);
     p.hierarchical = s.render.hierarchicalSkip;
     p.surfaces = s.ground.enabled || !s.meshes.empty();
     // the light-attenuation volume covers one untransformed volume; instanced scenes march
@@ -195,8 +194,7 @@ Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
 VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
     const SceneDesc& s = scene_;
     VolumeSet vs;
-    bool fieldPlaced = s.instances.empty();
-    for (const InstanceDesc& d : s.instances) fieldPlaced = fieldPlaced || d.volume == 0;
+    const bool fieldPlaced = isPlaced(s, 0);
     // a [field] no instance places is never built (no noise baked, no grid read)
     vs.fields.push_back(
         fieldPlaced

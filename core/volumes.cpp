@@ -49,6 +49,17 @@ glm::mat4 instanceTransform(const InstanceDesc& d) {
     return glm::scale(m, d.scale);
 }
 
+bool isInstanced(const SceneDesc& s) {
+    return s.instances.size() > 1 ||
+           (s.instances.size() == 1 && instanceTransform(s.instances[0]) != glm::mat4(1.0f));
+}
+
+bool isPlaced(const SceneDesc& s, int v) {
+    if (s.instances.empty()) return v == 0;
+    return std::any_of(s.instances.begin(), s.instances.end(),
+                       [v](const InstanceDesc& d) { return d.volume == v; });
+}
+
 std::vector<VolumeInstance> makeInstances(const std::vector<Field>& fields,
                                           const std::vector<InstanceDesc>& descs) {
     std::vector<InstanceDesc> all = descs;

@@ -34,6 +34,11 @@ struct VolumeInstance {
 /// The transform of an instance description: translate * Rz * Ry * Rx * scale.
 glm::mat4 instanceTransform(const InstanceDesc& d);
 
+/// More than one placement, or a transformed one: the scene needs instance queries.
+bool isInstanced(const SceneDesc& s);
+/// Whether a placement uses volume `v` (0 = `field`); without placements only `field` is.
+bool isPlaced(const SceneDesc& s, int v);
+
 /// The volumes of one frame, their majorant grids and their instances.
 struct VolumeSet {
     std::vector<Field> fields;        ///< one per volume, in its own space

@@ -19,23 +19,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-    int exitCode = -1;
-    std::string output; ///< stdout and stderr
-};
-
-Result runNimbus(const std::string& args) {
-    Result r;
-    FILE* p = popen((std::string(NIMBUS_CLI_PATH) + " " + args + " 2>&1").c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-    const int st = pclose(p);
-    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    return r;
-}
-
 const fs::path kData = NIMBUS_SHARED_VDB_DIR;
 
 /// examples/scenes/smoke1.toml at 160x90, reading `file` from the shared folder.
@@ -94,7 +77,7 @@ TEST(BenchVdb, ProblemMapping) {
 }
 
 TEST(BenchVdb, RefusesSceneWithoutVdb) {
-    Result r = runNimbus("bench-vdb-render " + std::string(NIMBUS_SOURCE_DIR) +
+    CliRun r = runNimbus("bench-vdb-render " + std::string(NIMBUS_SOURCE_DIR) +
                          "/examples/scenes/cumulus.toml");
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "is not a VDB scene (its field.kind is \"cumulus\")"));
@@ -102,7 +85,7 @@ TEST(BenchVdb, RefusesSceneWithoutVdb) {
 
 TEST(BenchVdb, RefusesBadSteps) {
     const std::string scene = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/smoke1.toml";
-    Result r = runNimbus("bench-vdb-render " + scene + " --vdb-steps 2:0");
+    CliRun r = runNimbus("bench-vdb-render " + scene + " --vdb-steps 2:0");
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "--vdb-steps: \"2:0\" is not primary:shadow"));
     r = runNimbus("bench-vdb-render " + scene + " --ladder 1,-2");
@@ -114,7 +97,7 @@ TEST(BenchVdb, RefusesNonUniformVoxels) {
     REQUIRE_DATA();
     const fs::path dir =
         fs::temp_directory_path() / ("nimbus_benchvdb_nonuniform_" + std::to_string(getpid()));
-    Result r = runNimbus("bench-vdb-render " + writeScene(dir, "usd_densityAndHeat.vdb").string());
+    CliRun r = runNimbus("bench-vdb-render " + writeScene(dir, "usd_densityAndHeat.vdb").string());
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "non-uniform voxels"));
     fs::remove_all(dir);
@@ -128,7 +111,7 @@ TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
         fs::temp_directory_path() / ("nimbus_benchvdb_smoke1_" + std::to_string(getpid()));
     // early exit 1e-4 for both (VolumeRender's cutoff follows render.epsilon), so the remaining
     // difference is VolumeRender's step error
-    Result r = runNimbus(
+    CliRun r = runNimbus(
         "bench-vdb-render " + writeScene(dir, "openvdb_smoke1.vdb").string() +
         " --set render.epsilon=1e-4 --reference-step 0.5 --ladder 4 "
         "--vdb-ladder 0.5 --vdb-steps \"\" --no-vdb-defaults --repeat 1 --threads 2 --output-dir " +

@@ -1,6 +1,8 @@
 // CLI integration tests: the real `nimbus` binary on real scene files.
 #include <gtest/gtest.h>
 
+#include "test_util.h"
+
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -17,24 +19,6 @@
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-    int exitCode = -1;
-    std::string output; // stdout + stderr
-};
-
-CliRun runCli(const std::string& args) {
-    CliRun r;
-    std::string cmd = std::string(NIMBUS_CLI_PATH) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-    int st = pclose(p);
-    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    return r;
-}
 
 fs::path tempDir(const std::string& name) {
     fs::path d =
@@ -73,25 +57,25 @@ void expectAllFinite(const nimbus::io::ExrImage& img) {
 } // namespace
 
 TEST(Cli, HelpAndVersion) {
-    CliRun h = runCli("--help");
+    CliRun h = runNimbus("--help");
     EXPECT_EQ(h.exitCode, 0);
     for (const char* word : {"render", "converge", "reference", "Exit codes"})
         EXPECT_NE(h.output.find(word), std::string::npos) << word;
-    CliRun rh = runCli("render --help");
+    CliRun rh = runNimbus("render --help");
     EXPECT_EQ(rh.exitCode, 0);
     for (const char* word : {"--frames", "--set", "--explain", "--resume", "--progress"})
         EXPECT_NE(rh.output.find(word), std::string::npos) << word;
-    CliRun v = runCli("--version");
+    CliRun v = runNimbus("--version");
     EXPECT_EQ(v.exitCode, 0);
     EXPECT_NE(v.output.find(NIMBUS_VERSION), std::string::npos);
-    EXPECT_NE(runCli("render").exitCode, 0); // missing scene
-    EXPECT_NE(runCli("no-such-command").exitCode, 0);
+    EXPECT_NE(runNimbus("render").exitCode, 0); // missing scene
+    EXPECT_NE(runNimbus("no-such-command").exitCode, 0);
 }
 
 TEST(Cli, RendersTinySceneEndToEnd) {
     fs::path d = tempDir("tiny");
     writeFile(d / "tiny.toml", tinyScene(d));
-    CliRun r = runCli("render " + (d / "tiny.toml").string() + " --progress plain");
+    CliRun r = runNimbus("render " + (d / "tiny.toml").string() + " --progress plain");
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_NE(r.output.find("frame 1/1 100%"), std::string::npos) << r.output;
     nimbus::io::ExrImage img = nimbus::io::readExr((d / "tiny.0001.exr").string());
@@ -119,8 +103,8 @@ TEST(Cli, RendersTinySceneEndToEnd) {
 TEST(Cli, FrameSequenceOverridesAndResume) {
     fs::path d = tempDir("seq");
     writeFile(d / "s.toml", tinyScene(d));
-    CliRun r = runCli("render " + (d / "s.toml").string() +
-                      " --frames 2-6x2 --set render.step=0.1 --set camera.width=32 -q");
+    CliRun r = runNimbus("render " + (d / "s.toml").string() +
+                         " --frames 2-6x2 --set render.step=0.1 --set camera.width=32 -q");
     ASSERT_EQ(r.exitCode, 0) << r.output;
     for (int f : {2, 4, 6}) {
         char name[32];
@@ -137,7 +121,7 @@ TEST(Cli, FrameSequenceOverridesAndResume) {
     auto b = nimbus::io::readExr((d / "tiny.0006.exr").string());
     EXPECT_NE(a.pixels, b.pixels);
     // --resume skips complete frames and renders the missing one
-    CliRun again = runCli(
+    CliRun again = runNimbus(
         "render " + (d / "s.toml").string() +
         " --frames 2-8x2 --set render.step=0.1 --set camera.width=32 --resume --progress none");
     ASSERT_EQ(again.exitCode, 0) << again.output;
@@ -150,27 +134,27 @@ TEST(Cli, FrameSequenceOverridesAndResume) {
 TEST(Cli, TypoInSceneNamesFileAndLine) {
     fs::path d = tempDir("typo");
     writeFile(d / "bad1.toml", "[camera]\nfov = 45.0\nwidht = 64\n");
-    CliRun r = runCli("render " + (d / "bad1.toml").string());
+    CliRun r = runNimbus("render " + (d / "bad1.toml").string());
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_NE(r.output.find("bad1.toml:3:"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("widht"), std::string::npos) << r.output;
     // out of range, with the allowed range in the message
     writeFile(d / "bad2.toml", "[medium]\n\ng = 1.5\n");
-    CliRun r2 = runCli("render " + (d / "bad2.toml").string());
+    CliRun r2 = runNimbus("render " + (d / "bad2.toml").string());
     EXPECT_EQ(r2.exitCode, 2);
     EXPECT_NE(r2.output.find("bad2.toml:3:"), std::string::npos) << r2.output;
     // a bad override names the override
     writeFile(d / "ok.toml", tinyScene(d));
-    CliRun r3 = runCli("render " + (d / "ok.toml").string() + " --set render.stepp=0.5");
+    CliRun r3 = runNimbus("render " + (d / "ok.toml").string() + " --set render.stepp=0.5");
     EXPECT_EQ(r3.exitCode, 2);
     EXPECT_NE(r3.output.find("render.stepp"), std::string::npos) << r3.output;
     // a missing file
-    CliRun r4 = runCli("render " + (d / "missing.toml").string());
+    CliRun r4 = runNimbus("render " + (d / "missing.toml").string());
     EXPECT_NE(r4.exitCode, 0);
     EXPECT_NE(r4.output.find("missing.toml"), std::string::npos) << r4.output;
     // several frames into one file name
-    CliRun r5 =
-        runCli("render " + (d / "ok.toml").string() + " --frames 1-2 -o " + (d / "x.exr").string());
+    CliRun r5 = runNimbus("render " + (d / "ok.toml").string() + " --frames 1-2 -o " +
+                          (d / "x.exr").string());
     EXPECT_EQ(r5.exitCode, 2);
     EXPECT_NE(r5.output.find("frame token"), std::string::npos) << r5.output;
     EXPECT_FALSE(fs::exists(d / "tiny.0001.exr")); // nothing rendered on bad input
@@ -206,7 +190,7 @@ TEST(Cli, InterruptedRenderLeavesNoFile) {
 TEST(Cli, ExplainPrintsThePlanWithoutRendering) {
     fs::path d = tempDir("explain");
     writeFile(d / "e.toml", tinyScene(d));
-    CliRun r = runCli("render " + (d / "e.toml").string() + " --explain");
+    CliRun r = runNimbus("render " + (d / "e.toml").string() + " --explain");
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_NE(r.output.find("field noise"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("empty-space skipping"), std::string::npos);
@@ -217,9 +201,9 @@ TEST(Cli, ExplainPrintsThePlanWithoutRendering) {
 TEST(Cli, ConvergeWritesTableAndCsv) {
     fs::path d = tempDir("converge");
     writeFile(d / "c.toml", tinyScene(d));
-    CliRun r = runCli("converge " + (d / "c.toml").string() +
-                      " --ladder 4,2,1 --reference-step 0.25 --csv " + (d / "c.csv").string() +
-                      " --set camera.width=24 --set camera.height=14");
+    CliRun r = runNimbus("converge " + (d / "c.toml").string() +
+                         " --ladder 4,2,1 --reference-step 0.25 --csv " + (d / "c.csv").string() +
+                         " --set camera.width=24 --set camera.height=14");
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_NE(r.output.find("rel. RMSE"), std::string::npos) << r.output;
     std::ifstream f(d / "c.csv");

@@ -32,23 +32,6 @@ std::string errorOf(const std::string& text) {
     return "(no error)";
 }
 
-struct CliRun {
-    int exitCode = -1;
-    std::string output;
-};
-
-CliRun runNimbus(const std::string& args) {
-    CliRun r;
-    FILE* p = popen((std::string(NIMBUS_CLI_PATH) + " " + args + " 2>&1").c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-    const int st = pclose(p);
-    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    return r;
-}
-
 const fs::path kData = NIMBUS_SHARED_VDB_DIR;
 
 } // namespace

@@ -180,24 +180,6 @@ template <class T> std::vector<char> with(std::vector<char> d, std::size_t at, T
     return d;
 }
 
-/// Output and exit code of the nimbus command.
-struct CliRun {
-    int exitCode = -1;
-    std::string output; // stdout + stderr
-};
-CliRun runNimbus(const std::string& args, const std::string& env = "") {
-    CliRun r;
-    const std::string cmd = (env.empty() ? "" : env + " ") + NIMBUS_CLI_PATH + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    std::size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-    const int st = pclose(p);
-    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    return r;
-}
-
 /// What became of the corrupted copies of one file.
 struct SweepResult {
     int loaded = 0, refused = 0, crashed = 0, killed = 0, timedOut = 0;

@@ -14,28 +14,12 @@
 
 #include "core/field.h"
 #include "plugin/io/image_output.h"
+#include "test_util.h"
 #include "plugin/vdb/vdb_reader.h"
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct Result {
-    int exitCode = -1;
-    std::string output;
-};
-
-Result runNimbus(const std::string& args) {
-    Result r;
-    FILE* p = popen((std::string(NIMBUS_CLI_PATH) + " " + args + " 2>&1").c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-    const int st = pclose(p);
-    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    return r;
-}
 
 const fs::path kData = NIMBUS_SHARED_VDB_DIR;
 
@@ -65,7 +49,7 @@ TEST(VdbRender, Smoke1RendersAPlume) {
     REQUIRE_DATA();
     const fs::path dir =
         fs::temp_directory_path() / ("nimbus_vdbr_smoke_" + std::to_string(getpid()));
-    Result r =
+    CliRun r =
         runNimbus("render " + writeScene(dir, "openvdb_smoke1.vdb", "", 15.0f, 90.0f).string() +
                   " --progress none");
     ASSERT_EQ(r.exitCode, 0) << r.output;
@@ -88,7 +72,7 @@ TEST(VdbRender, EmptyFrameRendersTransparentWithAWarning) {
     REQUIRE_DATA();
     const fs::path dir =
         fs::temp_directory_path() / ("nimbus_vdbr_empty_" + std::to_string(getpid()));
-    Result r =
+    CliRun r =
         runNimbus("render " + writeScene(dir, "usd_smoke_000001.vdb", "", 0.0f, 10.0f).string() +
                   " --progress none");
     ASSERT_EQ(r.exitCode, 0) << r.output;
@@ -104,7 +88,7 @@ TEST(VdbRender, EmptyFrameRendersTransparentWithAWarning) {
 TEST(VdbRender, LevelSetIsRefusedWithAClearMessage) {
     REQUIRE_DATA();
     const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbr_ls_" + std::to_string(getpid()));
-    Result r = runNimbus(
+    CliRun r = runNimbus(
         "render " +
         writeScene(dir, "gaffer_sphere.vdb", "grid = \"ls_sphere\"\n", 0.0f, 10.0f).string() +
         " --progress none");
@@ -113,7 +97,7 @@ TEST(VdbRender, LevelSetIsRefusedWithAClearMessage) {
     EXPECT_NE(r.output.find("level set"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(dir / "out.0001.exr"));
     // and converts when asked
-    Result c = runNimbus("render " +
+    CliRun c = runNimbus("render " +
                          writeScene(dir, "gaffer_sphere.vdb",
                                     "grid = \"ls_sphere\"\nlevelset_to_fog = true\n", 0.0f, 10.0f)
                              .string() +
@@ -126,7 +110,7 @@ TEST(VdbRender, MissingGridListsTheGridsThatExist) {
     REQUIRE_DATA();
     const fs::path dir =
         fs::temp_directory_path() / ("nimbus_vdbr_miss_" + std::to_string(getpid()));
-    Result r = runNimbus(
+    CliRun r = runNimbus(
         "render " +
         writeScene(dir, "usd_densityAndHeat.vdb", "grid = \"smoke\"\n", 0.0f, 10.0f).string() +
         " --progress none");
@@ -145,7 +129,7 @@ TEST(VdbBakeCli, BakedCumulusReadsBackAsTheFieldItSampled) {
              "bounds_max = [6.0, 4.0, 6.0]\nbase_octaves = 2\ndetail_octaves = 1\n"
              "evaluation = \"direct\"\n";
     }
-    Result r = runNimbus("bake " + (dir / "c.toml").string() + " -o " +
+    CliRun r = runNimbus("bake " + (dir / "c.toml").string() + " -o " +
                          (dir / "c.####.vdb").string() + " --frames 3 --voxel 0.25");
     ASSERT_EQ(r.exitCode, 0) << r.output;
     nimbus::vdb::VdbLoadOptions opt;
@@ -184,7 +168,7 @@ TEST(VdbRender, ConvergeMeasuresAVdbScene) {
     const fs::path dir =
         fs::temp_directory_path() / ("nimbus_vdbr_conv_" + std::to_string(getpid()));
     const fs::path scene = writeScene(dir, "openvdb_smoke1.vdb", "", 15.0f, 90.0f);
-    Result r = runNimbus("converge " + scene.string() +
+    CliRun r = runNimbus("converge " + scene.string() +
                          " --ladder 4,1 --reference-step 0.25 --csv " + (dir / "c.csv").string());
     ASSERT_EQ(r.exitCode, 0) << r.output;
     std::ifstream f(dir / "c.csv");

@@ -75,10 +75,7 @@ int loadScene(const std::string& path, const std::vector<std::string>& overrides
     for (const auto& w : out.file.warnings) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
     // Embree only for scenes that need it: surfaces, or instances to find
     SceneDesc& s = out.file.scene;
-    const bool instanced =
-        s.instances.size() > 1 ||
-        (s.instances.size() == 1 && instanceTransform(s.instances[0]) != glm::mat4(1.0f));
-    if (s.ground.enabled || !s.meshes.empty() || instanced) {
+    if (s.ground.enabled || !s.meshes.empty() || isInstanced(s)) {
         std::vector<std::string> warnings;
         try {
             s.geometry = geom::makeEmbreeGeometry(
@@ -96,13 +93,9 @@ bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s) {
     std::vector<std::string> warnings;
     const std::string dir = std::filesystem::path(f.path).parent_path().string();
     try {
-        bool fieldPlaced = s.instances.empty();
-        for (const InstanceDesc& d : s.instances) fieldPlaced = fieldPlaced || d.volume == 0;
-        if (fieldPlaced) vdb::attachVdbField(s.field, dir, frame, warnings);
+        if (isPlaced(s, 0)) vdb::attachVdbField(s.field, dir, frame, warnings);
         for (size_t i = 0; i < s.volumes.size(); ++i) {
-            bool placed = false;
-            for (const InstanceDesc& d : s.instances) placed = placed || d.volume == int(i) + 1;
-            if (!placed) continue; // never read
+            if (!isPlaced(s, int(i) + 1)) continue; // never read
             try {
                 vdb::attachVdbField(s.volumes[i].field, dir, frame, warnings);
             } catch (const std::exception& e) {

@@ -58,8 +58,12 @@ bool measure(const SceneDesc& s, int frame, Measured& m) {
 }
 
 /// A path-traced reference rendered as two independent halves (seeds differ): their mean is the
-/// reference and their difference measures its noise. Returns false when interrupted.
+/// reference and their difference measures its noise. A march reference or a one-sample one is
+/// rendered once, noise 0. Returns false when interrupted.
 bool measureReference(const SceneDesc& s, int frame, Measured& ref, double& noise) {
+    noise = 0.0;
+    if (s.render.integrator != Integrator::PathTrace || s.render.spp <= 1)
+        return measure(s, frame, ref);
     SceneDesc half = s;
     half.render.spp = std::max(1, s.render.spp / 2);
     Measured b;
@@ -171,11 +175,7 @@ int runConverge(const ConvergeOptions& o) {
                  base.camera.height);
     Measured ref;
     double refNoise = 0.0;
-    if (o.referenceSpp > 1) {
-        if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
-    } else if (!measure(refScene, frame, ref)) {
-        return kExitInterrupted;
-    }
+    if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
     const double refRms = rms(ref.fb);
     if (refRms > 0)
         std::fprintf(stderr, "reference noise (two halves): RMSE %.3g, %.2f%% relative\n", refNoise,
@@ -348,11 +348,7 @@ int runCalibrate(const CalibrateOptions& o) {
                  base.camera.width, base.camera.height);
     Measured ref;
     double refNoise = 0.0;
-    if (o.referenceSpp > 1) {
-        if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
-    } else if (!measure(refScene, frame, ref)) {
-        return kExitInterrupted;
-    }
+    if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
     const double refRms = rms(ref.fb);
 
     int evaluations = 0;

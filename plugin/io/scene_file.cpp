@@ -32,6 +32,7 @@
 
 #include <toml++/toml.h>
 
+#include "core/volumes.h"
 #include "plugin/io/frames.h"
 
 namespace nimbus::io {
@@ -1777,9 +1778,7 @@ void resolveArrays(Staging& s, Problems& pr) {
         }
     if (placed) // volumes nobody places are never read
         for (size_t i = 0; i < sc.volumes.size(); ++i) {
-            bool used = false;
-            for (const InstanceDesc& d : sc.instances) used = used || d.volume == int(i) + 1;
-            if (!used && i < s.volumeWhere.size())
+            if (!isPlaced(sc, int(i) + 1) && i < s.volumeWhere.size())
                 s.file.warnings.push_back(s.volumeWhere[i].prefix + ": warning: volume " +
                                           quote(sc.volumes[i].name) +
                                           " is not placed by any [[instance]] or [[scatter]]; "
