@@ -34,11 +34,14 @@ struct ConvergeOptions {
     double referenceStep = 0.125;     ///< march reference: step multiplier (referenceSpp == 0)
     int referenceSpp = 0;             ///< > 0: the reference is pathtrace with this many spp
     std::vector<int> pathtraceLadder; ///< pathtrace rungs (samples per pixel)
+    std::vector<int> photonLadder;    ///< march rungs with multiple_scattering = photons
     double scale = 1.0;               ///< resolution multiplier for every render
     std::string csv;
     std::string plot; ///< PNG of error against time (gnuplot), empty = none
     int threads = -1;
-    bool boxFilter = false; ///< pathtrace averages over pixels (march samples their centres)
+    bool boxFilter = false;    ///< pathtrace averages over pixels (march samples their centres)
+    std::string saveReference; ///< write the reference here (EXR, scene-linear working space)
+    std::string loadReference; ///< read the reference from here instead of rendering it
 };
 
 struct CalibrateOptions {
@@ -49,6 +52,8 @@ struct CalibrateOptions {
     double scale = 0.25;
     int threads = -1;
     bool boxFilter = false;
+    std::string saveReference;
+    std::string loadReference;
 };
 
 int runRender(const RenderOptions& o);

@@ -15,6 +15,8 @@
 #include "plugin/cli/common.h"
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/frames.h"
+#include "plugin/io/image_output.h"
+#include "plugin/io/scene_setup.h"
 
 namespace nimbus::cli {
 
@@ -129,6 +131,84 @@ bool writeText(const std::string& path, const std::string& text) {
     return true;
 }
 
+namespace {
+
+/// The reference of converge and calibrate: rendered (and with --save-reference kept as an EXR
+/// in the working space, no colour conversion, its label and noise in the header), or read back
+/// from such a file. Returns an exit code; `label` becomes the file's label when loaded.
+int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, int frame,
+                    const std::string& save, const std::string& load, std::string& label,
+                    Measured& ref, double& noise) {
+    const int w = refScene.camera.width, h = refScene.camera.height;
+    if (!load.empty()) {
+        io::ExrImage img;
+        try {
+            img = io::readExr(load);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: --reference: %s\n", e.what());
+            return kExitBadInput;
+        }
+        auto attr = [&](const std::string& key) {
+            auto it = img.attributes.find(key);
+            return it == img.attributes.end() ? std::string() : it->second;
+        };
+        const std::string fileLabel = attr("nimbus/settings/reference");
+        const std::string fileNoise = attr("nimbus/settings/reference_noise_rmse");
+        int c[4];
+        const char* names[4] = {"R", "G", "B", "A"};
+        for (int k = 0; k < 4; ++k) c[k] = img.channelIndex(names[k]);
+        std::string why;
+        if (fileLabel.empty() || fileNoise.empty())
+            why = "not written by --save-reference (no nimbus/settings/reference header)";
+        else if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[3] < 0)
+            why = "it has no R, G, B and A channels";
+        else if (img.width != w || img.height != h)
+            why = "it is " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                  ", the renders are " + std::to_string(w) + "x" + std::to_string(h) +
+                  " (check --scale)";
+        else if (attr("nimbus/frame") != std::to_string(frame))
+            why = "it is of frame " + attr("nimbus/frame") + ", not frame " + std::to_string(frame);
+        if (!why.empty()) {
+            std::fprintf(stderr, "nimbus: error: --reference %s: %s\n", load.c_str(), why.c_str());
+            return kExitBadInput;
+        }
+        ref.fb.resize(w, h, AovSet{});
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                for (int k = 0; k < 4; ++k)
+                    ref.fb.rgba[(size_t(y) * w + x) * 4 + k] = img.at(x, y, c[k]);
+        noise = std::strtod(fileNoise.c_str(), nullptr);
+        ref.seconds = std::strtod(attr("nimbus/renderTime").c_str(), nullptr);
+        label = fileLabel + " (read from " + load + ")";
+        std::fprintf(stderr, "reference: %s\n", label.c_str());
+        return kExitOk;
+    }
+    std::fprintf(stderr, "reference: %s at %dx%d ...\n", label.c_str(), w, h);
+    if (!measureReference(refScene, frame, ref, noise)) return kExitInterrupted;
+    if (!save.empty()) {
+        io::ExrMetadata md;
+        md.frame = frame;
+        md.seed = refScene.render.seed;
+        md.renderSeconds = ref.seconds;
+        md.settings["scene"] = ls.file.path;
+        md.settings["reference"] = label;
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.9g", noise);
+        md.settings["reference_noise_rmse"] = buf;
+        const std::string ws = io::workingSpace(*ls.cs);
+        try {
+            io::writeExr(save, ref.fb, *ls.cs, ws, ws, md);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: --save-reference: %s\n", e.what());
+            return kExitIo;
+        }
+        std::fprintf(stderr, "wrote the reference to %s\n", save.c_str());
+    }
+    return kExitOk;
+}
+
+} // namespace
+
 int runConverge(const ConvergeOptions& o) {
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
@@ -140,6 +220,11 @@ int runConverge(const ConvergeOptions& o) {
     for (int spp : o.pathtraceLadder)
         if (spp < 1) {
             std::fprintf(stderr, "nimbus: error: --pathtrace-ladder: %d spp must be >= 1\n", spp);
+            return kExitBadInput;
+        }
+    for (int n : o.photonLadder)
+        if (n < 1) {
+            std::fprintf(stderr, "nimbus: error: --photon-ladder: %d photons must be >= 1\n", n);
             return kExitBadInput;
         }
     if (!(o.scale > 0.0) || o.referenceSpp < 0) {
@@ -171,11 +256,11 @@ int runConverge(const ConvergeOptions& o) {
         std::snprintf(buf, sizeof buf, "march, step x %g", o.referenceStep);
         refLabel = buf;
     }
-    std::fprintf(stderr, "reference: %s at %dx%d ...\n", refLabel.c_str(), base.camera.width,
-                 base.camera.height);
     Measured ref;
     double refNoise = 0.0;
-    if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
+    if (int rc = obtainReference(ls, refScene, frame, o.saveReference, o.loadReference, refLabel,
+                                 ref, refNoise))
+        return rc;
     const double refRms = rms(ref.fb);
     if (refRms > 0)
         std::fprintf(stderr, "reference noise (two halves): RMSE %.3g, %.2f%% relative\n", refNoise,
@@ -203,6 +288,15 @@ int runConverge(const ConvergeOptions& o) {
         other.label =
             other.scene.render.shadow == ShadowMethod::Volume ? "shadow volume" : "shadow march";
         if (base.sun.enabled) rungs.push_back(other);
+    }
+    for (int n : o.photonLadder) {
+        Rung r{"march", "photons " + std::to_string(n), base, 1.0};
+        r.scene.render.integrator = Integrator::March;
+        r.scene.render.multipleScattering = MultipleScattering::Photons;
+        r.scene.render.photons = n;
+        r.scene.render.octaves = 1;
+        r.scene.render.msStrength = 1.0f;
+        rungs.push_back(r);
     }
     for (int spp : o.pathtraceLadder) {
         Rung r{"pathtrace", std::to_string(spp) + " spp", base, 1.0};
@@ -344,11 +438,13 @@ int runCalibrate(const CalibrateOptions& o) {
     refScene.render.integrator = Integrator::PathTrace;
     refScene.render.spp = o.referenceSpp;
     if (!o.boxFilter) refScene.render.jitter = false; // pixel centres, as march samples them
-    std::fprintf(stderr, "reference: pathtrace %d spp at %dx%d ...\n", o.referenceSpp,
-                 base.camera.width, base.camera.height);
+    std::string refLabel = "pathtrace " + std::to_string(o.referenceSpp) + " spp" +
+                           (o.boxFilter ? ", box filter" : ", pixel centres");
     Measured ref;
     double refNoise = 0.0;
-    if (!measureReference(refScene, frame, ref, refNoise)) return kExitInterrupted;
+    if (int rc = obtainReference(ls, refScene, frame, o.saveReference, o.loadReference, refLabel,
+                                 ref, refNoise))
+        return rc;
     const double refRms = rms(ref.fb);
 
     int evaluations = 0;
@@ -454,10 +550,10 @@ int runCalibrate(const CalibrateOptions& o) {
         std::fprintf(stderr, "pass %d: rel. RMSE %.2f%%\n", pass + 1, 100.0 * bestErr);
     }
     const double noise = refNoise / std::max(refRms, 1e-30);
-    std::printf("calibrated against pathtrace %d spp (%dx%d, %d march renders; reference noise "
+    std::printf("calibrated against %s (%dx%d, %d march renders; reference noise "
                 "%.2f%%):\n  relative RMSE %.2f%% -> %.2f%% (%.2f%% -> %.2f%% without the "
                 "reference noise)\n\n[render]\noctaves = %d\n",
-                o.referenceSpp, base.camera.width, base.camera.height, evaluations, 100.0 * noise,
+                refLabel.c_str(), base.camera.width, base.camera.height, evaluations, 100.0 * noise,
                 100.0 * startErr, 100.0 * bestErr, 100.0 * corrected(startErr, noise),
                 100.0 * corrected(bestErr, noise), best.render.octaves);
     for (const char* section : {"render", "sky"}) {

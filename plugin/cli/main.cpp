@@ -21,6 +21,22 @@
 
 using namespace nimbus;
 
+namespace {
+
+/// --save-reference / --reference of converge and calibrate: a path-traced reference costs
+/// minutes, so it can be kept and reused for every later measurement of the same frame.
+void addReferenceFileOptions(CLI::App* cmd, std::string& save, std::string& load) {
+    auto* s = cmd->add_option("--save-reference", save,
+                              "Also write the reference to this EXR (scene-linear, with its noise "
+                              "and settings in the header) for later runs");
+    cmd->add_option("--reference", load,
+                    "Read the reference from an EXR written by --save-reference instead of "
+                    "rendering it (its frame and resolution must match)")
+        ->excludes(s);
+}
+
+} // namespace
+
 int main(int argc, char** argv) {
     CLI::App app{"nimbus " NIMBUS_VERSION " - offline renderer for volumetric clouds.\n"
                  "Renders TOML scenes (see `nimbus reference`) to colour-managed OpenEXR frame "
@@ -101,6 +117,11 @@ int main(int argc, char** argv) {
         ->add_option("--pathtrace-ladder", co.pathtraceLadder,
                      "pathtrace rungs: samples per pixel, e.g. 1,4,16,64")
         ->delimiter(',');
+    converge
+        ->add_option("--photon-ladder", co.photonLadder,
+                     "march rungs with render.multiple_scattering = \"photons\" (one octave), "
+                     "photons per frame, e.g. 250000,1000000")
+        ->delimiter(',');
     converge->add_option("--scale", co.scale, "Resolution multiplier for every render")
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
@@ -112,6 +133,7 @@ int main(int argc, char** argv) {
                        "pathtrace renders average over each pixel (by default they sample the "
                        "pixel centres, as march does, so the error is the lighting's, not "
                        "aliasing)");
+    addReferenceFileOptions(converge, co.saveReference, co.loadReference);
 
     cli::CalibrateOptions ko;
     auto* calibrate = app.add_subcommand(
@@ -132,6 +154,7 @@ int main(int argc, char** argv) {
     calibrate->add_flag("--box-filter", ko.boxFilter,
                         "The reference averages over each pixel (default: pixel centres, as "
                         "march samples them)");
+    addReferenceFileOptions(calibrate, ko.saveReference, ko.loadReference);
 
     cli::BakeOptions bo;
     auto* bake = app.add_subcommand(
