@@ -29,17 +29,7 @@ struct Cell {
 } // namespace
 
 vec3 DiffusionVolume::sample(vec3 p) const {
-    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
-    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
-    const ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
-    const ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
-    const vec3 f = u - vec3(i0);
-    auto at = [&](int x, int y, int z) { return phi[index(res, x, y, z)]; };
-    const vec3 c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
-    const vec3 c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
-    const vec3 c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
-    const vec3 c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
-    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
+    return sampleVoxelCentres(phi, bounds.lo, res, voxel, p);
 }
 
 vec3 DiffusionVolume::sample(vec3 p, vec3 grad[3]) const {

@@ -3,6 +3,10 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
 #include <glm/glm.hpp>
 
 namespace nimbus {
@@ -52,6 +56,37 @@ inline bool intersectBox(const Ray& r, const Box& b, float tmin, float tmax, flo
         if (t0 > t1) return false;
     }
     return true;
+}
+
+/// A unit direction with the given cosine to unit `axis`, at azimuth 2 pi u around it
+/// (orthonormal basis of Duff et al. 2017).
+inline vec3 aroundAxis(vec3 axis, float cosTheta, float u) {
+    const float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
+    const float phi = 6.28318530718f * u;
+    const float sign = std::copysign(1.0f, axis.z);
+    const float a = -1.0f / (sign + axis.z);
+    const float b = axis.x * axis.y * a;
+    const vec3 t1(1.0f + sign * axis.x * axis.x * a, sign * b, -sign * axis.x);
+    const vec3 t2(b, sign + axis.y * axis.y * a, -axis.y);
+    return glm::normalize(sinTheta * std::cos(phi) * t1 + sinTheta * std::sin(phi) * t2 +
+                          cosTheta * axis);
+}
+
+/// Trilinear interpolation of values at the voxel centres lo + (i + 0.5) voxel of a grid of
+/// `res` voxels (x fastest), clamped to the outermost centres.
+template <class T>
+T sampleVoxelCentres(const std::vector<T>& v, vec3 lo, ivec3 res, vec3 voxel, vec3 p) {
+    vec3 u = (p - lo) / voxel - vec3(0.5f);
+    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
+    const ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
+    const ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
+    const vec3 f = u - vec3(i0);
+    auto at = [&](int x, int y, int z) { return v[(size_t(z) * res.y + y) * res.x + x]; };
+    const T c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
+    const T c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
+    const T c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
+    const T c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
+    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
 }
 
 } // namespace nimbus

@@ -90,18 +90,7 @@ void propagate(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
 } // namespace
 
 float LightVolume::sample(vec3 p) const {
-    // voxel centres sit at lo + (i + 0.5) * voxel; clamp to the outermost centres
-    vec3 u = (p - bounds.lo) / voxel - vec3(0.5f);
-    u = glm::clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
-    ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
-    ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
-    vec3 f = u - vec3(i0);
-    auto at = [&](int x, int y, int z) { return tau[index(res, x, y, z)]; };
-    float c00 = glm::mix(at(i0.x, i0.y, i0.z), at(i1.x, i0.y, i0.z), f.x);
-    float c10 = glm::mix(at(i0.x, i1.y, i0.z), at(i1.x, i1.y, i0.z), f.x);
-    float c01 = glm::mix(at(i0.x, i0.y, i1.z), at(i1.x, i0.y, i1.z), f.x);
-    float c11 = glm::mix(at(i0.x, i1.y, i1.z), at(i1.x, i1.y, i1.z), f.x);
-    return glm::mix(glm::mix(c00, c10, f.y), glm::mix(c01, c11, f.y), f.z);
+    return sampleVoxelCentres(tau, bounds.lo, res, voxel, p);
 }
 
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,

@@ -43,6 +43,7 @@ std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector
                                            std::vector<float>* rhoOut = nullptr);
 
 struct DiffusionVolume; // core/diffusion.h
+struct PhotonVolume;    // core/photons.h
 
 /// What march's multiple-scattering and sky terms read (null when unused): the density
 /// integrals straight up and straight down (the vertical column above and below a sample) and
@@ -51,6 +52,7 @@ struct ScatterVolumes {
     const LightVolume* up = nullptr;
     const LightVolume* down = nullptr;
     const DiffusionVolume* diffusion = nullptr; ///< sun and sky multiple scattering
+    const PhotonVolume* photons = nullptr;      ///< the sun's multiple scattering (photons)
 };
 
 } // namespace nimbus

@@ -1,6 +1,7 @@
 #include "core/march.h"
 
 #include "core/diffusion.h"
+#include "core/photons.h"
 #include "core/sky.h"
 
 #include <algorithm>
@@ -178,7 +179,9 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
                         vec3 sun(0.0f);
                         float weight = 1.0f, extinction = 1.0f;
                         PhaseFunction octavePhase = phase_;
-                        for (int i = 0; i < s_.render.octaves; ++i) {
+                        // traced photons carry every higher order: the octaves stand down
+                        const int octaves = volumes_.photons ? 1 : s_.render.octaves;
+                        for (int i = 0; i < octaves; ++i) {
                             sun += weight * octavePhase.eval(cosTheta) *
                                    kern::beerLambert(sigmaT_ * (tau * extinction));
                             weight *= s_.render.octaveContribution;
@@ -187,6 +190,8 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt
                         }
                         S += s_.sun.irradiance * sun * inScatterFactor(rho, tau);
                     }
+                    // the sun light scattered more than once (core/photons.h)
+                    if (volumes_.photons) S += volumes_.photons->sample(p);
                 }
                 if (volumes_.diffusion) {
                     // sun light scattered more than once and all sky light (core/diffusion.h): the

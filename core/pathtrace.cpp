@@ -16,20 +16,6 @@ float mean3(vec3 v) {
     return (v.x + v.y + v.z) * (1.0f / 3.0f);
 }
 
-/// A direction with the given cosine to `axis`, at azimuth 2 pi u around it.
-vec3 aroundAxis(vec3 axis, float cosTheta, float u) {
-    const float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
-    const float phi = 6.28318530718f * u;
-    // Duff et al. 2017 orthonormal basis
-    const float sign = std::copysign(1.0f, axis.z);
-    const float a = -1.0f / (sign + axis.z);
-    const float b = axis.x * axis.y * a;
-    const vec3 t1(1.0f + sign * axis.x * axis.x * a, sign * b, -sign * axis.x);
-    const vec3 t2(b, sign + axis.y * axis.y * a, -axis.y);
-    return glm::normalize(sinTheta * std::cos(phi) * t1 + sinTheta * std::sin(phi) * t2 +
-                          cosTheta * axis);
-}
-
 } // namespace
 
 PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,

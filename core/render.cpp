@@ -12,6 +12,7 @@
 
 #include "core/camera.h"
 #include "core/diffusion.h"
+#include "core/photons.h"
 #include "core/light_volume.h"
 #include "core/march.h"
 #include "core/mie.h"
@@ -50,7 +51,7 @@ DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan) {
     p.g = PhaseFunction::fromMedium(s.medium).meanCosine();
     // the scale of the sun's multiply scattered light; the solve is linear, so scaling its
     // source leaves the sky's part alone (which the diffusion gets right: white furnace)
-    if (plan.shadows) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+    if (plan.shadows && !plan.photons) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
     if (plan.ambient) {
         const SkyDesc& k = s.sky;
         p.skyUp = p.skyDown = k.zenith * k.ambient;
@@ -79,7 +80,10 @@ std::string FramePlan::explain() const {
                         : std::string("shadow march per sample"))
       << "\n";
     o << "  multiple scattering: "
-      << (diffusion ? "diffusion solved on the light-volume grid (sun and sky)" : "octaves only")
+      << (photons     ? "sun: photons traced through the field, recorded on the light-volume "
+                        "grid; sky: diffusion on that grid"
+          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
+                      : "octaves only")
       << "\n";
     o << "  sky ambient: "
       << (!ambient        ? std::string("no")
@@ -136,8 +140,13 @@ FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     const bool marching = s.render.integrator == Integrator::March;
     // the grids of the diffusion and the column sky cover one untransformed volume
     const bool oneVolume = !p.instanced && s.volumes.empty();
-    p.diffusion = marching && oneVolume && (p.shadows || p.ambient) &&
-                  s.render.multipleScattering == MultipleScattering::Grid;
+    p.photons = marching && oneVolume && p.shadows &&
+                s.render.multipleScattering == MultipleScattering::Photons;
+    // the sky's multiple scattering is the diffusion grid's in either model
+    p.diffusion =
+        marching && oneVolume &&
+        ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
+         (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
     p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion &&
                       s.render.skyOcclusion == SkyOcclusion::Column;
 
@@ -273,7 +282,10 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         // nothing to light when the one volume is empty (an empty VDB frame)
         const bool any = !vs.instances.empty();
         const bool diffusion = plan.diffusion && any;
-        const bool toward = any && (plan.lightVolume || (diffusion && plan.shadows));
+        const bool photons = plan.photons && any;
+        // the diffusion's sun source needs the density integral toward the sun
+        const bool toward =
+            any && (plan.lightVolume || (diffusion && plan.shadows && !plan.photons));
         if (toward) dirs.push_back(s.sun.direction);
         if (plan.columnVolumes && any) {
             dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
@@ -281,11 +293,12 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         }
         std::vector<LightVolume> volumes;
         std::vector<float> rho;
-        if (diffusion && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
+        const bool needRho = diffusion || photons;
+        if (needRho && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
         if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
             volumes =
-                buildLightVolumes(field, dirs, plan.lightVolumeCell, g, diffusion ? &rho : nullptr);
+                buildLightVolumes(field, dirs, plan.lightVolumeCell, g, needRho ? &rho : nullptr);
             stats.lightVolumeSeconds = secondsSince(t0);
             stats.lightVolumeLookups = volumes.front().densityLookups;
         }
@@ -308,6 +321,24 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             stats.diffusionIterations = dv.iterations;
         }
         const SurfaceQuery* surfaces = s.geometry ? s.geometry->surfaces() : nullptr;
+        PhotonVolume pv;
+        if (photons) {
+            t0 = std::chrono::steady_clock::now();
+            PhotonParams pp;
+            pp.sigma_s = s.medium.sigma_s * s.medium.densityScale;
+            pp.sigma_a = s.medium.sigma_a * s.medium.densityScale;
+            pp.sunDirection = s.sun.direction;
+            pp.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+            pp.eye = s.camera.position;
+            pp.photons = s.render.photons;
+            pp.maxDepth = s.render.maxDepth;
+            pp.seed = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(s.render.seed));
+            pv = tracePhotons(vs, PhaseFunction::fromMedium(s.medium), volumes.front(), rho, pp,
+                              surfaces, cb.cancel);
+            sv.photons = &pv;
+            stats.photonSeconds = secondsSince(t0);
+            stats.photonLookups = pv.lookups;
+        }
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {

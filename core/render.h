@@ -36,6 +36,7 @@ struct FramePlan {
     bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
+    bool photons = false;       ///< march: the sun's multiple scattering from traced photons
     float lightVolumeCell = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries
@@ -60,6 +61,8 @@ struct RenderStats {
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
     double diffusionSeconds = 0.0;        ///< march: solving the multiple-scattering grid
     int diffusionIterations = 0;
+    double photonSeconds = 0.0;      ///< march: tracing the photons of the sun
+    std::uint64_t photonLookups = 0; ///< density lookups spent on them
     double integrateSeconds = 0.0;
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }
 };

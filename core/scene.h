@@ -167,7 +167,7 @@ struct MeshDesc {
 
 enum class InScatter { None, Olajos, Powder };
 /// march: approximation of the sun light scattered more than once (core/march.h).
-enum class MultipleScattering { None, Grid };
+enum class MultipleScattering { None, Grid, Photons };
 /// march: how much of the sky a point inside the medium sees (core/march.h).
 enum class SkyOcclusion { Height, Column };
 enum class Integrator { March, PathTrace };
@@ -203,7 +203,10 @@ struct RenderDesc {
     /// on the light-volume grid (core/diffusion.h); it replaces the sky ambient term. msStrength
     /// scales its sun part (diffusion loses light in moderately thick, porous cloud),
     /// msP1 weights its flux (P1) term. Octaves still add the short-range, forward part.
+    /// Photons: the sun's part from photons traced through the field once per frame
+    /// (core/photons.h; no octaves, no calibration), the sky's from the diffusion grid.
     MultipleScattering multipleScattering = MultipleScattering::Grid;
+    int photons = 200000; ///< Photons: photons leaving the sun per frame
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

@@ -223,3 +223,50 @@ TEST(Cli, ConvergeWritesTableAndCsv) {
     EXPECT_GT(column(lines[3], 9), 0.0);
     fs::remove_all(d);
 }
+
+TEST(Cli, ConvergeSavesAndReusesItsReference) {
+    // the reference written by --save-reference, read back with --reference, gives the same
+    // errors without rendering it again; a reference of another size or a foreign file is
+    // refused with a message that names the file
+    fs::path d = tempDir("converge-ref");
+    writeFile(d / "c.toml", tinyScene(d));
+    const std::string scene = (d / "c.toml").string();
+    const std::string size = " --set camera.width=24 --set camera.height=14";
+    const std::string ref = (d / "ref.exr").string();
+    CliRun a = runNimbus("converge " + scene + " --ladder 2 --reference-spp 8 --save-reference " +
+                         ref + " --csv " + (d / "a.csv").string() + size);
+    ASSERT_EQ(a.exitCode, 0) << a.output;
+    ASSERT_TRUE(fs::exists(ref));
+    CliRun b = runNimbus("converge " + scene + " --ladder 2 --reference " + ref +
+                         " --photon-ladder 2000 --csv " + (d / "b.csv").string() + size);
+    ASSERT_EQ(b.exitCode, 0) << b.output;
+    EXPECT_NE(b.output.find("read from"), std::string::npos) << b.output;
+    auto lines = [](const fs::path& p) {
+        std::ifstream f(p);
+        std::vector<std::string> out;
+        for (std::string l; std::getline(f, l);) out.push_back(l);
+        return out;
+    };
+    auto errors = [](const std::string& l) { // rmse and relative columns, not the time
+        size_t i = 0;
+        for (int comma = 0; i < l.size() && comma < 9; ++i) comma += l[i] == ',';
+        return l.substr(i);
+    };
+    const auto la = lines(d / "a.csv"), lb = lines(d / "b.csv");
+    ASSERT_GE(la.size(), 2u);
+    ASSERT_EQ(lb.size(), la.size() + 1) << "one photon rung more";
+    EXPECT_EQ(errors(la[1]), errors(lb[1])) << la[1] << "\n" << lb[1];
+    EXPECT_EQ(lb.back().rfind("march,photons 2000,", 0), 0u) << lb.back();
+
+    CliRun c = runNimbus("converge " + scene + " --ladder 2 --reference " + ref +
+                         " --set camera.width=20 --set camera.height=14");
+    EXPECT_EQ(c.exitCode, 2) << c.output;
+    EXPECT_NE(c.output.find("ref.exr"), std::string::npos) << c.output;
+    EXPECT_NE(c.output.find("24x14"), std::string::npos) << c.output;
+    writeFile(d / "junk.exr", "not an image");
+    CliRun e = runNimbus("converge " + scene + " --ladder 2 --reference " +
+                         (d / "junk.exr").string() + size);
+    EXPECT_EQ(e.exitCode, 2) << e.output;
+    EXPECT_NE(e.output.find("junk.exr"), std::string::npos) << e.output;
+    fs::remove_all(d);
+}

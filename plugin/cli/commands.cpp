@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -283,16 +284,27 @@ int runRender(const RenderOptions& o) {
         if (!o.quiet) {
             progress.finishLine();
             const double lookups = double(st.lookups());
-            std::fprintf(stderr,
-                         "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s, march %.2f s), "
-                         "%.1f M density lookups (%.1f M/s, %.0f%% in shadow rays), "
-                         "%.0f%% of majorant cells empty%s -> %s\n",
-                         frame, seconds, plan.bakeNoise ? "baked" : "direct", st.bakeSeconds,
-                         st.majorantSeconds, st.integrateSeconds, lookups * 1e-6,
-                         lookups * 1e-6 / std::max(st.integrateSeconds, 1e-9),
-                         100.0 * double(st.shadowSamples) / std::max(lookups, 1.0),
-                         100.0 * st.majorantEmptyFraction,
-                         st.majorantUsed ? "" : " (grid not used: too full)", out.c_str());
+            // the per-frame light grids, when the plan has any
+            char grids[160] = "";
+            if (st.lightVolumeSeconds > 0.0)
+                std::snprintf(grids, sizeof grids, ", light grids %.2f s", st.lightVolumeSeconds);
+            if (st.diffusionSeconds > 0.0)
+                std::snprintf(grids + std::strlen(grids), sizeof grids - std::strlen(grids),
+                              ", diffusion %.2f s", st.diffusionSeconds);
+            if (st.photonSeconds > 0.0)
+                std::snprintf(grids + std::strlen(grids), sizeof grids - std::strlen(grids),
+                              ", photons %.2f s", st.photonSeconds);
+            std::fprintf(
+                stderr,
+                "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s%s, march %.2f s), "
+                "%.1f M density lookups (%.1f M/s, %.0f%% in shadow rays), "
+                "%.0f%% of majorant cells empty%s -> %s\n",
+                frame, seconds, plan.bakeNoise ? "baked" : "direct", st.bakeSeconds,
+                st.majorantSeconds, grids, st.integrateSeconds, lookups * 1e-6,
+                lookups * 1e-6 / std::max(st.integrateSeconds, 1e-9),
+                100.0 * double(st.shadowSamples) / std::max(lookups, 1.0),
+                100.0 * st.majorantEmptyFraction,
+                st.majorantUsed ? "" : " (grid not used: too full)", out.c_str());
         }
     }
     progress.finishLine();

@@ -909,9 +909,16 @@ const std::vector<Param>& registry() {
                             NIMBUS_AT(scene.render.spp))
                         .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
         t.push_back(integer(ren, "max_depth", closed(1, 1 << 20),
-                            "Scattering events per path at most (1 = single scattering).",
+                            "Scattering events per path (and per photon) at most (1 = single "
+                            "scattering).",
                             NIMBUS_AT(scene.render.maxDepth))
-                        .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
+                        .usedWhen("render.integrator = \"pathtrace\" or "
+                                  "render.multiple_scattering = \"photons\"",
+                                  [](const SceneFile& f) {
+                                      return f.scene.render.integrator == Integrator::PathTrace ||
+                                             f.scene.render.multipleScattering ==
+                                                 MultipleScattering::Photons;
+                                  }));
         t.push_back(integer(ren, "rr_depth", closed(1, 1 << 20),
                             "Russian roulette (unbiased path termination) from this depth on.",
                             NIMBUS_AT(scene.render.rrDepth))
@@ -929,11 +936,12 @@ const std::vector<Param>& registry() {
                            "scattering, column sky occlusion; world units); 0 = the majorant cell.",
                            NIMBUS_AT(scene.render.lightVolumeCell))
                         .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
-                                  "\"grid\" or render.sky_occlusion = \"column\"",
+                                  "\"grid\" or \"photons\" or render.sky_occlusion = "
+                                  "\"column\"",
                                   [](const SceneFile& f) {
                                       const RenderDesc& r = f.scene.render;
                                       return r.shadow == ShadowMethod::Volume ||
-                                             r.multipleScattering == MultipleScattering::Grid ||
+                                             r.multipleScattering != MultipleScattering::None ||
                                              r.skyOcclusion == SkyOcclusion::Column;
                                   }));
         t.push_back(number(ren, "step", above(0), "Primary ray-march step (world units).",
@@ -988,27 +996,42 @@ const std::vector<Param>& registry() {
                         .usedWhen("render.octaves > 1", multiple));
         t.push_back(word(ren, "multiple_scattering",
                          WordTable<MultipleScattering>{{"none", MultipleScattering::None},
-                                                       {"grid", MultipleScattering::Grid}},
+                                                       {"grid", MultipleScattering::Grid},
+                                                       {"photons", MultipleScattering::Photons}},
                          "Sun light scattered more than once and sky light: none (octaves and "
-                         "the sky ambient term only), or grid: solved once per frame as a "
+                         "the sky ambient term only); grid: solved once per frame as a "
                          "diffusion process on the light-volume grid (Stam 1995; similarity "
                          "relation for g, Marshak boundaries lit by the sky), read trilinearly; "
-                         "it replaces the sky ambient term, octaves add to it.",
+                         "it replaces the sky ambient term, octaves add to it; photons: the "
+                         "sun's part from `render.photons` photons traced through the field "
+                         "once per frame and recorded on the light-volume grid toward the "
+                         "camera (no octaves, nothing to calibrate), the sky's from the "
+                         "diffusion grid.",
                          NIMBUS_AT(scene.render.multipleScattering)));
         auto gridOn = [](const SceneFile& f) {
-            return f.scene.render.multipleScattering == MultipleScattering::Grid;
+            return f.scene.render.multipleScattering != MultipleScattering::None;
         };
+        auto photonsOn = [](const SceneFile& f) {
+            return f.scene.render.multipleScattering == MultipleScattering::Photons;
+        };
+        t.push_back(integer(ren, "photons", closed(1, 1 << 30),
+                            "Photons traced from the sun per frame (multiple_scattering = "
+                            "\"photons\"); their noise falls as 1 / sqrt(photons).",
+                            NIMBUS_AT(scene.render.photons))
+                        .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
         t.push_back(number(ren, "ms_strength", atLeast(0),
                            "Scale of the grid's multiply scattered sun light (1 = the diffusion "
                            "solution, which loses light in moderately thick, porous cloud; the "
                            "sky's part is not scaled).",
                            NIMBUS_AT(scene.render.msStrength))
-                        .usedWhen("render.multiple_scattering = \"grid\"", gridOn));
+                        .usedWhen("render.multiple_scattering = \"grid\" or \"photons\"", gridOn));
         t.push_back(number(ren, "ms_p1", closed(0, 1),
                            "Grid diffusion: weight of the flux term (phi + 3 g F.w) of the "
                            "diffuse radiance scattered toward the camera; 0 = isotropic.",
                            NIMBUS_AT(scene.render.msP1))
-                        .usedWhen("render.multiple_scattering = \"grid\"", gridOn));
+                        .usedWhen("render.multiple_scattering = \"grid\"", [](const SceneFile& f) {
+                            return f.scene.render.multipleScattering == MultipleScattering::Grid;
+                        }));
         t.push_back(word(ren, "sky_occlusion",
                          WordTable<SkyOcclusion>{{"height", SkyOcclusion::Height},
                                                  {"column", SkyOcclusion::Column}},

@@ -1,0 +1,236 @@
+#include "core/photons.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "core/sampler.h"
+
+namespace nimbus {
+
+namespace {
+
+constexpr double kFixed = 1048576.0; // 2^20: fixed-point scale of the sums
+constexpr float kMaxDeposit = 1e12f; // one deposit at most (keeps the sums far from overflow)
+
+inline size_t index(const ivec3& res, int x, int y, int z) {
+    return (size_t(z) * res.y + y) * res.x + x;
+}
+
+/// What one thread adds up: 3 channels per recording voxel, and its counters.
+struct Tally {
+    std::vector<std::int64_t> sum;
+    std::uint64_t deposits = 0, lookups = 0, lost = 0;
+    std::int64_t hits = 0;
+};
+
+} // namespace
+
+vec3 PhotonVolume::sample(vec3 p) const {
+    return sampleVoxelCentres(radiance, bounds.lo, res, voxel, p);
+}
+
+PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const LightVolume& geo,
+                          const std::vector<float>& rho, const PhotonParams& p,
+                          const SurfaceQuery* surfaces, const std::atomic<bool>* cancel) {
+    PhotonVolume pv;
+    pv.bounds = geo.bounds;
+    pv.res = geo.res;
+    pv.voxel = geo.voxel;
+    const ivec3 res = geo.res;
+    const size_t n = size_t(res.x) * res.y * res.z;
+    pv.radiance.assign(n, vec3(0.0f));
+    const vec3 sigmaT = p.sigma_s + p.sigma_a;
+    const float sigmaTMax = maxComponent(sigmaT);
+    const float sigmaTMean = (sigmaT.x + sigmaT.y + sigmaT.z) / 3.0f;
+    if (p.photons <= 0 || sigmaTMax <= 0.0f || maxComponent(p.sunIrradiance) <= 0.0f ||
+        rho.size() != n)
+        return pv;
+
+    // the voxels that record: those with density at their centre and their 26 neighbours
+    // (density can fill part of a voxel whose centre is empty)
+    std::vector<int> active(n, -1);
+    std::vector<std::uint32_t> cells;
+    for (int z = 0; z < res.z; ++z)
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x) {
+                bool any = false;
+                for (int dz = -1; dz <= 1 && !any; ++dz)
+                    for (int dy = -1; dy <= 1 && !any; ++dy)
+                        for (int dx = -1; dx <= 1 && !any; ++dx) {
+                            const int xx = x + dx, yy = y + dy, zz = z + dz;
+                            if (xx < 0 || yy < 0 || zz < 0 || xx >= res.x || yy >= res.y ||
+                                zz >= res.z)
+                                continue;
+                            any = rho[index(res, xx, yy, zz)] > 0.0f;
+                        }
+                if (!any) continue;
+                active[index(res, x, y, z)] = int(cells.size());
+                cells.push_back(std::uint32_t(index(res, x, y, z)));
+            }
+    pv.activeVoxels = cells.size();
+    if (cells.empty()) return pv;
+
+    // photons start on a plane on the sun's side of the bounds, over the rectangle that covers
+    // the bounds seen from the sun; each carries the flux of its share of that rectangle
+    const vec3 d0 = -glm::normalize(p.sunDirection);
+    const vec3 u = aroundAxis(d0, 0.0f, 0.0f);
+    const vec3 v = glm::cross(d0, u);
+    const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
+    const float radius = 0.5f * glm::length(geo.bounds.extent());
+    vec2 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (int c = 0; c < 8; ++c) {
+        const vec3 q((c & 1) ? geo.bounds.hi.x : geo.bounds.lo.x,
+                     (c & 2) ? geo.bounds.hi.y : geo.bounds.lo.y,
+                     (c & 4) ? geo.bounds.hi.z : geo.bounds.lo.z);
+        const vec2 uv(glm::dot(q - centre, u), glm::dot(q - centre, v));
+        lo = glm::min(lo, uv);
+        hi = glm::max(hi, uv);
+    }
+    const vec2 span = hi - lo;
+    const vec3 origin = centre - d0 * (radius + 1.0f);
+    const vec3 cellCentre0 = geo.bounds.lo + 0.5f * geo.voxel;
+    const float invVolume = 1.0f / (geo.voxel.x * geo.voxel.y * geo.voxel.z);
+
+    tbb::enumerable_thread_specific<Tally> tallies([&] {
+        Tally t;
+        t.sum.assign(3 * cells.size(), 0);
+        return t;
+    });
+    const std::uint32_t key = kern::pcg(p.seed ^ 0x7f4a7c15u);
+    tbb::parallel_for(
+        tbb::blocked_range<std::int64_t>(0, p.photons, 256),
+        [&](const tbb::blocked_range<std::int64_t>& r) {
+            if (cancel && cancel->load(std::memory_order_relaxed)) return;
+            Tally& tally = tallies.local();
+            for (std::int64_t i = r.begin(); i != r.end(); ++i) {
+                Sampler rng{kern::pcg(key ^ kern::pcg(std::uint32_t(i) ^
+                                                      kern::pcg(std::uint32_t(i >> 32)))),
+                            0};
+                const float a = lo.x + span.x * rng.next(), b = lo.y + span.y * rng.next();
+                Ray ray{origin + a * u + b * v, d0};
+                vec3 w(1.0f);
+                for (int depth = 0; depth < p.maxDepth; ++depth) {
+                    float tmax = std::numeric_limits<float>::max();
+                    SurfaceHit hit;
+                    if (surfaces && surfaces->intersect(ray, depth ? 1e-4f : 0.0f, tmax, hit))
+                        tmax = hit.t;
+                    RayVolumes rv;
+                    if (!rv.begin(vs, ray, 0.0f, tmax)) break;
+                    // delta tracking; the mean channel chooses the events, every channel keeps
+                    // its own weight (for grey media the weight changes only by the albedo)
+                    bool collided = false;
+                    float tHit = 0.0f;
+                    MajorantSegment seg;
+                    while (!collided && rv.nextSegment(seg)) {
+                        const float sigmaMaj = seg.sigma_maj * sigmaTMax;
+                        float t = seg.t0;
+                        for (;;) {
+                            t -= std::log(1.0f - rng.next()) / sigmaMaj;
+                            if (t >= seg.t1) break;
+                            const float density = rv.density(t);
+                            ++tally.lookups;
+                            if (depth > 0) {
+                                // light scattered at least once: record it toward the camera
+                                const vec3 q = ray.at(t);
+                                const ivec3 c =
+                                    glm::clamp(ivec3(glm::floor((q - geo.bounds.lo) / geo.voxel)),
+                                               ivec3(0), res - ivec3(1));
+                                const int k = active[index(res, c.x, c.y, c.z)];
+                                if (k >= 0) {
+                                    const vec3 toEye =
+                                        glm::normalize(p.eye - (cellCentre0 + vec3(c) * geo.voxel));
+                                    // weighted by the density here: the voxel keeps
+                                    // int rho S dV, what march's samples scatter
+                                    const vec3 val =
+                                        glm::min(w * phase.eval(glm::dot(ray.d, toEye)) / sigmaMaj,
+                                                 vec3(kMaxDeposit));
+                                    std::int64_t* s = &tally.sum[3 * size_t(k)];
+                                    for (int ch = 0; ch < 3; ++ch)
+                                        s[ch] +=
+                                            std::int64_t(std::llround(double(val[ch]) * kFixed));
+                                    ++tally.deposits;
+                                } else {
+                                    ++tally.lost;
+                                }
+                            }
+                            const float pReal = sigmaTMean * density / sigmaMaj;
+                            if (rng.next() < pReal) {
+                                w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
+                                tHit = t;
+                                collided = true;
+                                break;
+                            }
+                            if (pReal < 1.0f)
+                                w *= (vec3(sigmaMaj) - sigmaT * density) /
+                                     (sigmaMaj * (1.0f - pReal));
+                        }
+                    }
+                    if (!collided) break; // left the volume (or hit a surface)
+                    if (depth == 0) ++tally.hits;
+                    // Russian roulette once absorption has taken weight
+                    const float m = maxComponent(w);
+                    if (m < 1.0f) {
+                        if (rng.next() >= m) break;
+                        w /= m;
+                    }
+                    const float u0 = rng.next(), u1 = rng.next();
+                    const PhaseSample ps = phase.sample(vec2(u0, u1));
+                    if (!(ps.pdf > 0.0f)) break;
+                    w *= ps.weight;
+                    ray = Ray{ray.at(tHit), aroundAxis(ray.d, ps.cosTheta, rng.next())};
+                }
+            }
+        });
+
+    // add the threads' sums (integers: the same total in any order), then scale by each
+    // photon's flux over the voxel volume
+    std::vector<std::int64_t> sum(3 * cells.size(), 0);
+    for (Tally& t : tallies) {
+        for (size_t k = 0; k < sum.size(); ++k) sum[k] += t.sum[k];
+        pv.deposits += t.deposits;
+        pv.lookups += t.lookups;
+        pv.lostDeposits += t.lost;
+        pv.hits += t.hits;
+    }
+    pv.photons = p.photons;
+    const double area = double(span.x) * span.y;
+    const vec3 flux = p.sunIrradiance * float(area / double(p.photons));
+    for (size_t k = 0; k < cells.size(); ++k)
+        pv.radiance[cells[k]] =
+            flux * invVolume *
+            vec3(float(double(sum[3 * k]) / kFixed), float(double(sum[3 * k + 1]) / kFixed),
+                 float(double(sum[3 * k + 2]) / kFixed));
+
+    // voxels that do not record take the mean of their recording face neighbours, so that
+    // trilinear lookups near the edge of the cloud do not blend toward zero
+    std::vector<vec3> filled = pv.radiance;
+    tbb::parallel_for(0, res.z, [&](int z) {
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x) {
+                const size_t i = index(res, x, y, z);
+                if (active[i] >= 0) continue;
+                vec3 acc(0.0f);
+                int count = 0;
+                const ivec3 q(x, y, z);
+                for (int f = 0; f < 6; ++f) {
+                    ivec3 qn = q;
+                    qn[f / 2] += (f & 1) ? 1 : -1;
+                    if (qn[f / 2] < 0 || qn[f / 2] >= res[f / 2]) continue;
+                    const size_t j = index(res, qn.x, qn.y, qn.z);
+                    if (active[j] < 0) continue;
+                    acc += pv.radiance[j];
+                    ++count;
+                }
+                if (count) filled[i] = acc / float(count);
+            }
+    });
+    pv.radiance = std::move(filled);
+    return pv;
+}
+
+} // namespace nimbus
