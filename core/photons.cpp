@@ -1,6 +1,7 @@
 #include "core/photons.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -94,6 +95,36 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const vec2 span = hi - lo;
     const vec3 origin = centre - d0 * (radius + 1.0f);
     const vec3 cellCentre0 = geo.bounds.lo + 0.5f * geo.voxel;
+
+    // photons read the density from a grid of half the majorant cell (or of the recording
+    // voxel without a majorant grid), filled once where the majorant grid has cloud and read
+    // trilinearly: a lookup there costs a few loads, not a field evaluation, and most of a
+    // photon's time is lookups. Its values are the field's own samples, so they keep to the
+    // same majorants (clamped where a trilinear footprint reaches over a cell's edge).
+    const MajorantGrid* mg = vs.useGrid[0] ? &vs.grids[0] : nullptr;
+    const vec3 ext = geo.bounds.extent();
+    const float target = 0.5f * (mg ? minComponent(mg->cellSize) : minComponent(geo.voxel));
+    ivec3 fineRes;
+    for (int a = 0; a < 3; ++a) fineRes[a] = std::max(2, int(std::ceil(ext[a] / target)));
+    const vec3 fineVoxel = ext / vec3(fineRes);
+    std::vector<float> fine(size_t(fineRes.x) * fineRes.y * fineRes.z, 0.0f);
+    std::atomic<std::uint64_t> fineLookups{0};
+    tbb::parallel_for(0, fineRes.z, [&](int z) {
+        std::uint64_t local = 0;
+        for (int y = 0; y < fineRes.y; ++y)
+            for (int x = 0; x < fineRes.x; ++x) {
+                const vec3 q = geo.bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * fineVoxel;
+                if (mg) {
+                    const ivec3 c = glm::clamp(ivec3((q - mg->bounds.lo) / mg->cellSize), ivec3(0),
+                                               mg->res - ivec3(1));
+                    if (mg->at(c) <= 0.0f) continue;
+                }
+                fine[index(fineRes, x, y, z)] = vs.densityAt(q);
+                ++local;
+            }
+        fineLookups += local;
+    });
+    pv.lookups += fineLookups;
     const float invVolume = 1.0f / (geo.voxel.x * geo.voxel.y * geo.voxel.z);
 
     tbb::enumerable_thread_specific<Tally> tallies([&] {
@@ -132,7 +163,9 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                         for (;;) {
                             t -= std::log(1.0f - rng.next()) / sigmaMaj;
                             if (t >= seg.t1) break;
-                            const float density = rv.density(t);
+                            const float density = std::min(
+                                seg.sigma_maj, sampleVoxelCentres(fine, geo.bounds.lo, fineRes,
+                                                                  fineVoxel, ray.at(t)));
                             ++tally.lookups;
                             if (depth > 0) {
                                 // light scattered at least once: record it toward the camera
