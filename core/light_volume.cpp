@@ -93,6 +93,30 @@ float LightVolume::sample(vec3 p) const {
     return sampleVoxelCentres(tau, bounds.lo, res, voxel, p);
 }
 
+std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3 res,
+                                    const MajorantGrid* grid, std::size_t& lookups) {
+    const vec3 voxel = bounds.extent() / vec3(res);
+    std::vector<float> rho(size_t(res.x) * res.y * res.z, 0.0f);
+    std::atomic<size_t> count{0};
+    tbb::parallel_for(0, res.z, [&](int z) {
+        size_t local = 0;
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x) {
+                const vec3 p = bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * voxel;
+                if (grid) {
+                    ivec3 c = glm::clamp(ivec3((p - grid->bounds.lo) / grid->cellSize), ivec3(0),
+                                         grid->res - ivec3(1));
+                    if (grid->at(c) <= 0.0f) continue;
+                }
+                rho[index(res, x, y, z)] = field.density(p);
+                ++local;
+            }
+        count += local;
+    });
+    lookups += count;
+    return rho;
+}
+
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid,
                                            std::vector<float>* rhoOut) {
@@ -103,26 +127,7 @@ std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector
     lv.voxel = ext / vec3(lv.res);
     const size_t n = size_t(lv.res.x) * lv.res.y * lv.res.z;
     lv.tau.assign(n, 0.0f);
-    std::vector<float> rho(n, 0.0f);
-    std::atomic<size_t> lookups{0};
-
-    // densities at voxel centres, skipping cells the majorant grid proves empty
-    tbb::parallel_for(0, lv.res.z, [&](int z) {
-        size_t local = 0;
-        for (int y = 0; y < lv.res.y; ++y)
-            for (int x = 0; x < lv.res.x; ++x) {
-                const vec3 p = lv.bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * lv.voxel;
-                if (grid) {
-                    ivec3 c = glm::clamp(ivec3((p - grid->bounds.lo) / grid->cellSize), ivec3(0),
-                                         grid->res - ivec3(1));
-                    if (grid->at(c) <= 0.0f) continue;
-                }
-                rho[index(lv.res, x, y, z)] = field.density(p);
-                ++local;
-            }
-        lookups += local;
-    });
-    lv.densityLookups = lookups;
+    std::vector<float> rho = densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups);
 
     std::vector<LightVolume> out;
     for (const vec3& d : dirs) {

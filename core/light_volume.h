@@ -31,6 +31,12 @@ struct LightVolume {
     float sample(vec3 p) const;
 };
 
+/// The densities of `field` at the centres of a grid of `res` voxels over `bounds` (x fastest);
+/// voxels whose centre lies in a cell the majorant grid (if given) proves empty stay 0 and are
+/// not evaluated. Adds the lookups made to `lookups`. TBB-parallel.
+std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3 res,
+                                    const MajorantGrid* grid, std::size_t& lookups);
+
 /// Builds the volume over field.bounds() with voxels of about `cell` world units. Cells the
 /// majorant grid (if given) proves empty are not evaluated. TBB-parallel within each slice.
 LightVolume buildLightVolume(const Field& field, vec3 sunDirection, float cell,

@@ -1,7 +1,6 @@
 #include "core/photons.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -22,11 +21,10 @@ inline size_t index(const ivec3& res, int x, int y, int z) {
     return (size_t(z) * res.y + y) * res.x + x;
 }
 
-/// What one thread adds up: 3 channels per recording voxel, and its counters.
+/// What one thread adds up: 3 channels per recording voxel, and its density lookups.
 struct Tally {
     std::vector<std::int64_t> sum;
-    std::uint64_t deposits = 0, lookups = 0, lost = 0;
-    std::int64_t hits = 0;
+    std::uint64_t lookups = 0;
 };
 
 } // namespace
@@ -73,7 +71,6 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                 active[index(res, x, y, z)] = int(cells.size());
                 cells.push_back(std::uint32_t(index(res, x, y, z)));
             }
-    pv.activeVoxels = cells.size();
     if (cells.empty()) return pv;
 
     // photons start on a plane on the sun's side of the bounds, over the rectangle that covers
@@ -107,24 +104,12 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     ivec3 fineRes;
     for (int a = 0; a < 3; ++a) fineRes[a] = std::max(2, int(std::ceil(ext[a] / target)));
     const vec3 fineVoxel = ext / vec3(fineRes);
-    std::vector<float> fine(size_t(fineRes.x) * fineRes.y * fineRes.z, 0.0f);
-    std::atomic<std::uint64_t> fineLookups{0};
-    tbb::parallel_for(0, fineRes.z, [&](int z) {
-        std::uint64_t local = 0;
-        for (int y = 0; y < fineRes.y; ++y)
-            for (int x = 0; x < fineRes.x; ++x) {
-                const vec3 q = geo.bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * fineVoxel;
-                if (mg) {
-                    const ivec3 c = glm::clamp(ivec3((q - mg->bounds.lo) / mg->cellSize), ivec3(0),
-                                               mg->res - ivec3(1));
-                    if (mg->at(c) <= 0.0f) continue;
-                }
-                fine[index(fineRes, x, y, z)] = vs.densityAt(q);
-                ++local;
-            }
-        fineLookups += local;
-    });
+    std::size_t fineLookups = 0;
+    std::vector<float> fine = densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups);
     pv.lookups += fineLookups;
+    // the one untransformed placement may scale the volume's density
+    if (vs.instances[0].density != 1.0f)
+        for (float& v : fine) v *= vs.instances[0].density;
     const float invVolume = 1.0f / (geo.voxel.x * geo.voxel.y * geo.voxel.z);
 
     tbb::enumerable_thread_specific<Tally> tallies([&] {
@@ -186,9 +171,6 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                     for (int ch = 0; ch < 3; ++ch)
                                         s[ch] +=
                                             std::int64_t(std::llround(double(val[ch]) * kFixed));
-                                    ++tally.deposits;
-                                } else {
-                                    ++tally.lost;
                                 }
                             }
                             const float pReal = sigmaTMean * density / sigmaMaj;
@@ -204,7 +186,6 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                         }
                     }
                     if (!collided) break; // left the volume (or hit a surface)
-                    if (depth == 0) ++tally.hits;
                     // Russian roulette once absorption has taken weight
                     const float m = maxComponent(w);
                     if (m < 1.0f) {
@@ -225,12 +206,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     std::vector<std::int64_t> sum(3 * cells.size(), 0);
     for (Tally& t : tallies) {
         for (size_t k = 0; k < sum.size(); ++k) sum[k] += t.sum[k];
-        pv.deposits += t.deposits;
         pv.lookups += t.lookups;
-        pv.lostDeposits += t.lost;
-        pv.hits += t.hits;
     }
-    pv.photons = p.photons;
     const double area = double(span.x) * span.y;
     const vec3 flux = p.sunIrradiance * float(area / double(p.photons));
     for (size_t k = 0; k < cells.size(); ++k)

@@ -49,12 +49,7 @@ struct PhotonVolume {
     /// In-scattered radiance toward the camera per unit phase-normalised scattering, at voxel
     /// centres (voxels without density: the mean of their recorded neighbours)
     std::vector<vec3> radiance;
-    std::int64_t photons = 0;       ///< traced
-    std::int64_t hits = 0;          ///< of them, scattered at least once
-    std::uint64_t deposits = 0;     ///< tentative collisions recorded
-    std::uint64_t lookups = 0;      ///< density lookups spent
-    std::size_t activeVoxels = 0;   ///< voxels that may record
-    std::uint64_t lostDeposits = 0; ///< tentative collisions in voxels without recorded density
+    std::uint64_t lookups = 0; ///< density lookups spent (filling its density grid, tracking)
 
     /// Trilinear lookup at world point p.
     vec3 sample(vec3 p) const;

@@ -8,40 +8,11 @@
 #include "core/diffusion.h"
 #include "core/light_volume.h"
 #include "core/render.h"
+#include "render_util.h"
 
 using namespace nimbus;
 
 namespace {
-
-Framebuffer render(const SceneDesc& s, AovSet aovs = {}) {
-    Renderer r(s);
-    Framebuffer fb;
-    RenderStats st;
-    EXPECT_TRUE(r.render(r.plan(1, aovs), fb, st));
-    EXPECT_EQ(st.nonFinite, 0u);
-    return fb;
-}
-
-SceneDesc smallCumulus() {
-    SceneDesc s;
-    s.camera.position = vec3(0.0f, 2.5f, -9.0f);
-    s.camera.lookAt = vec3(0.0f, 2.8f, 0.0f);
-    s.camera.width = 32;
-    s.camera.height = 20;
-    s.camera.fovY = 50.0f;
-    s.field.kind = FieldKind::Cumulus;
-    s.field.cumulus.bounds = Box{vec3(-6.0f, 1.5f, -6.0f), vec3(6.0f, 4.0f, 6.0f)};
-    s.field.cumulus.eval = NoiseEval::Direct;
-    s.field.cumulus.baseOctaves = 2;
-    s.field.cumulus.detailOctaves = 1;
-    s.medium.sigma_s = vec3(6.0f);
-    s.medium.sigma_a = vec3(0.0f);
-    s.render.step = 0.05f;
-    s.render.shadowStep = 0.05f;
-    s.render.inScatter = InScatter::None;
-    s.render.background = Background::Transparent;
-    return s;
-}
 
 /// A thick homogeneous box (optical depth 20 edge to edge), albedo 1, g = 0.5, low sun from
 /// the camera's right and a uniform sky.
@@ -70,28 +41,12 @@ SceneDesc thickBox() {
     return s;
 }
 
-double relativeRmse(const Framebuffer& a, const Framebuffer& ref) {
-    double sq = 0.0, r2 = 0.0;
-    for (size_t i = 0; i < ref.rgba.size(); ++i) {
-        sq += double(a.rgba[i] - ref.rgba[i]) * (a.rgba[i] - ref.rgba[i]);
-        r2 += double(ref.rgba[i]) * ref.rgba[i];
-    }
-    return std::sqrt(sq / r2);
-}
-
-double meanRgb(const Framebuffer& fb) {
-    double sum = 0.0;
-    for (size_t i = 0; i < fb.rgba.size(); ++i)
-        if (i % 4 != 3) sum += fb.rgba[i];
-    return sum / double(fb.width * fb.height * 3);
-}
-
 } // namespace
 
 TEST(Diffusion, WhiteFurnaceInCumulusReturnsTheSky) {
     // albedo 1 under a uniform sky: the exact answer is L_sky (1 - T) per pixel (pathtrace's
     // furnace test); the grid solve and the column model are normalised to give exactly that
-    SceneDesc s = smallCumulus();
+    SceneDesc s = smallCumulusLayer();
     s.sun.enabled = false;
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.7f, 1.0f, 1.3f);
@@ -99,7 +54,7 @@ TEST(Diffusion, WhiteFurnaceInCumulusReturnsTheSky) {
         s.render.multipleScattering =
             model == 0 ? MultipleScattering::Grid : MultipleScattering::None;
         s.render.skyOcclusion = SkyOcclusion::Column;
-        Framebuffer fb = render(s, AovSet{true, false});
+        Framebuffer fb = renderScene(s, nullptr, AovSet{true, false});
         int cloudy = 0;
         for (int i = 0; i < fb.width * fb.height; ++i) {
             cloudy += fb.transmittance[3 * i] < 0.5f;
@@ -173,17 +128,17 @@ TEST(Diffusion, VanishesInTheSingleScatteringLimit) {
         SceneDesc s = thickBox();
         s.sky.kind = SkyKind::None;
         s.medium.sigma_s = vec3(k == 0 ? 0.2f : 0.05f); // optical depth 0.4 and 0.1 across
-        const double single = meanRgb(render(s));
+        const double single = meanRgb(renderScene(s));
         s.render.multipleScattering = MultipleScattering::Grid;
-        const double both = meanRgb(render(s));
+        const double both = meanRgb(renderScene(s));
         share[k] = (both - single) / single;
         EXPECT_GE(share[k], 0.0);
         if (k == 0) {
             s.render.integrator = Integrator::PathTrace;
             s.render.spp = 4096;
-            const double all = meanRgb(render(s));
+            const double all = meanRgb(renderScene(s));
             s.render.maxDepth = 1;
-            const double first = meanRgb(render(s));
+            const double first = meanRgb(renderScene(s));
             EXPECT_NEAR(share[0], (all - first) / first, 0.08) << "pathtrace";
         }
     }
@@ -196,16 +151,16 @@ TEST(Diffusion, MarchMatchesPathtraceOnThickBox) {
     SceneDesc s = thickBox();
     s.render.integrator = Integrator::PathTrace;
     s.render.spp = 512;
-    const Framebuffer ref = render(s);
+    const Framebuffer ref = renderScene(s);
 
     SceneDesc v1 = thickBox();
     v1.render.octaves = 4;
     v1.render.inScatter = InScatter::Olajos;
-    const Framebuffer old = render(v1);
+    const Framebuffer old = renderScene(v1);
 
     SceneDesc v2 = thickBox();
     v2.render.multipleScattering = MultipleScattering::Grid;
-    const Framebuffer now = render(v2);
+    const Framebuffer now = renderScene(v2);
 
     const double eOld = relativeRmse(old, ref), eNew = relativeRmse(now, ref);
     const double mRef = meanRgb(ref);
@@ -216,14 +171,14 @@ TEST(Diffusion, MarchMatchesPathtraceOnThickBox) {
 }
 
 TEST(Diffusion, DeterministicAcrossThreadCounts) {
-    SceneDesc s = smallCumulus();
+    SceneDesc s = smallCumulusLayer();
     s.sun.direction = glm::normalize(vec3(0.6f, 0.4f, 0.5f));
     s.render.multipleScattering = MultipleScattering::Grid;
     s.render.octaves = 4;
     s.render.threads = 1;
-    const Framebuffer a = render(s);
+    const Framebuffer a = renderScene(s);
     s.render.threads = 2;
     s.render.tileSize = 8;
-    const Framebuffer b = render(s);
+    const Framebuffer b = renderScene(s);
     EXPECT_EQ(a.rgba, b.rgba);
 }

@@ -6,6 +6,7 @@
 
 #include "core/pathtrace.h"
 #include "core/render.h"
+#include "render_util.h"
 #include "core/sampler.h"
 #include "core/volumes.h"
 #include "plugin/geom/embree_geometry.h"
@@ -41,15 +42,6 @@ SceneDesc boxes() {
     return s;
 }
 
-Framebuffer render(const SceneDesc& s) {
-    Renderer r(s);
-    Framebuffer fb;
-    RenderStats st;
-    EXPECT_TRUE(r.render(r.plan(1), fb, st));
-    EXPECT_EQ(st.nonFinite, 0u);
-    return fb;
-}
-
 double maxDiff(const Framebuffer& a, const Framebuffer& b) {
     double m = 0.0;
     for (size_t i = 0; i < a.rgba.size(); ++i)
@@ -76,7 +68,7 @@ TEST(Instances, TranslatedInstanceEqualsMovedField) {
     SceneDesc b = boxes();
     b.field.homogeneous.box.lo += vec3(0.7f, 0.4f, 0.5f);
     b.field.homogeneous.box.hi += vec3(0.7f, 0.4f, 0.5f);
-    const Framebuffer fa = render(a), fb = render(b);
+    const Framebuffer fa = renderScene(a), fb = renderScene(b);
     ASSERT_GT(maxValue(fb), 0.05);
     EXPECT_LT(maxDiff(fa, fb), 1e-4);
 }
@@ -91,7 +83,7 @@ TEST(Instances, RotatedAndScaledInstanceEqualsTheBoxItBecomes) {
     a.instances.push_back(d);
     SceneDesc b = boxes();
     b.field.homogeneous.box = Box{vec3(-0.25f, -1.0f, -1.0f), vec3(0.25f, 1.0f, 1.0f)};
-    const Framebuffer fa = render(a), fb = render(b);
+    const Framebuffer fa = renderScene(a), fb = renderScene(b);
     ASSERT_GT(maxValue(fb), 0.05);
     // box edges sampled at 0.01 steps: a sample may fall on the other side of a face
     EXPECT_LT(maxDiff(fa, fb), 0.02);
@@ -103,7 +95,7 @@ TEST(Instances, OverlappingInstancesAddTheirExtinction) {
                    InstanceDesc{0, vec3(0.0f), vec3(0.0f), vec3(1.0f), 0.75f}};
     SceneDesc b = boxes();
     b.instances = {InstanceDesc{0, vec3(0.0f), vec3(0.0f), vec3(1.0f), 1.0f}};
-    const Framebuffer fa = render(a), fb = render(b);
+    const Framebuffer fa = renderScene(a), fb = renderScene(b);
     EXPECT_LT(maxDiff(fa, fb), 1e-4);
 }
 
@@ -117,9 +109,9 @@ TEST(Instances, EmbreeFindsTheSameInstancesAsALinearScan) {
         d.density = 0.5f + 0.05f * float(i);
         s.instances.push_back(d);
     }
-    const Framebuffer scan = render(s);
+    const Framebuffer scan = renderScene(s);
     s.geometry = embree(s);
-    const Framebuffer bvh = render(s);
+    const Framebuffer bvh = renderScene(s);
     ASSERT_GT(maxValue(scan), 0.05);
     EXPECT_LT(maxDiff(scan, bvh), 1e-5);
 }
@@ -140,9 +132,9 @@ TEST(Instances, CoarseGridRendersTheSameImageAsHierarchicalSkipping) {
                                            vec3(float(i) * 7.0f - 17.0f, 0.0f, float(i % 2) * 4.0f),
                                            vec3(0.0f, float(i) * 40.0f, 0.0f), vec3(1.0f), 1.0f});
     s.geometry = embree(s);
-    const Framebuffer h = render(s);
+    const Framebuffer h = renderScene(s);
     s.render.hierarchicalSkip = false;
-    const Framebuffer c = render(s);
+    const Framebuffer c = renderScene(s);
     ASSERT_GT(maxValue(h), 0.01);
     EXPECT_LT(maxDiff(h, c), 1e-4);
 }

@@ -7,6 +7,7 @@
 #include "core/camera.h"
 #include "core/march.h"
 #include "core/render.h"
+#include "render_util.h"
 
 using namespace nimbus;
 using glm::ivec2;
@@ -52,18 +53,6 @@ SceneDesc smallCumulus() {
     s.render.step = 0.08f;
     s.render.shadowStep = 0.1f;
     return s;
-}
-
-Framebuffer renderScene(const SceneDesc& s, RenderStats* statsOut = nullptr, AovSet aovs = {},
-                        int frame = 1) {
-    Renderer r(s);
-    Framebuffer fb;
-    RenderStats stats;
-    EXPECT_TRUE(r.render(r.plan(frame, aovs), fb, stats));
-    EXPECT_EQ(stats.nonFinite, 0u);
-    for (float v : fb.rgba) EXPECT_TRUE(std::isfinite(v));
-    if (statsOut) *statsOut = stats;
-    return fb;
 }
 
 } // namespace

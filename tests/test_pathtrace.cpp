@@ -6,20 +6,11 @@
 #include "core/camera.h"
 #include "core/pathtrace.h"
 #include "core/render.h"
+#include "render_util.h"
 
 using namespace nimbus;
 
 namespace {
-
-Framebuffer render(const SceneDesc& s, AovSet aovs = {}) {
-    Renderer r(s);
-    Framebuffer fb;
-    RenderStats st;
-    EXPECT_TRUE(r.render(r.plan(1, aovs), fb, st));
-    EXPECT_EQ(st.nonFinite, 0u);
-    for (float v : fb.rgba) EXPECT_TRUE(std::isfinite(v));
-    return fb;
-}
 
 SceneDesc boxScene() {
     SceneDesc s;
@@ -74,7 +65,7 @@ void batchedRender(SceneDesc s, int batches, std::vector<double>& mean, std::vec
     std::vector<double> sum, sum2;
     for (int b = 0; b < batches; ++b) {
         s.render.seed = 1000u + std::uint32_t(b);
-        Framebuffer fb = render(s, aovs);
+        Framebuffer fb = renderScene(s, nullptr, aovs);
         if (sum.empty()) sum.assign(fb.rgba.size(), 0.0), sum2.assign(fb.rgba.size(), 0.0);
         for (size_t i = 0; i < fb.rgba.size(); ++i) {
             sum[i] += fb.rgba[i];
@@ -138,7 +129,7 @@ TEST(PathTrace, WhiteFurnaceInCumulus) {
     s.render.maxDepth = 100000;
     std::vector<double> mean, se;
     batchedRender(s, 6, mean, se);
-    Framebuffer T = render(s, AovSet{true, false});
+    Framebuffer T = renderScene(s, nullptr, AovSet{true, false});
     int cloudy = 0;
     for (int i = 0; i < 6; ++i) {
         cloudy += T.transmittance[3 * i] < 0.9f;
@@ -155,7 +146,7 @@ TEST(PathTrace, HomogeneousTransmittanceIsExpMinusSigmaTD) {
     s.medium.sigma_a = vec3(0.1f);
     s.render.spp = 4096;
     s.render.maxDepth = 1;
-    Framebuffer fb = render(s, AovSet{true, false});
+    Framebuffer fb = renderScene(s, nullptr, AovSet{true, false});
     Camera cam(s.camera);
     for (int y = 0; y < fb.height; ++y)
         for (int x = 0; x < fb.width; ++x) {
@@ -219,7 +210,7 @@ TEST(PathTrace, RatioTrackingIsUnbiasedInHeterogeneousMedium) {
 TEST(PathTrace, SingleScatteringInThinSlabMatchesClosedForm) {
     SceneDesc s = thinSlab();
     s.render.spp = 8192;
-    Framebuffer fb = render(s);
+    Framebuffer fb = renderScene(s);
     const vec3 expect = thinSlabAnalytic(s);
     vec3 mean(0.0f);
     for (int i = 0; i < fb.width * fb.height; ++i)
@@ -238,7 +229,7 @@ TEST(PathTrace, MarchAgreesInTheSingleScatteringLimit) {
     s.render.shadowStep = 0.005f;
     s.render.shadowGrowth = 0.0f;
     const vec3 expect = thinSlabAnalytic(s);
-    Framebuffer m = render(s);
+    Framebuffer m = renderScene(s);
     for (int i = 0; i < m.width * m.height; ++i)
         for (int c = 0; c < 3; ++c)
             EXPECT_NEAR(m.rgba[4 * i + c] / expect[c], 1.0f, 0.01f) << "march pixel " << i;
@@ -249,9 +240,9 @@ TEST(PathTrace, DeterministicAcrossThreadCounts) {
     s.sky.kind = SkyKind::Uniform;
     s.render.spp = 16;
     s.render.threads = 1;
-    Framebuffer a = render(s);
+    Framebuffer a = renderScene(s);
     s.render.threads = 2;
     s.render.tileSize = 4;
-    Framebuffer b = render(s);
+    Framebuffer b = renderScene(s);
     EXPECT_EQ(a.rgba, b.rgba);
 }

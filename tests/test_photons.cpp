@@ -6,20 +6,11 @@
 #include <cmath>
 
 #include "core/render.h"
+#include "render_util.h"
 
 using namespace nimbus;
 
 namespace {
-
-Framebuffer render(const SceneDesc& s, RenderStats* stats = nullptr) {
-    Renderer r(s);
-    Framebuffer fb;
-    RenderStats st;
-    EXPECT_TRUE(r.render(r.plan(1), fb, st));
-    EXPECT_EQ(st.nonFinite, 0u);
-    if (stats) *stats = st;
-    return fb;
-}
 
 /// A homogeneous box (optical depth 16 edge to edge), albedo 1, g = 0.5, lit by a low sun from
 /// behind and to the right of the camera's view (a backlit cloud: forward scattering matters).
@@ -52,44 +43,11 @@ SceneDesc sunBox() {
 }
 
 SceneDesc smallCumulus() {
-    SceneDesc s;
-    s.camera.position = vec3(0.0f, 2.5f, -9.0f);
-    s.camera.lookAt = vec3(0.0f, 2.8f, 0.0f);
-    s.camera.width = 32;
-    s.camera.height = 20;
-    s.camera.fovY = 50.0f;
-    s.field.kind = FieldKind::Cumulus;
-    s.field.cumulus.bounds = Box{vec3(-6.0f, 1.5f, -6.0f), vec3(6.0f, 4.0f, 6.0f)};
-    s.field.cumulus.eval = NoiseEval::Direct;
-    s.field.cumulus.baseOctaves = 2;
-    s.field.cumulus.detailOctaves = 1;
-    s.medium.sigma_s = vec3(6.0f);
+    SceneDesc s = smallCumulusLayer();
     s.sun.direction = glm::normalize(vec3(0.6f, 0.4f, 0.5f));
-    s.render.step = 0.05f;
-    s.render.shadowStep = 0.05f;
-    s.render.inScatter = InScatter::None;
-    s.render.background = Background::Transparent;
     s.render.multipleScattering = MultipleScattering::Photons;
     s.render.photons = 40000;
     return s;
-}
-
-double relativeRmse(const Framebuffer& a, const Framebuffer& ref) {
-    // colour only: alpha is march's and pathtrace's transmittance, not the lighting
-    double sq = 0.0, r2 = 0.0;
-    for (size_t i = 0; i < ref.rgba.size(); ++i) {
-        if (i % 4 == 3) continue;
-        sq += double(a.rgba[i] - ref.rgba[i]) * (a.rgba[i] - ref.rgba[i]);
-        r2 += double(ref.rgba[i]) * ref.rgba[i];
-    }
-    return std::sqrt(sq / r2);
-}
-
-double meanRgb(const Framebuffer& fb) {
-    double sum = 0.0;
-    for (size_t i = 0; i < fb.rgba.size(); ++i)
-        if (i % 4 != 3) sum += fb.rgba[i];
-    return sum / double(fb.width * fb.height * 3);
 }
 
 } // namespace
@@ -98,22 +56,22 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     SceneDesc s = sunBox();
     s.render.integrator = Integrator::PathTrace;
     s.render.spp = 1024;
-    const Framebuffer ref = render(s);
+    const Framebuffer ref = renderScene(s);
 
     RenderStats st;
-    const Framebuffer photons = render(sunBox(), &st);
+    const Framebuffer photons = renderScene(sunBox(), &st);
     EXPECT_EQ(st.photonLookups > 0, true);
 
     SceneDesc g = sunBox();
     g.render.multipleScattering = MultipleScattering::Grid;
-    const Framebuffer grid = render(g);
+    const Framebuffer grid = renderScene(g);
 
     SceneDesc n = sunBox();
     n.render.multipleScattering = MultipleScattering::None;
-    const Framebuffer single = render(n);
+    const Framebuffer single = renderScene(n);
 
-    const double ePhotons = relativeRmse(photons, ref), eGrid = relativeRmse(grid, ref),
-                 eSingle = relativeRmse(single, ref);
+    const double ePhotons = relativeRmse(photons, ref, false),
+                 eGrid = relativeRmse(grid, ref, false), eSingle = relativeRmse(single, ref, false);
     const double mRef = meanRgb(ref);
     // multiple scattering is most of this image; photons get it within a few per cent (the
     // reference's own noise is about 2%)
@@ -132,15 +90,15 @@ TEST(Photons, FirstScatteringIsLeftToMarch) {
     SceneDesc s = sunBox();
     s.render.maxDepth = 1;
     s.render.photons = 20000;
-    const Framebuffer a = render(s);
+    const Framebuffer a = renderScene(s);
     s.render.multipleScattering = MultipleScattering::None;
     s.render.octaves = 1;
-    const Framebuffer b = render(s);
+    const Framebuffer b = renderScene(s);
     EXPECT_EQ(a.rgba, b.rgba);
     // and with more depth they add light
     s = sunBox();
     s.render.photons = 20000;
-    EXPECT_GT(meanRgb(render(s)), 1.5 * meanRgb(b));
+    EXPECT_GT(meanRgb(renderScene(s)), 1.5 * meanRgb(b));
 }
 
 TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
@@ -151,10 +109,10 @@ TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
         SceneDesc s = smallCumulus();
         s.render.photons = k == 0 ? 5000 : 80000;
         s.render.seed = 1;
-        const Framebuffer a = render(s);
+        const Framebuffer a = renderScene(s);
         s.render.seed = 2;
-        const Framebuffer b = render(s);
-        diff[k] = relativeRmse(a, b);
+        const Framebuffer b = renderScene(s);
+        diff[k] = relativeRmse(a, b, false);
         mean[k] = 0.5 * (meanRgb(a) + meanRgb(b));
     }
     const double ratio = diff[1] / diff[0];
@@ -166,10 +124,10 @@ TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
 TEST(Photons, DeterministicAcrossThreadCounts) {
     SceneDesc s = smallCumulus();
     s.render.threads = 1;
-    const Framebuffer a = render(s);
+    const Framebuffer a = renderScene(s);
     s.render.threads = 2;
     s.render.tileSize = 8;
-    const Framebuffer b = render(s);
+    const Framebuffer b = renderScene(s);
     EXPECT_EQ(a.rgba, b.rgba);
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/render.h"
+#include "render_util.h"
 #include "plugin/geom/embree_geometry.h"
 #include "test_util.h"
 
@@ -50,15 +51,6 @@ SceneDesc groundScene() {
     return s;
 }
 
-Framebuffer render(const SceneDesc& s) {
-    Renderer r(s);
-    Framebuffer fb;
-    RenderStats st;
-    EXPECT_TRUE(r.render(r.plan(1), fb, st));
-    EXPECT_EQ(st.nonFinite, 0u);
-    return fb;
-}
-
 vec3 px(const Framebuffer& fb, int x, int y) {
     const size_t i = size_t(y) * fb.width + x;
     return vec3(fb.rgba[4 * i], fb.rgba[4 * i + 1], fb.rgba[4 * i + 2]);
@@ -71,7 +63,7 @@ float alpha(const Framebuffer& fb, int x, int y) {
 
 TEST(Surfaces, LitGroundAndCloudShadowMatchTheClosedForm) {
     SceneDesc s = groundScene();
-    const Framebuffer fb = render(s);
+    const Framebuffer fb = renderScene(s);
     const float cosSun = s.sun.direction.y;
     const vec3 lit = s.ground.material.albedo / kPi * s.sun.irradiance * cosSun;
     const vec3 shadowed = lit * std::exp(-0.5f / cosSun); // sigma_t * 1 / sin(elevation)
@@ -93,7 +85,7 @@ TEST(Surfaces, PathTracerAgreesWithTheClosedFormOnTheGround) {
     s.render.maxDepth = 1; // direct light only: the slab's in-scattering onto the ground is off
     s.camera.width = 8;
     s.camera.height = 4;
-    const Framebuffer fb = render(s);
+    const Framebuffer fb = renderScene(s);
     const float cosSun = s.sun.direction.y;
     const vec3 lit = s.ground.material.albedo / kPi * s.sun.irradiance * cosSun;
     const vec3 shadowed = lit * std::exp(-0.5f / cosSun);
@@ -115,14 +107,14 @@ TEST(Surfaces, SkyLightOnTheGroundIsAlbedoTimesRadianceForBothIntegrators) {
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.3f, 0.6f, 0.9f);
     s.field.homogeneous.density = 0.0f;
-    const Framebuffer m = render(s);
+    const Framebuffer m = renderScene(s);
     const vec3 expect = s.ground.material.albedo * s.sky.zenith;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(px(m, 8, 4)[c], expect[c], 0.005f * expect[c]);
     s.render.integrator = Integrator::PathTrace;
     s.render.spp = 1024;
     s.camera.width = 2;
     s.camera.height = 2;
-    const Framebuffer p = render(s);
+    const Framebuffer p = renderScene(s);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(px(p, 1, 1)[c], expect[c], 0.03f * expect[c]);
 }
 
@@ -135,7 +127,7 @@ TEST(Surfaces, HoldoutHasAlphaOfTheCloudInFrontOnly) {
     s.geometry = nullptr;
     std::vector<std::string> w;
     s.geometry = geom::makeEmbreeGeometry(s, "", w);
-    const Framebuffer fb = render(s);
+    const Framebuffer fb = renderScene(s);
     // ground only: nothing at all
     EXPECT_EQ(alpha(fb, 0, 4), 0.0f);
     EXPECT_EQ(px(fb, 0, 4), vec3(0.0f));
@@ -164,7 +156,7 @@ TEST(Surfaces, ObjMeshCastsAShadowOnTheGround) {
     s.camera.position = vec3(0.0f, 1.0f, 0.0f); // under the roof's height: sees the ground
     s.camera.lookAt = vec3(0.0f, 0.0f, 0.01f);
     s.camera.fovY = 60.0f;
-    const Framebuffer fb = render(s);
+    const Framebuffer fb = renderScene(s);
     const vec3 a = px(fb, 0, 4), b = px(fb, 15, 4);
     const float cosSun = s.sun.direction.y;
     const vec3 lit = s.ground.material.albedo / kPi * s.sun.irradiance * cosSun;
