@@ -14,6 +14,44 @@ double MajorantGrid::emptyFraction() const {
     return double(n) / double(maj.size());
 }
 
+void MajorantGrid::buildBlocks() {
+    blockRes = (res + ivec3(kBlock - 1)) / kBlock;
+    const size_t n = size_t(blockRes.x) * blockRes.y * blockRes.z;
+    std::vector<int> dist(n, 1 << 20);
+    auto at3 = [&](int x, int y, int z) -> int& {
+        return dist[(size_t(z) * blockRes.y + y) * blockRes.x + x];
+    };
+    for (int z = 0; z < res.z; ++z)
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x)
+                if (at(ivec3(x, y, z)) > 0.0f) at3(x / kBlock, y / kBlock, z / kBlock) = 0;
+    // Chebyshev distance transform: a forward and a backward sweep over the 26 neighbours
+    // (exact for this metric); the space outside the grid counts as empty
+    for (int pass = 0; pass < 2; ++pass) {
+        const int s = pass == 0 ? 1 : -1;
+        const ivec3 from = pass == 0 ? ivec3(0) : blockRes - 1;
+        for (int z = from.z; z >= 0 && z < blockRes.z; z += s)
+            for (int y = from.y; y >= 0 && y < blockRes.y; y += s)
+                for (int x = from.x; x >= 0 && x < blockRes.x; x += s) {
+                    int& d = at3(x, y, z);
+                    for (int dz = -1; dz <= 1; ++dz)
+                        for (int dy = -1; dy <= 1; ++dy)
+                            for (int dx = -1; dx <= 1; ++dx) {
+                                // only neighbours already visited in this sweep's order
+                                const int order = (dz * s) * 9 + (dy * s) * 3 + dx * s;
+                                if (order >= 0) continue;
+                                const int xx = x + dx, yy = y + dy, zz = z + dz;
+                                if (xx < 0 || yy < 0 || zz < 0 || xx >= blockRes.x ||
+                                    yy >= blockRes.y || zz >= blockRes.z)
+                                    continue;
+                                d = std::min(d, at3(xx, yy, zz) + 1);
+                            }
+                }
+    }
+    blockDistance.resize(n);
+    for (size_t i = 0; i < n; ++i) blockDistance[i] = std::uint8_t(std::min(dist[i], 255));
+}
+
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding) {
     MajorantGrid g;
     g.bounds = field.bounds();
@@ -35,8 +73,10 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding) {
                         float& m = g.maj[(size_t(z) * g.res.y + y) * g.res.x + x];
                         m = std::max(m, v);
                     }
-        }))
+        })) {
+        g.buildBlocks();
         return g;
+    }
     tbb::parallel_for(0, g.res.z, [&](int z) {
         for (int y = 0; y < g.res.y; ++y)
             for (int x = 0; x < g.res.x; ++x) {
@@ -45,12 +85,13 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding) {
                 g.maj[(size_t(z) * g.res.y + y) * g.res.x + x] = field.majorant(b);
             }
     });
+    g.buildBlocks();
     return g;
 }
 
 MajorantIterator::MajorantIterator(const MajorantGrid* grid, const Box& bounds, const Ray& ray,
                                    float tmin, float tmax, float wholeMajorant)
-    : grid_(grid), whole_(wholeMajorant) {
+    : grid_(grid), ray_(ray), whole_(wholeMajorant) {
     float t0, t1;
     if (!intersectBox(ray, grid ? grid->bounds : bounds, tmin, tmax, t0, t1)) return;
     done_ = false;
@@ -87,13 +128,21 @@ bool MajorantIterator::next(MajorantSegment& seg) {
         seg = {t_, tEnd_, whole_};
         return whole_ > 0.0f;
     }
+    const bool skip = !grid_->blockDistance.empty();
     while (t_ < tEnd_) {
+        if (skip) {
+            const int d = grid_->blockDistanceAt(cell_);
+            if (d > 0) {
+                leap(d);
+                continue;
+            }
+        }
         int axis =
             tNext_.x < tNext_.y ? (tNext_.x < tNext_.z ? 0 : 2) : (tNext_.y < tNext_.z ? 1 : 2);
         float tExit = std::min(tNext_[axis], tEnd_);
         float m = grid_->at(cell_);
         float tEnter = t_;
-        t_ = tExit;
+        t_ = std::max(t_, tExit);
         cell_[axis] += step_[axis];
         tNext_[axis] += tDelta_[axis];
         if (cell_[axis] < 0 || cell_[axis] >= grid_->res[axis]) t_ = tEnd_; // left the grid
@@ -104,6 +153,54 @@ bool MajorantIterator::next(MajorantSegment& seg) {
     }
     done_ = true;
     return false;
+}
+
+void MajorantIterator::leap(int d) {
+    // where the ray leaves the empty cube: the nearest of its exit faces (the same edge formula
+    // the cell walk uses, so the two agree at the faces)
+    const int B = MajorantGrid::kBlock;
+    const ivec3 block = cell_ / B;
+    const ivec3 b0 = glm::max(block - (d - 1), ivec3(0)) * B;
+    const ivec3 b1 = glm::min((block + d) * B, grid_->res); // one past the cube's last cell
+    int axis = -1;
+    float tExit = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a) {
+        if (step_[a] == 0) continue;
+        const int edge = step_[a] > 0 ? b1[a] : b0[a];
+        const float t =
+            (grid_->bounds.lo[a] + float(edge) * grid_->cellSize[a] - ray_.o[a]) / ray_.d[a];
+        if (t < tExit) {
+            tExit = t;
+            axis = a;
+        }
+    }
+    if (axis < 0 || tExit >= tEnd_) {
+        t_ = tEnd_;
+        return;
+    }
+    t_ = std::max(t_, tExit);
+    // the exit axis moves past the cube; the others stay within the cube's range
+    // (the ray left through the exit face), which rounding cannot undo
+    const vec3 p = ray_.at(t_);
+    for (int a = 0; a < 3; ++a) {
+        int c;
+        if (a == axis) {
+            c = step_[a] > 0 ? b1[a] : b0[a] - 1;
+            if (c < 0 || c >= grid_->res[a]) {
+                t_ = tEnd_; // left the grid
+                return;
+            }
+        } else {
+            c = std::clamp(int(std::floor((p[a] - grid_->bounds.lo[a]) / grid_->cellSize[a])),
+                           b0[a], b1[a] - 1);
+        }
+        cell_[a] = c;
+        if (step_[a] != 0) {
+            const int edge = step_[a] > 0 ? c + 1 : c;
+            tNext_[a] =
+                (grid_->bounds.lo[a] + float(edge) * grid_->cellSize[a] - ray_.o[a]) / ray_.d[a];
+        }
+    }
 }
 
 } // namespace nimbus

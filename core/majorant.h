@@ -8,6 +8,7 @@
 /// bound is 0 provably holds no cloud. Written once; every integrator walks it.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "core/field.h"
@@ -20,7 +21,22 @@ struct MajorantGrid {
     vec3 cellSize{0.0f};
     std::vector<float> maj; ///< density bound per cell, x fastest
 
+    /// Empty-space skipping: blocks of kBlock^3 cells; per block, 0 when it holds a non-zero
+    /// cell, else its distance in blocks (Chebyshev, at most 255) to the nearest block that
+    /// does: the cube of 2 d - 1 blocks around it is empty. Left empty (no skipping) until
+    /// buildBlocks(); the builders below call it.
+    static constexpr int kBlock = 4;
+    ivec3 blockRes{0};
+    std::vector<std::uint8_t> blockDistance;
+
     float at(ivec3 c) const { return maj[(size_t(c.z) * res.y + c.y) * res.x + c.x]; }
+    /// Distance of the block holding cell c (0: not empty).
+    int blockDistanceAt(ivec3 c) const {
+        const ivec3 b = c / kBlock;
+        return blockDistance[(size_t(b.z) * blockRes.y + b.y) * blockRes.x + b.x];
+    }
+    /// Fills blockDistance from maj (call again after changing maj).
+    void buildBlocks();
     size_t cellCount() const { return maj.size(); }
     /// Fraction of cells whose bound is 0 (skippable).
     double emptyFraction() const;
@@ -37,7 +53,8 @@ struct MajorantSegment {
     float sigma_maj;
 };
 
-/// Walks the non-empty cells of a grid along a ray, in order. With a null grid it yields the
+/// Walks the non-empty cells of a grid along a ray, in order, leaping over blocks of empty cells
+/// in one step (two-level DDA) when the grid has its blocks. With a null grid it yields the
 /// whole [tmin, tmax] clipped to `bounds` once (no skipping), with sigma_maj = `wholeMajorant`.
 class MajorantIterator {
   public:
@@ -46,7 +63,12 @@ class MajorantIterator {
     bool next(MajorantSegment& seg);
 
   private:
+    /// From inside an empty block at distance d: moves the walk to the first cell past the
+    /// empty cube of 2 d - 1 blocks around it.
+    void leap(int d);
+
     const MajorantGrid* grid_;
+    Ray ray_{};
     float t_ = 0.0f, tEnd_ = 0.0f;
     bool done_ = true;
     float whole_ = 0.0f;

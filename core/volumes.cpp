@@ -155,6 +155,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
                     g.maj[(size_t(z) * g.res.y + y) * g.res.x + x] +=
                         in.density * at(ivec3(x, y, z));
     }
+    g.buildBlocks();
     return g;
 }
 

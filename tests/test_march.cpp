@@ -166,6 +166,67 @@ TEST(March, MajorantIteratorGivesKnownSpans) {
     EXPECT_NEAR(segs[1].t1, 9.0f * s3, 1e-4f);
 }
 
+TEST(March, BlockSkippingYieldsTheSameSpansAsTheCellWalk) {
+    // a 37 x 13 x 29 grid (blocks cut at every face) with a few clusters of density; rays from
+    // everywhere, axis-aligned ones too: the walk that leaps over empty blocks must give the
+    // spans the plain cell walk gives
+    MajorantGrid g;
+    g.bounds = Box{vec3(-3.0f, 1.0f, -2.0f), vec3(4.4f, 3.6f, 3.8f)};
+    g.res = ivec3(37, 13, 29);
+    g.cellSize = g.bounds.extent() / vec3(g.res);
+    g.maj.assign(size_t(37) * 13 * 29, 0.0f);
+    std::mt19937 rng(21);
+    std::uniform_int_distribution<int> cx(0, 36), cy(0, 12), cz(0, 28), r(0, 2);
+    for (int k = 0; k < 12; ++k) {
+        const ivec3 c(cx(rng), cy(rng), cz(rng));
+        const int rad = r(rng);
+        for (int z = c.z - rad; z <= c.z + rad; ++z)
+            for (int y = c.y - rad; y <= c.y + rad; ++y)
+                for (int x = c.x - rad; x <= c.x + rad; ++x)
+                    if (x >= 0 && y >= 0 && z >= 0 && x < 37 && y < 13 && z < 29)
+                        g.maj[(size_t(z) * 13 + y) * 37 + x] = 1.0f + float(k);
+    }
+    MajorantGrid skipping = g;
+    skipping.buildBlocks();
+    size_t empty = 0, far = 0;
+    for (auto d : skipping.blockDistance) {
+        empty += d > 0;
+        far += d > 1;
+    }
+    // there is something to skip, in cubes of more than one block too
+    ASSERT_GT(empty, skipping.blockDistance.size() / 3);
+    ASSERT_LT(empty, skipping.blockDistance.size());
+    ASSERT_GT(far, 0u);
+
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), pos(-6.0f, 7.0f);
+    auto spans = [](const MajorantGrid& grid, const Ray& ray, float tmin) {
+        std::vector<MajorantSegment> out;
+        MajorantIterator it(&grid, grid.bounds, ray, tmin, 100.0f, 0.0f);
+        MajorantSegment seg;
+        while (it.next(seg)) out.push_back(seg);
+        return out;
+    };
+    size_t total = 0;
+    for (int i = 0; i < 4000; ++i) {
+        vec3 d(u(rng), u(rng), u(rng));
+        if (i % 4 == 0) d[i / 4 % 3] = 0.0f; // parallel to a face
+        if (glm::length(d) < 1e-3f) continue;
+        // rays from outside and from inside the grid
+        const vec3 o = i % 2 ? vec3(pos(rng), pos(rng) * 0.5f + 2.3f, pos(rng))
+                             : g.bounds.lo + vec3(0.5f + 0.5f * u(rng)) * g.bounds.extent();
+        const Ray ray{o, glm::normalize(d)};
+        const auto a = spans(g, ray, 0.0f), b = spans(skipping, ray, 0.0f);
+        ASSERT_EQ(a.size(), b.size()) << "ray " << i;
+        for (size_t k = 0; k < a.size(); ++k) {
+            EXPECT_NEAR(a[k].t0, b[k].t0, 1e-4f);
+            EXPECT_NEAR(a[k].t1, b[k].t1, 1e-4f);
+            EXPECT_EQ(a[k].sigma_maj, b[k].sigma_maj);
+        }
+        total += a.size();
+    }
+    EXPECT_GT(total, 800u); // many rays met density (1089 spans with this seed)
+}
+
 TEST(March, FieldMajorantBoundsDensity) {
     for (bool baked : {false, true}) {
         SceneDesc s = smallCumulus();
