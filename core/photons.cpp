@@ -98,7 +98,9 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // trilinearly: a lookup there costs a few loads, not a field evaluation, and most of a
     // photon's time is lookups. Its values are the field's own samples, so they keep to the
     // same majorants (clamped where a trilinear footprint reaches over a cell's edge).
-    const MajorantGrid* mg = vs.useGrid[0] ? &vs.grids[0] : nullptr;
+    // (the majorant grid whenever there is one: march may leave a mostly full grid unused,
+    // but tracking always gains from the tighter bounds, as pathtrace does)
+    const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
     const vec3 ext = geo.bounds.extent();
     const float target = 0.5f * (mg ? minComponent(mg->cellSize) : minComponent(geo.voxel));
     ivec3 fineRes;
@@ -108,8 +110,9 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     std::vector<float> fine = densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups);
     pv.lookups += fineLookups;
     // the one untransformed placement may scale the volume's density
-    if (vs.instances[0].density != 1.0f)
-        for (float& v : fine) v *= vs.instances[0].density;
+    const float placement = vs.instances[0].density;
+    if (placement != 1.0f)
+        for (float& v : fine) v *= placement;
     const float invVolume = 1.0f / (geo.voxel.x * geo.voxel.y * geo.voxel.z);
 
     tbb::enumerable_thread_specific<Tally> tallies([&] {
@@ -135,14 +138,17 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     SurfaceHit hit;
                     if (surfaces && surfaces->intersect(ray, depth ? 1e-4f : 0.0f, tmax, hit))
                         tmax = hit.t;
-                    RayVolumes rv;
-                    if (!rv.begin(vs, ray, 0.0f, tmax)) break;
+                    // the one untransformed volume: its majorant walk directly (no per-ray
+                    // span bookkeeping), the placement's density folded into the bounds
+                    MajorantIterator walk(mg, vs.fields[0].bounds(), ray, 0.0f, tmax,
+                                          vs.wholeMajorant[0]);
                     // delta tracking; the mean channel chooses the events, every channel keeps
                     // its own weight (for grey media the weight changes only by the albedo)
                     bool collided = false;
                     float tHit = 0.0f;
                     MajorantSegment seg;
-                    while (!collided && rv.nextSegment(seg)) {
+                    while (!collided && walk.next(seg)) {
+                        seg.sigma_maj *= placement;
                         const float sigmaMaj = seg.sigma_maj * sigmaTMax;
                         float t = seg.t0;
                         for (;;) {
