@@ -1,10 +1,12 @@
 // Benchmarks (Google Benchmark): density lookups per second, the default frame with empty-space
-// skipping on and off, the share of time spent in shadow marches, and the cost of the
-// multiple-scattering grid (light volumes and diffusion solve). Run from the build dir:
+// skipping on and off, the share of time spent in shadow marches, the cost of the
+// multiple-scattering grid (light volumes and diffusion solve), the majorant walk with and
+// without leaping over empty blocks, and the photon pass. Run from the build dir:
 //   ./tests/nimbus_bench                       (all; the frame benchmarks take ~1 min on 2 cores)
 //   ./tests/nimbus_bench --benchmark_filter=Density
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <random>
 
 #include "core/majorant.h"
@@ -95,6 +97,66 @@ BENCHMARK(BM_Frame)
     ->Iterations(2)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();
+
+/// The majorant walk of random rays across the default scene's grid (cell 0.23 km, the plan's),
+/// cell by cell (arg 0) or leaping over empty blocks (arg 1).
+void BM_MajorantWalk(benchmark::State& state) {
+    SceneDesc s = defaultScene();
+    auto base = bakeCumulusBase(s.field.cumulus);
+    auto detail = bakeCumulusDetail(s.field.cumulus);
+    Field f = makeField(s.field, 0.5f, base, detail);
+    MajorantGrid g = buildMajorantGrid(f, Renderer(s).plan(1).majorantCell);
+    if (state.range(0) == 0) g.blockDistance.clear();
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<Ray> rays(4096);
+    for (Ray& r : rays) {
+        const vec3 o = g.bounds.lo + vec3(u(rng), u(rng), u(rng)) * g.bounds.extent();
+        const float z = 2.0f * u(rng) - 1.0f, phi = 6.2831853f * u(rng);
+        const float rxy = std::sqrt(std::max(0.0f, 1.0f - z * z));
+        r = Ray{o, vec3(rxy * std::cos(phi), z, rxy * std::sin(phi))};
+    }
+    size_t i = 0, segments = 0;
+    for (auto _ : state) {
+        const Ray& r = rays[i++ & (rays.size() - 1)];
+        MajorantIterator it(&g, g.bounds, r, 0.0f, 1e30f, 0.0f);
+        MajorantSegment seg;
+        while (it.next(seg)) ++segments;
+    }
+    benchmark::DoNotOptimize(segments);
+    state.SetItemsProcessed(state.iterations());
+    state.counters["segments_per_ray"] =
+        benchmark::Counter(double(segments), benchmark::Counter::kAvgIterations);
+    state.SetLabel(state.range(0) ? "leaping over empty blocks" : "cell by cell");
+}
+BENCHMARK(BM_MajorantWalk)->Arg(0)->Arg(1);
+
+/// The photon pass of the default scene (render.multiple_scattering = "photons") at
+/// `arg` photons; a 160x90 image so that the frame is mostly the photons.
+void BM_Photons(benchmark::State& state) {
+    SceneDesc s = defaultScene();
+    s.render.multipleScattering = MultipleScattering::Photons;
+    s.render.photons = int(state.range(0));
+    s.render.octaves = 1;
+    s.render.msStrength = 1.0f;
+    s.camera.width = 160;
+    s.camera.height = 90;
+    Renderer r(s);
+    FramePlan plan = r.plan(1);
+    Framebuffer fb;
+    RenderStats st;
+    r.render(plan, fb, st); // bakes the noise once, outside the timing
+    double photonSeconds = 0.0;
+    for (auto _ : state) {
+        r.render(plan, fb, st);
+        photonSeconds += st.photonSeconds;
+    }
+    state.counters["photon_s"] =
+        benchmark::Counter(photonSeconds, benchmark::Counter::kAvgIterations);
+    state.counters["photons_per_s"] =
+        double(state.range(0)) * double(state.iterations()) / std::max(photonSeconds, 1e-9);
+}
+BENCHMARK(BM_Photons)->Arg(1000000)->Iterations(2)->Unit(benchmark::kSecond)->UseRealTime();
 
 void BM_NoiseBake(benchmark::State& state) {
     SceneDesc s = defaultScene();
