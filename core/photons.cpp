@@ -30,7 +30,7 @@ struct Tally {
 } // namespace
 
 vec3 PhotonVolume::sample(vec3 p) const {
-    return sampleVoxelCentres(radiance, bounds.lo, res, voxel, p);
+    return sampleVoxelCentres(radiance, bounds.lo, res, voxel, p) * skin(p);
 }
 
 PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const LightVolume& geo,
@@ -40,6 +40,9 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     pv.bounds = geo.bounds;
     pv.res = geo.res;
     pv.voxel = geo.voxel;
+    pv.sunTau = p.sunTau;
+    pv.skinK = p.skinK;
+    pv.skinFloor = p.skinFloor;
     const ivec3 res = geo.res;
     const size_t n = size_t(res.x) * res.y * res.z;
     pv.radiance.assign(n, vec3(0.0f));
@@ -171,7 +174,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                     // weighted by the density here: the voxel keeps
                                     // int rho S dV, what march's samples scatter
                                     const vec3 val =
-                                        glm::min(w * phase.eval(glm::dot(ray.d, toEye)) / sigmaMaj,
+                                        glm::min(w * phase.eval(glm::dot(ray.d, toEye)) /
+                                                     (sigmaMaj * pv.skin(q)),
                                                  vec3(kMaxDeposit));
                                     std::int64_t* s = &tally.sum[3 * size_t(k)];
                                     for (int ch = 0; ch < 3; ++ch)

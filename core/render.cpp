@@ -284,8 +284,10 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         const bool diffusion = plan.diffusion && any;
         const bool photons = plan.photons && any;
         // the diffusion's sun source needs the density integral toward the sun
+        // so do the photons' skin profile (core/photons.h)
         const bool toward =
-            any && (plan.lightVolume || (diffusion && plan.shadows && !plan.photons));
+            any && (plan.lightVolume || (diffusion && plan.shadows && !plan.photons) ||
+                    (photons && s.render.photonSkin > 0.0f));
         if (toward) dirs.push_back(s.sun.direction);
         if (plan.columnVolumes && any) {
             dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
@@ -333,6 +335,10 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             pp.photons = s.render.photons;
             pp.maxDepth = s.render.maxDepth;
             pp.seed = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(s.render.seed));
+            if (s.render.photonSkin > 0.0f) {
+                pp.sunTau = towardVolume;
+                pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
+            }
             pv = tracePhotons(vs, PhaseFunction::fromMedium(s.medium), volumes.front(), rho, pp,
                               surfaces, cb.cancel);
             sv.photons = &pv;

@@ -207,6 +207,10 @@ struct RenderDesc {
     /// (core/photons.h; no octaves, no calibration), the sky's from the diffusion grid.
     MultipleScattering multipleScattering = MultipleScattering::Grid;
     int photons = 200000; ///< Photons: photons leaving the sun per frame
+    /// Photons: the multiply scattered light inside a voxel is taken to fall off as
+    /// max(exp(-photonSkin sigma_t tau_sun), 0.1) with the density integral toward the sun
+    /// (core/photons.h); 0 = flat over the voxel
+    float photonSkin = 0.0f;
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

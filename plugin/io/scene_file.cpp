@@ -1019,6 +1019,18 @@ const std::vector<Param>& registry() {
                             "\"photons\"); their noise falls as 1 / sqrt(photons).",
                             NIMBUS_AT(scene.render.photons))
                         .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+        t.push_back(number(ren, "photon_skin", closed(0, 4),
+                           "Photons: how the sun's multiply scattered light falls off inside a "
+                           "voxel of the light-volume grid, brightest under the sunlit surface: as "
+                           "max(exp(-photon_skin sigma_t tau), 0.1) with tau the density integral "
+                           "toward the sun. Photons record the light divided by this profile and "
+                           "march multiplies it back at each sample: the voxel's light keeps about "
+                           "its mean and takes this shape. 0 = flat over the voxel. A model "
+                           "parameter, like the octaves: on the default scene at 640x360 (4 M "
+                           "photons) 0.2 measured 9.0% relative RMSE against 10.0% flat; on a "
+                           "homogeneous box with voxels of two mean free paths it did not help.",
+                           NIMBUS_AT(scene.render.photonSkin))
+                        .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
         t.push_back(number(ren, "ms_strength", atLeast(0),
                            "Scale of the grid's multiply scattered sun light (1 = the diffusion "
                            "solution, which loses light in moderately thick, porous cloud; the "
