@@ -47,6 +47,31 @@ inline nimbus::SceneDesc smallCumulusLayer() {
     return s;
 }
 
+/// A homogeneous box [-1, 1]^3 (sigma_s per unit density, albedo 1, g = 0.5) filling a 30 degree
+/// view of size x size pixels from z = -6, lit by a sun of irradiance 1 at `elevation` and
+/// `azimuth` degrees (azimuth from +z toward +x), transparent background, pixel centres (no
+/// jitter, as pathtrace samples them).
+inline nimbus::SceneDesc sunlitBox(float sigma_s, int size, float elevation, float azimuth) {
+    using namespace nimbus;
+    SceneDesc s;
+    s.camera.position = vec3(0.0f, 0.0f, -6.0f);
+    s.camera.lookAt = vec3(0.0f);
+    s.camera.width = size;
+    s.camera.height = size;
+    s.camera.fovY = 30.0f;
+    s.field.kind = FieldKind::Homogeneous;
+    s.field.homogeneous.box = Box{vec3(-1.0f), vec3(1.0f)};
+    s.medium.sigma_s = vec3(sigma_s);
+    s.medium.g = 0.5f;
+    const float el = glm::radians(elevation), az = glm::radians(azimuth);
+    s.sun.direction = vec3(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
+    s.sun.irradiance = vec3(1.0f);
+    s.render.inScatter = InScatter::None;
+    s.render.background = Background::Transparent;
+    s.render.jitter = false;
+    return s;
+}
+
 /// RMSE of `a` against `ref` over the RMS of `ref`, over RGBA or over the colour alone.
 inline double relativeRmse(const nimbus::Framebuffer& a, const nimbus::Framebuffer& ref,
                            bool withAlpha = true) {

@@ -17,26 +17,11 @@ namespace {
 /// A thick homogeneous box (optical depth 20 edge to edge), albedo 1, g = 0.5, low sun from
 /// the camera's right and a uniform sky.
 SceneDesc thickBox() {
-    SceneDesc s;
-    s.camera.position = vec3(0.0f, 0.0f, -6.0f);
-    s.camera.lookAt = vec3(0.0f);
-    s.camera.width = 16;
-    s.camera.height = 16;
-    s.camera.fovY = 30.0f;
-    s.field.kind = FieldKind::Homogeneous;
-    s.field.homogeneous.box = Box{vec3(-1.0f), vec3(1.0f)};
-    s.medium.sigma_s = vec3(10.0f);
-    s.medium.g = 0.5f;
-    const float el = glm::radians(30.0f), az = glm::radians(120.0f);
-    s.sun.direction = vec3(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
-    s.sun.irradiance = vec3(1.0f);
+    SceneDesc s = sunlitBox(10.0f, 16, 30.0f, 120.0f);
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.5f);
     s.render.step = 0.02f;
     s.render.shadowStep = 0.02f;
-    s.render.inScatter = InScatter::None;
-    s.render.background = Background::Transparent;
-    s.render.jitter = false; // pathtrace samples pixel centres, as march does
     s.render.multipleScattering = MultipleScattering::None; // single scattering unless set
     return s;
 }

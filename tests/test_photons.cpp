@@ -15,26 +15,11 @@ namespace {
 /// A homogeneous box (optical depth 16 edge to edge), albedo 1, g = 0.5, lit by a low sun from
 /// behind and to the right of the camera's view (a backlit cloud: forward scattering matters).
 SceneDesc sunBox() {
-    SceneDesc s;
-    s.camera.position = vec3(0.0f, 0.0f, -6.0f);
-    s.camera.lookAt = vec3(0.0f);
-    s.camera.width = 24;
-    s.camera.height = 24;
-    s.camera.fovY = 30.0f;
-    s.field.kind = FieldKind::Homogeneous;
-    s.field.homogeneous.box = Box{vec3(-1.0f), vec3(1.0f)};
-    s.medium.sigma_s = vec3(8.0f);
-    s.medium.g = 0.5f;
-    const float el = glm::radians(30.0f), az = glm::radians(140.0f);
-    s.sun.direction = vec3(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
-    s.sun.irradiance = vec3(1.0f);
+    SceneDesc s = sunlitBox(8.0f, 24, 30.0f, 140.0f);
     s.sky.kind = SkyKind::None;
     s.render.step = 0.01f;
     s.render.shadowStep = 0.01f;
     s.render.shadowGrowth = 0.0f;
-    s.render.inScatter = InScatter::None;
-    s.render.background = Background::Transparent;
-    s.render.jitter = false; // pathtrace samples pixel centres, as march does
     s.render.majorantCell = 0.1f;
     s.render.lightVolumeCell = 0.1f;
     s.render.multipleScattering = MultipleScattering::Photons;
