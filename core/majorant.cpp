@@ -101,24 +101,24 @@ MajorantIterator::MajorantIterator(const MajorantGrid* grid, const Box& bounds, 
     const float inf = std::numeric_limits<float>::infinity();
     const vec3 p = ray.at(t0);
     for (int a = 0; a < 3; ++a) {
-        int c = int(std::floor((p[a] - grid_->bounds.lo[a]) / grid_->cellSize[a]));
-        cell_[a] = std::clamp(c, 0, grid_->res[a] - 1);
-        if (ray.d[a] > 0.0f) {
-            step_[a] = 1;
-            float edge = grid_->bounds.lo[a] + float(cell_[a] + 1) * grid_->cellSize[a];
-            tNext_[a] = (edge - ray.o[a]) / ray.d[a];
-            tDelta_[a] = grid_->cellSize[a] / ray.d[a];
-        } else if (ray.d[a] < 0.0f) {
-            step_[a] = -1;
-            float edge = grid_->bounds.lo[a] + float(cell_[a]) * grid_->cellSize[a];
-            tNext_[a] = (edge - ray.o[a]) / ray.d[a];
-            tDelta_[a] = -grid_->cellSize[a] / ray.d[a];
-        } else {
-            step_[a] = 0;
-            tNext_[a] = inf;
-            tDelta_[a] = inf;
-        }
+        step_[a] = ray.d[a] > 0.0f ? 1 : ray.d[a] < 0.0f ? -1 : 0;
+        tDelta_[a] = step_[a] ? float(step_[a]) * grid_->cellSize[a] / ray.d[a] : inf;
+        tNext_[a] = inf;
+        enterCell(a, std::clamp(cellOf(a, p[a]), 0, grid_->res[a] - 1));
     }
+}
+
+int MajorantIterator::cellOf(int a, float x) const {
+    return int(std::floor((x - grid_->bounds.lo[a]) / grid_->cellSize[a]));
+}
+
+float MajorantIterator::edgeT(int a, int edge) const {
+    return (grid_->bounds.lo[a] + float(edge) * grid_->cellSize[a] - ray_.o[a]) / ray_.d[a];
+}
+
+void MajorantIterator::enterCell(int a, int c) {
+    cell_[a] = c;
+    if (step_[a] != 0) tNext_[a] = edgeT(a, step_[a] > 0 ? c + 1 : c);
 }
 
 bool MajorantIterator::next(MajorantSegment& seg) {
@@ -166,9 +166,7 @@ void MajorantIterator::leap(int d) {
     float tExit = std::numeric_limits<float>::infinity();
     for (int a = 0; a < 3; ++a) {
         if (step_[a] == 0) continue;
-        const int edge = step_[a] > 0 ? b1[a] : b0[a];
-        const float t =
-            (grid_->bounds.lo[a] + float(edge) * grid_->cellSize[a] - ray_.o[a]) / ray_.d[a];
+        const float t = edgeT(a, step_[a] > 0 ? b1[a] : b0[a]);
         if (t < tExit) {
             tExit = t;
             axis = a;
@@ -181,26 +179,14 @@ void MajorantIterator::leap(int d) {
     t_ = std::max(t_, tExit);
     // the exit axis moves past the cube; the others stay within the cube's range
     // (the ray left through the exit face), which rounding cannot undo
-    const vec3 p = ray_.at(t_);
-    for (int a = 0; a < 3; ++a) {
-        int c;
-        if (a == axis) {
-            c = step_[a] > 0 ? b1[a] : b0[a] - 1;
-            if (c < 0 || c >= grid_->res[a]) {
-                t_ = tEnd_; // left the grid
-                return;
-            }
-        } else {
-            c = std::clamp(int(std::floor((p[a] - grid_->bounds.lo[a]) / grid_->cellSize[a])),
-                           b0[a], b1[a] - 1);
-        }
-        cell_[a] = c;
-        if (step_[a] != 0) {
-            const int edge = step_[a] > 0 ? c + 1 : c;
-            tNext_[a] =
-                (grid_->bounds.lo[a] + float(edge) * grid_->cellSize[a] - ray_.o[a]) / ray_.d[a];
-        }
+    const int past = step_[axis] > 0 ? b1[axis] : b0[axis] - 1;
+    if (past < 0 || past >= grid_->res[axis]) {
+        t_ = tEnd_; // left the grid
+        return;
     }
+    const vec3 p = ray_.at(t_);
+    for (int a = 0; a < 3; ++a)
+        enterCell(a, a == axis ? past : std::clamp(cellOf(a, p[a]), b0[a], b1[a] - 1));
 }
 
 } // namespace nimbus

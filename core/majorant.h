@@ -66,6 +66,12 @@ class MajorantIterator {
     /// From inside an empty block at distance d: moves the walk to the first cell past the
     /// empty cube of 2 d - 1 blocks around it.
     void leap(int d);
+    /// The cell holding coordinate x along axis a (unclamped).
+    int cellOf(int a, float x) const;
+    /// Ray parameter where it meets the grid plane `edge` (a cell index) of axis a.
+    float edgeT(int a, int edge) const;
+    /// Moves the walk into cell c along axis a and sets where it leaves it.
+    void enterCell(int a, int c);
 
     const MajorantGrid* grid_;
     Ray ray_{};
