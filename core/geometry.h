@@ -58,20 +58,6 @@ inline bool intersectBox(const Ray& r, const Box& b, float tmin, float tmax, flo
     return true;
 }
 
-/// A unit direction with the given cosine to unit `axis`, at azimuth 2 pi u around it
-/// (orthonormal basis of Duff et al. 2017).
-inline vec3 aroundAxis(vec3 axis, float cosTheta, float u) {
-    const float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
-    const float phi = 6.28318530718f * u;
-    const float sign = std::copysign(1.0f, axis.z);
-    const float a = -1.0f / (sign + axis.z);
-    const float b = axis.x * axis.y * a;
-    const vec3 t1(1.0f + sign * axis.x * axis.x * a, sign * b, -sign * axis.x);
-    const vec3 t2(b, sign + axis.y * axis.y * a, -axis.y);
-    return glm::normalize(sinTheta * std::cos(phi) * t1 + sinTheta * std::sin(phi) * t2 +
-                          cosTheta * axis);
-}
-
 /// Trilinear interpolation of values at the voxel centres lo + (i + 0.5) voxel of a grid of
 /// `res` voxels (x fastest), clamped to the outermost centres.
 template <class T>

@@ -10,13 +10,16 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "core/camera.h"
-#include "core/diffusion.h"
-#include "core/photons.h"
-#include "core/light_volume.h"
-#include "core/march.h"
-#include "core/mie.h"
-#include "core/pathtrace.h"
+#include <tbb/enumerable_thread_specific.h>
+
+#include "core/integrators/march.h"
+#include "core/integrators/pathtrace.h"
+#include "core/lighting/diffusion.h"
+#include "core/lighting/light_volume.h"
+#include "core/lighting/photons.h"
+#include "core/media/medium.h"
+#include "core/media/mie.h"
+#include "core/media/sky.h"
 
 namespace nimbus {
 
@@ -29,79 +32,30 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 /// march uses the majorant grid only when at least this share of its cells is empty.
 constexpr double kSkipMinEmptyFraction = 0.5;
 
-float autoMajorantCell(const SceneDesc& s, const Box& b) {
-    if (s.render.majorantCell > 0.0f) return s.render.majorantCell;
-    // about four primary steps per cell, at most 256 cells along any axis
-    const vec3 e = b.extent();
-    const float longest = std::max(e.x, std::max(e.y, e.z));
-    return std::max(4.0f * s.render.step, longest / 256.0f);
-}
-
 template <class Context>
 bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, RenderStats& stats,
                  const RenderCallbacks& cb);
 
 /// The diffusion solve's medium and lights: the sky of each face direction as march's column
-/// model sees the hemispheres (a gradient sky mixes horizon and zenith by sqrt(y), whose mean
-/// over the upper hemisphere is 2/3; below the horizon it is the horizon radiance).
-DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan) {
+/// model sees the hemispheres (core/media/sky.h).
+DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan, const Medium& m) {
     DiffusionParams p;
-    p.sigma_s = s.medium.sigma_s * s.medium.densityScale;
-    p.sigma_a = s.medium.sigma_a * s.medium.densityScale;
-    p.g = PhaseFunction::fromMedium(s.medium).meanCosine();
+    p.sigma_s = m.sigma_s;
+    p.sigma_a = m.sigma_a;
+    p.g = m.g;
     // the scale of the sun's multiply scattered light; the solve is linear, so scaling its
     // source leaves the sky's part alone (which the diffusion gets right: white furnace)
     if (plan.shadows && !plan.photons) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
     if (plan.ambient) {
-        const SkyDesc& k = s.sky;
-        p.skyUp = p.skyDown = k.zenith * k.ambient;
-        if (k.kind == SkyKind::Gradient) {
-            p.skyUp = (k.horizon + 2.0f * k.zenith) / 3.0f * k.ambient;
-            p.skyDown = k.horizon * k.ambient;
-        }
+        const SkyMeans sky = skyMeans(s.sky);
+        p.skyUp = sky.up;
+        p.skyDown = sky.down;
         p.skySide = 0.5f * (p.skyUp + p.skyDown);
     }
     return p;
 }
 
 } // namespace
-
-std::string FramePlan::explain() const {
-    std::ostringstream o;
-    o << "frame " << frame << " (t = " << time << " s)\n";
-    o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
-      << noiseDecision << ")\n";
-    o << "  empty-space skipping: "
-      << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
-      << "\n";
-    o << "  sun transmittance: "
-      << (!shadows      ? std::string("none (no sun)")
-          : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
-                        : std::string("shadow march per sample"))
-      << "\n";
-    o << "  multiple scattering: "
-      << (photons     ? "sun: photons traced through the field, recorded on the light-volume "
-                        "grid; sky: diffusion on that grid"
-          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
-                      : "octaves only")
-      << "\n";
-    o << "  sky ambient: "
-      << (!ambient        ? std::string("no")
-          : diffusion     ? std::string("in the diffusion grid")
-          : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
-                          : std::string("height occlusion"))
-      << "\n";
-    o << "  volumes: " << volumes << ", instances: " << instances;
-    if (instanced)
-        o << " ("
-          << (hierarchical ? "instance boxes, then each volume's majorant grid"
-                           : "one coarse world majorant grid")
-          << ")";
-    o << "\n  surfaces: " << (surfaces ? "ground and/or meshes (Embree)" : "none") << "\n";
-    o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
-      << (aovs.depth ? ", depth" : "") << "\n";
-    return o.str();
-}
 
 Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {
     // the Mie table is computed once per process and parameter set, and only when used
@@ -115,73 +69,7 @@ Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {
 }
 
 FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
-    const SceneDesc& s = scene_;
-    FramePlan p;
-    p.frame = frame;
-    p.time = float(frame) / s.render.fps;
-    p.aovs = aovs;
-    p.shadows = s.sun.enabled && maxComponent(s.sun.irradiance) > 0.0f;
-    p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
-                maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
-    p.skipEmpty = s.render.skipEmpty;
-    Box bounds = s.field.homogeneous.box;
-    if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
-    if (s.field.kind == FieldKind::Vdb) bounds = s.field.vdb.bounds;
-    p.majorantCell = autoMajorantCell(s, bounds);
-    p.volumes = 1 + int(s.volumes.size());
-    p.instances = s.instances.empty() ? 1 : int(s.instances.size());
-    p.instanced = isInstanced(s);
-    p.hierarchical = s.render.hierarchicalSkip;
-    p.surfaces = s.ground.enabled || !s.meshes.empty();
-    // the light-attenuation volume covers one untransformed volume; instanced scenes march
-    p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
-                    s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty();
-    p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
-    const bool marching = s.render.integrator == Integrator::March;
-    // the grids of the diffusion and the column sky cover one untransformed volume
-    const bool oneVolume = !p.instanced && s.volumes.empty();
-    p.photons = marching && oneVolume && p.shadows &&
-                s.render.multipleScattering == MultipleScattering::Photons;
-    // the sky's multiple scattering is the diffusion grid's in either model
-    p.diffusion =
-        marching && oneVolume &&
-        ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
-         (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
-    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion &&
-                      s.render.skyOcclusion == SkyOcclusion::Column;
-
-    if (s.field.kind != FieldKind::Cumulus) {
-        p.noiseDecision = "not a procedural field";
-        return p;
-    }
-    const CumulusDesc& c = s.field.cumulus;
-    const double bakeEvals =
-        std::pow(double(c.baseBakeResolution), 3) + std::pow(double(c.detailBakeResolution), 3);
-    // Expected noise evaluations if evaluated directly: every pixel marches the diagonal of the
-    // bounds; about a tenth of the samples survive the cheap envelope test, and each of those
-    // costs a shadow march of ~12 more.
-    const vec3 e = bounds.extent();
-    const double stepsPerRay = std::min(4096.0, double(glm::length(e)) / s.render.step);
-    const double directEvals = double(s.camera.width) * s.camera.height * stepsPerRay * 0.1 *
-                               (1.0 + (p.shadows ? 12.0 : 0.0));
-    char buf[256];
-    switch (c.eval) {
-    case NoiseEval::Direct:
-        p.bakeNoise = false;
-        p.noiseDecision = "field.evaluation = \"direct\"";
-        break;
-    case NoiseEval::Baked:
-        p.bakeNoise = true;
-        p.noiseDecision = "field.evaluation = \"baked\"";
-        break;
-    case NoiseEval::Auto:
-        p.bakeNoise = directEvals > bakeEvals;
-        std::snprintf(buf, sizeof buf, "auto: ~%.3g direct noise evaluations vs %.3g to bake",
-                      directEvals, bakeEvals);
-        p.noiseDecision = buf;
-        break;
-    }
-    return p;
+    return planFrame(scene_, frame, aovs);
 }
 
 Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
@@ -205,11 +93,7 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
     VolumeSet vs;
     const bool fieldPlaced = isPlaced(s, 0);
     // a [field] no instance places is never built (no noise baked, no grid read)
-    vs.fields.push_back(
-        fieldPlaced
-            ? fieldFor(plan, &stats.bakeSeconds)
-            : makeField(FieldDesc{FieldKind::Homogeneous, {}, HomogeneousDesc{Box{}, 0.0f}, {}},
-                        0.0f));
+    vs.fields.push_back(fieldPlaced ? fieldFor(plan, &stats.bakeSeconds) : emptyField());
     for (const NamedVolumeDesc& v : s.volumes) vs.fields.push_back(makeField(v.field, plan.time));
     const auto t0 = std::chrono::steady_clock::now();
     vs.instances = makeInstances(vs.fields, s.instances);
@@ -277,17 +161,13 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         // volume: the plan names them only then
         const Field& field = vs.fields[0];
         const MajorantGrid* g = vs.useGrid[0] ? &vs.grids[0] : nullptr;
-        // every light-attenuation volume the plan names, from one pass of density lookups
-        std::vector<vec3> dirs;
+        // every light-attenuation volume the plan names, from one pass of density lookups;
         // nothing to light when the one volume is empty (an empty VDB frame)
         const bool any = !vs.instances.empty();
         const bool diffusion = plan.diffusion && any;
         const bool photons = plan.photons && any;
-        // the diffusion's sun source needs the density integral toward the sun
-        // so do the photons' skin profile (core/photons.h)
-        const bool toward =
-            any && (plan.lightVolume || (diffusion && plan.shadows && !plan.photons) ||
-                    (photons && s.render.photonSkin > 0.0f));
+        const bool toward = plan.sunDepthVolume && any;
+        std::vector<vec3> dirs;
         if (toward) dirs.push_back(s.sun.direction);
         if (plan.columnVolumes && any) {
             dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
@@ -295,7 +175,7 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         }
         std::vector<LightVolume> volumes;
         std::vector<float> rho;
-        const bool needRho = diffusion || photons;
+        const bool needRho = plan.densityGrid && any;
         if (needRho && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
         if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
@@ -312,12 +192,13 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             sv.up = &volumes[next++];
             sv.down = &volumes[next++];
         }
+        const Medium medium = Medium::fromDesc(s.medium);
         DiffusionVolume dv;
         if (diffusion) {
             t0 = std::chrono::steady_clock::now();
             dv = solveDiffusion(volumes.front(), rho,
                                 towardVolume ? towardVolume->tau : std::vector<float>{},
-                                diffusionParams(s, plan));
+                                diffusionParams(s, plan, medium));
             sv.diffusion = &dv;
             stats.diffusionSeconds = secondsSince(t0);
             stats.diffusionIterations = dv.iterations;
@@ -327,8 +208,8 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
         if (photons) {
             t0 = std::chrono::steady_clock::now();
             PhotonParams pp;
-            pp.sigma_s = s.medium.sigma_s * s.medium.densityScale;
-            pp.sigma_a = s.medium.sigma_a * s.medium.densityScale;
+            pp.sigma_s = medium.sigma_s;
+            pp.sigma_a = medium.sigma_a;
             pp.sunDirection = s.sun.direction;
             pp.sunIrradiance = s.sun.irradiance * s.render.msStrength;
             pp.eye = s.camera.position;
@@ -339,8 +220,7 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
                 pp.sunTau = towardVolume;
                 pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
             }
-            pv = tracePhotons(vs, PhaseFunction::fromMedium(s.medium), volumes.front(), rho, pp,
-                              surfaces, cb.cancel);
+            pv = tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cb.cancel);
             sv.photons = &pv;
             stats.photonSeconds = secondsSince(t0);
             stats.photonLookups = pv.lookups;
@@ -371,6 +251,8 @@ bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, Render
     std::atomic<std::uint64_t> rays{0}, prim{0}, shad{0}, bad{0};
     std::atomic<int> done{0};
     std::mutex progressMutex;
+    // per-thread working memory of the integrator, reused from tile to tile
+    tbb::enumerable_thread_specific<typename Context::Scratch> scratch;
 
     tbb::parallel_for(
         tbb::blocked_range<int>(0, tiles, 1),
@@ -378,10 +260,11 @@ bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, Render
             for (int tile = r.begin(); tile != r.end(); ++tile) {
                 if (cb.cancel && cb.cancel->load(std::memory_order_relaxed)) return;
                 const int x0 = (tile % tilesX) * ts, y0 = (tile / tilesX) * ts;
-                MarchCounters cnt;
+                RayCounters cnt;
+                typename Context::Scratch& local = scratch.local();
                 for (int y = y0; y < std::min(y0 + ts, fb.height); ++y)
                     for (int x = x0; x < std::min(x0 + ts, fb.width); ++x)
-                        ctx.renderPixel(x, y, fb, cnt);
+                        ctx.renderPixel(x, y, fb, cnt, local);
                 rays += cnt.rays;
                 prim += cnt.primarySamples;
                 shad += cnt.shadowSamples;

@@ -15,37 +15,14 @@
 #include <mutex>
 #include <string>
 
-#include "core/field.h"
+#include "core/fields/field.h"
 #include "core/image.h"
-#include "core/majorant.h"
+#include "core/tracking/majorant.h"
 #include "core/scene.h"
-#include "core/volumes.h"
+#include "core/plan.h"
+#include "core/tracking/volumes.h"
 
 namespace nimbus {
-
-/// What one frame needs. Everything not named here is never built.
-struct FramePlan {
-    int frame = 1;
-    float time = 0.0f; ///< seconds: frame / fps
-    AovSet aovs;
-    bool bakeNoise = false;    ///< cumulus noise read from baked tiles (else evaluated directly)
-    std::string noiseDecision; ///< why
-    bool shadows = true;       ///< sun enabled with non-zero irradiance
-    bool ambient = true;       ///< sky present with non-zero ambient
-    bool skipEmpty = true;
-    bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
-    bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
-    bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
-    bool photons = false;       ///< march: the sun's multiple scattering from traced photons
-    float lightVolumeCell = 0.0f;
-    float majorantCell = 0.0f; ///< world size of a majorant cell
-    int volumes = 1;           ///< `field` and the [[volume]] entries
-    int instances = 1;         ///< placements (1: `field` untransformed)
-    bool instanced = false;    ///< more than one instance or a transformed one
-    bool hierarchical = true;  ///< instanced: instance boxes + per-volume grids (else coarse)
-    bool surfaces = false;     ///< ground or meshes
-    std::string explain() const;
-};
 
 struct RenderStats {
     std::uint64_t rays = 0;

@@ -40,14 +40,14 @@ struct SkyDesc {
     float ambient = 1.0f;            ///< scale of the sky term inside the medium
 };
 
-/// Phase functions (core/phase.h); values = PHASE_* in core/kernels/phase.glsl.
+/// Phase functions (core/media/phase.h); values = PHASE_* in core/kernels/phase.glsl.
 enum class PhaseKind {
     Isotropic = 0,
     HenyeyGreenstein = 1,
     DualHG = 2,    ///< (1 - blend) HG(g) + blend HG(g2)
     Draine = 3,    ///< Draine(g, alpha)
     MieApprox = 4, ///< Jendersie & d'Eon 2023 fit by droplet diameter (5-50 um)
-    MieTable = 5   ///< Lorenz-Mie table from a droplet size distribution (core/mie.h)
+    MieTable = 5   ///< Lorenz-Mie table from a droplet size distribution (core/media/mie.h)
 };
 
 class MieTable;
@@ -65,7 +65,7 @@ struct MediumDesc {
     float effectiveRadius = 10.0f;  ///< mie_table: effective droplet radius, micrometres
     float effectiveVariance = 0.1f; ///< mie_table: effective variance of the radii
     /// mie_table: the table, if the caller has it already (plan, cache); when null, core
-    /// computes it on first use (sharedMieTable in core/mie.h) and keeps it for the process.
+    /// computes it on first use (sharedMieTable in core/media/mie.h) and keeps it for the process.
     std::shared_ptr<const MieTable> mieTable;
 };
 
@@ -166,9 +166,9 @@ struct MeshDesc {
 };
 
 enum class InScatter { None, Olajos, Powder };
-/// march: approximation of the sun light scattered more than once (core/march.h).
+/// march: approximation of the sun light scattered more than once (core/integrators/march.h).
 enum class MultipleScattering { None, Grid, Photons };
-/// march: how much of the sky a point inside the medium sees (core/march.h).
+/// march: how much of the sky a point inside the medium sees (core/integrators/march.h).
 enum class SkyOcclusion { Height, Column };
 enum class Integrator { March, PathTrace };
 enum class ShadowMethod { March, Volume };
@@ -200,16 +200,16 @@ struct RenderDesc {
     float octaveContribution = 0.5f;
     float octaveEccentricity = 0.5f;
     /// Grid: the sun light scattered more than once and all sky light, from a diffusion solve
-    /// on the light-volume grid (core/diffusion.h); it replaces the sky ambient term. msStrength
-    /// scales its sun part (diffusion loses light in moderately thick, porous cloud),
+    /// on the light-volume grid (core/lighting/diffusion.h); it replaces the sky ambient term.
+    /// msStrength scales its sun part (diffusion loses light in moderately thick, porous cloud),
     /// msP1 weights its flux (P1) term. Octaves still add the short-range, forward part.
     /// Photons: the sun's part from photons traced through the field once per frame
-    /// (core/photons.h; no octaves, no calibration), the sky's from the diffusion grid.
+    /// (core/lighting/photons.h; no octaves, no calibration), the sky's from the diffusion grid.
     MultipleScattering multipleScattering = MultipleScattering::Grid;
     int photons = 200000; ///< Photons: photons leaving the sun per frame
     /// Photons: the multiply scattered light inside a voxel is taken to fall off as
     /// max(exp(-photonSkin sigma_t tau_sun), 0.1) with the density integral toward the sun
-    /// (core/photons.h); 0 = flat over the voxel
+    /// (core/lighting/photons.h); 0 = flat over the voxel
     float photonSkin = 0.0f;
     float msStrength = 1.0f;
     float msP1 = 1.0f;

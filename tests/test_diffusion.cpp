@@ -1,12 +1,12 @@
-// march's multiple scattering (core/diffusion.h) and column sky occlusion: white furnace,
+// march's multiple scattering (core/lighting/diffusion.h) and column sky occlusion: white furnace,
 // energy conservation of the solve, the single-scattering limit, and the path tracer on a thick
 // box, where the v1 lighting model (octaves, height ambient, Olajos in-scatter) fails.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/diffusion.h"
-#include "core/light_volume.h"
+#include "core/lighting/diffusion.h"
+#include "core/lighting/light_volume.h"
 #include "core/render.h"
 #include "render_util.h"
 

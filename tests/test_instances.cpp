@@ -1,14 +1,14 @@
-// Several volumes and instances (core/volumes.h), found by a linear scan or by Embree
+// Several volumes and instances (core/tracking/volumes.h), found by a linear scan or by Embree
 // (plugin/geom): placements, overlaps, rotations, majorant correctness and the coarse grid.
 #include <cmath>
 
 #include <gtest/gtest.h>
 
-#include "core/pathtrace.h"
+#include "core/integrators/pathtrace.h"
 #include "core/render.h"
 #include "render_util.h"
 #include "core/sampler.h"
-#include "core/volumes.h"
+#include "core/tracking/volumes.h"
 #include "plugin/geom/embree_geometry.h"
 
 using namespace nimbus;
@@ -199,12 +199,13 @@ TEST(Instances, MergedMajorantsBoundTheSummedDensity) {
     // and ratio tracking through them is unbiased: exact exp(-sigma_t tau) vs the mean estimate
     const double exact = std::exp(-0.9 * fine);
     PathContext ctx(s, plan, vs);
-    MarchCounters cnt;
+    RayCounters cnt;
+    PathContext::Scratch scratch;
     double sum = 0.0, sum2 = 0.0;
     const int M = 20000;
     for (int k = 0; k < M; ++k) {
         Sampler rng{kern::pcg(std::uint32_t(k) + 77u), 0};
-        const double T = ctx.transmittance(ray.o, ray.d, rng, cnt).x;
+        const double T = ctx.transmittance(ray.o, ray.d, rng, cnt, scratch).x;
         sum += T;
         sum2 += T * T;
     }
@@ -213,10 +214,10 @@ TEST(Instances, MergedMajorantsBoundTheSummedDensity) {
 }
 
 TEST(Instances, PlacementsOfEmptyVolumesAreLeftOut) {
-    std::vector<Field> fields(2);
-    fields[0].kind = FieldKind::Homogeneous;
-    fields[0].box = Box{vec3(-1.0f), vec3(1.0f)};
-    fields[1].kind = FieldKind::Homogeneous; // empty box: an empty VDB grid
+    FieldDesc unit{FieldKind::Homogeneous};
+    unit.homogeneous = HomogeneousDesc{Box{vec3(-1.0f), vec3(1.0f)}, 1.0f};
+    // an empty box: an empty VDB grid
+    const std::vector<Field> fields = {makeField(unit, 0.0f), emptyField()};
     std::vector<InstanceDesc> d = {InstanceDesc{0}, InstanceDesc{1}, InstanceDesc{0, vec3(5.0f)}};
     const auto in = makeInstances(fields, d);
     ASSERT_EQ(in.size(), 2u);

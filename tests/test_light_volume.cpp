@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-#include "core/light_volume.h"
+#include "core/lighting/light_volume.h"
 #include "core/render.h"
 
 using namespace nimbus;

@@ -5,7 +5,7 @@
 #include <random>
 
 #include "core/camera.h"
-#include "core/march.h"
+#include "core/integrators/march.h"
 #include "core/render.h"
 #include "render_util.h"
 
@@ -262,7 +262,8 @@ TEST(March, BakedNoiseEqualsDirectAtNodes) {
     for (int i = 0; i < 16; i += 3)
         for (int j = 0; j < 16; j += 5) {
             vec3 node(float(i), float(j), float((i + j) % 16));
-            EXPECT_NEAR(vol->sample(node), cumulusBaseNoise(c, node / 16.0f), 1e-6f);
+            EXPECT_NEAR(vol->sample(node),
+                        kern::cumulusBaseNoise(cumulusParams(c, 0.0f), node / 16.0f), 1e-6f);
             EXPECT_NEAR(vol->sample(node + vec3(16.0f, -32.0f, 48.0f)), vol->sample(node), 1e-5f);
         }
 }

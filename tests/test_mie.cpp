@@ -14,8 +14,8 @@
 
 #include <tbb/global_control.h>
 
-#include "core/mie.h"
-#include "core/phase.h"
+#include "core/media/mie.h"
+#include "core/media/phase.h"
 
 namespace nimbus::phasetest { // defined in test_phase.cpp
 struct ChiSquare {

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "core/camera.h"
-#include "core/pathtrace.h"
+#include "core/integrators/pathtrace.h"
 #include "core/render.h"
 #include "render_util.h"
 
@@ -192,12 +192,13 @@ TEST(PathTrace, RatioTrackingIsUnbiasedInHeterogeneousMedium) {
     const double exact = std::exp(-1.7 * tau);
     ASSERT_GT(tau, 0.3) << "the test ray must cross cloud";
     ASSERT_GT(exact, 0.01);
-    MarchCounters cnt;
+    RayCounters cnt;
+    PathContext::Scratch scratch;
     double sum = 0.0, sum2 = 0.0;
     const int M = 20000;
     for (int k = 0; k < M; ++k) {
         Sampler rng{kern::pcg(std::uint32_t(k)), 0};
-        const double T = ctx.transmittance(o, d, rng, cnt).x;
+        const double T = ctx.transmittance(o, d, rng, cnt, scratch).x;
         sum += T;
         sum2 += T * T;
     }

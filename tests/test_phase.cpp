@@ -13,7 +13,7 @@
 
 #include "core/camera.h"
 #include "core/kernels/kernels.h"
-#include "core/phase.h"
+#include "core/media/phase.h"
 #include "core/render.h"
 #include "plugin/io/scene_file.h"
 
@@ -370,8 +370,8 @@ TEST(PhaseFunction, FromMediumCoversEveryKind) {
 }
 
 TEST(PhaseFunction, HenyeyGreensteinOctavesAreTheMarchsOldArithmetic) {
-    // core/march.cpp used phaseEval(kind, g, cos) with g *= eccentricity per octave: the new
-    // path must give the same bits
+    // core/integrators/march.cpp used phaseEval(kind, g, cos) with g *= eccentricity per octave:
+    // the new path must give the same bits
     const float cosTheta = 0.437f, e = 0.5f;
     PhaseFunction f(phaseParamsHG(0.8f));
     float g = 0.8f;

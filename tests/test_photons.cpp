@@ -1,6 +1,6 @@
-// march with the sun's multiple scattering from traced photons (core/photons.h): agreement with
-// the path tracer where the grid diffusion is only approximate, no double counting of the first
-// scattering, noise that falls as 1 / sqrt(photons) around an unchanged mean, determinism.
+// march with the sun's multiple scattering from traced photons (core/lighting/photons.h): agreement
+// with the path tracer where the grid diffusion is only approximate, no double counting of the
+// first scattering, noise that falls as 1 / sqrt(photons) around an unchanged mean, determinism.
 #include <gtest/gtest.h>
 
 #include <cmath>

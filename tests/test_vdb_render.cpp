@@ -12,7 +12,7 @@
 
 #include <nanovdb/NanoVDB.h>
 
-#include "core/field.h"
+#include "core/fields/field.h"
 #include "plugin/io/image_output.h"
 #include "test_util.h"
 #include "plugin/vdb/vdb_reader.h"

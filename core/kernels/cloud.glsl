@@ -167,3 +167,74 @@ NB_FN float cloudShape(IN(CloudLayer) L, float envelope, float base, float detai
     float e = min(L.erosion * detail, 0.99f);
     return clamp((d - e) / (1.0f - e), 0.0f, 1.0f);
 }
+
+// A procedural cumulus layer at one time: its shaping, the two noises it is carved from (tiles
+// of the given world period, lattice cells per tile and octaves) and the wind offsets at that
+// time (the whole field drifts by baseOffset; the detail noise by detailOffset).
+struct CumulusParams {
+    CloudLayer layer;
+    float density;      // scale of cloudShape
+    float basePeriod;   // world size of one tile of the base noise
+    int baseLattice;    // lattice cells per tile (lowest octave)
+    int baseOctaves;
+    float detailPeriod; // world size of one tile of the detail noise
+    int detailLattice;
+    int detailOctaves;
+    vec3 baseOffset;    // wind * time
+    vec3 detailOffset;  // (wind + detail wind) * time
+};
+
+// Base-shape noise at noise-domain point q (one tile per unit), in [0, 1].
+NB_FN float cumulusBaseNoise(IN(CumulusParams) C, vec3 q) {
+    return perlinWorley(q * float(C.baseLattice), C.baseLattice, C.baseOctaves, C.layer.seed);
+}
+
+// Detail (erosion) noise at noise-domain point q, in [0, 1].
+NB_FN float cumulusDetailNoise(IN(CumulusParams) C, vec3 q) {
+    return worleyFbm(q * float(C.detailLattice), C.detailLattice, C.detailOctaves, 0.5f,
+                     C.layer.seed + 0x9e3779b9u);
+}
+
+// Noise-domain points of world point p: the base noise drifts with the field, the detail noise
+// with its own offset.
+NB_FN vec3 cumulusBaseDomain(IN(CumulusParams) C, vec3 p) {
+    return (p - C.baseOffset) / C.basePeriod;
+}
+NB_FN vec3 cumulusDetailDomain(IN(CumulusParams) C, vec3 p) {
+    return (p - C.detailOffset) / C.detailPeriod;
+}
+
+// Tower envelope at world point p: height fraction from the (fixed) layer altitudes, towers
+// drifting with the field.
+NB_FN float cumulusEnvelope(IN(CumulusParams) C, vec3 p) {
+    float h = (p.y - C.layer.bottom) / (C.layer.top - C.layer.bottom);
+    return towerEnvelope(C.layer, h, p.x - C.baseOffset.x, p.z - C.baseOffset.z);
+}
+
+// Cumulus density at world point p inside the layer's box, the noise evaluated directly. The
+// cheap envelope decides first whether even the largest base noise (1) can pass the threshold,
+// then the base noise whether the detail noise is needed. Callers that read the noises from
+// baked tiles follow the same three stages with cloudShape.
+NB_FN float cumulusDensity(IN(CumulusParams) C, vec3 p) {
+    float env = cumulusEnvelope(C, p);
+    if (cloudShape(C.layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
+    float base = cumulusBaseNoise(C, cumulusBaseDomain(C, p));
+    if (cloudShape(C.layer, env, base, 0.0f) <= 0.0f) return 0.0f;
+    float detail = cumulusDetailNoise(C, cumulusDetailDomain(C, p));
+    return C.density * cloudShape(C.layer, env, base, detail);
+}
+
+// Upper bound of cumulusEnvelope over the world box [lo, hi] (inside the layer's box).
+NB_FN float cumulusEnvelopeBound(IN(CumulusParams) C, vec3 lo, vec3 hi) {
+    float span = C.layer.top - C.layer.bottom;
+    float h0 = (lo.y - C.layer.bottom) / span;
+    float h1 = (hi.y - C.layer.bottom) / span;
+    return towerEnvelopeBound(C.layer, h0, h1, lo.x - C.baseOffset.x, hi.x - C.baseOffset.x,
+                              lo.z - C.baseOffset.z, hi.z - C.baseOffset.z);
+}
+
+// Upper bound of the density where the envelope is at most envMax and the base noise at most
+// baseMax (cloudShape is non-decreasing in both and non-increasing in the detail noise).
+NB_FN float cumulusDensityBound(IN(CumulusParams) C, float envMax, float baseMax) {
+    return C.density * cloudShape(C.layer, envMax, baseMax, 0.0f);
+}

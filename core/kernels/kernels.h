@@ -9,6 +9,7 @@
 
 namespace nimbus::kern {
 #include "core/kernels/hash.glsl"
+#include "core/kernels/dda.glsl"
 #include "core/kernels/noise.glsl"
 #include "core/kernels/cloud.glsl"
 #include "core/kernels/phase.glsl"

@@ -6,8 +6,12 @@ NB_FN vec3 beerLambert(vec3 tau) { return exp(-tau); }
 // Olajos 2016 in-scatter probability S(d) = 1 - e^{-c d}.
 NB_FN float inScatterOlajos(float d, float c) { return 1.0f - exp(-c * d); }
 
+// Schneider 2015 powder factor on its own: beerPowder(d) = e^{-d} powderFactor(d) exactly (the
+// factor 2 is a power of two, so both orders of the product round alike).
+NB_FN float powderFactor(float d) { return 2.0f * (1.0f - exp(-2.0f * d)); }
+
 // Schneider 2015 Beer-powder: E = 2 e^{-d} (1 - e^{-2 d}).
-NB_FN float beerPowder(float d) { return 2.0f * exp(-d) * (1.0f - exp(-2.0f * d)); }
+NB_FN float beerPowder(float d) { return exp(-d) * powderFactor(d); }
 
 // Integral over a step of length dt of S * e^{-sigma_t s} ds: (S - S e^{-sigma_t dt}) / sigma_t.
 NB_FN float stepIntegral(float S, float sigma_t, float dt) {
@@ -28,4 +32,76 @@ NB_FN void integrateStep(vec3 S, vec3 sigma_t, float dt, INOUT(vec3) L, INOUT(ve
 // e^{-k tu} and e^{-k td} normalised (so a uniform sky is returned unchanged).
 NB_FN float skyUpperShare(float tu, float td, float k) {
     return 1.0f / (1.0f + exp(min(k * (tu - td), 80.0f)));
+}
+
+
+// Free-flight step of delta tracking (the tracking step): from t, the next tentative collision
+// at rate sigmaMaj for a uniform u in [0, 1): t - ln(1 - u) / sigmaMaj.
+NB_FN float freeFlight(float t, float sigmaMaj, float u) { return t - log(1.0f - u) / sigmaMaj; }
+
+// --- the march step (core/integrators/march.cpp) ----------------------------------------------
+
+// In-scatter models on the sun term (values = the InScatter enum of core/scene.h).
+const int INSCATTER_NONE = 0;
+const int INSCATTER_OLAJOS = 1; // Olajos 2016: S(d) = 1 - e^{-c d} of the local density
+const int INSCATTER_POWDER = 2; // Schneider 2015: the powder factor of the mean optical depth
+
+// Multiplier of the sun term at a sample of density rho whose density integral toward the sun is
+// tau: 1 blended toward the model's value by `strength`.
+NB_FN float inScatterFactor(int mode, float rho, float tau, vec3 sigmaT, float c,
+                            float strength) {
+    if (mode == INSCATTER_OLAJOS) return mix(1.0f, inScatterOlajos(rho, c), strength);
+    if (mode == INSCATTER_POWDER) {
+        float d = tau * (sigmaT.x + sigmaT.y + sigmaT.z) / 3.0f;
+        return mix(1.0f, powderFactor(d), strength);
+    }
+    return 1.0f;
+}
+
+// One multiple-scattering octave of the sun term (Wrenninge 2015; Hillaire 2016): its weight
+// b^i times its phase function's value times the sun's transmittance through the optical depth
+// scaled by a^i (extinction = a^i).
+NB_FN vec3 octaveSun(vec3 phaseValue, vec3 sigmaT, float tau, float weight, float extinction) {
+    return weight * phaseValue * beerLambert(sigmaT * (tau * extinction));
+}
+
+// The P1 radiance of a diffusion solution scattered toward direction wo (one channel): fluence
+// phi, its gradient grad, F = -grad / (3 sigma_tr rho) the net flux limited to |F| <= phi, and
+// (phi + 3 g p1 F.wo) with the phase function's first moment g and the flux weight p1. The caller
+// divides by 4 pi.
+NB_FN float p1Radiance(float phi, vec3 grad, float sigmaTr, float rho, float g, float p1,
+                       vec3 wo) {
+    vec3 F = -grad / (3.0f * sigmaTr * rho + 1e-30f);
+    float len = length(F);
+    if (len > phi) F *= phi / len;
+    return max(0.0f, phi + 3.0f * g * p1 * dot(F, wo));
+}
+
+// Sky in-scattering by the column model: each hemisphere's mean sky weighted by the openness of
+// the vertical column above (density integral up) and below (down) the sample, the weights
+// normalised (a uniform sky comes back unchanged: the white furnace), and the light decayed by
+// kappa per transport optical depth to the nearer open side.
+NB_FN vec3 skyColumnInScatter(float up, float down, vec3 sigmaTr, vec3 kappa, vec3 skyUp,
+                              vec3 skyDown, float openness) {
+    vec3 L = vec3(0.0f);
+    for (int c = 0; c < 3; c++) {
+        float tu = sigmaTr[c] * up;
+        float td = sigmaTr[c] * down;
+        float share = skyUpperShare(tu, td, openness);
+        L[c] = mix(skyDown[c], skyUp[c], share) * exp(-kappa[c] * min(tu, td));
+    }
+    return L;
+}
+
+// Sky in-scattering by height (Olajos 2016): the sphere's mean sky at the top of the layer, a
+// share `ground` of it at the base (h = 0), where half the sphere sees the darker ground.
+NB_FN vec3 skyHeightInScatter(vec3 ambient, float h, float ground) {
+    return ambient * (ground + (1.0f - ground) * h);
+}
+
+// The energy-conserving step of a march sample of density rho over dt (Hillaire 2016): source S
+// (in-scattered radiance per unit phase-normalised scattering), coefficients per unit density.
+NB_FN void marchStep(vec3 S, vec3 sigmaS, vec3 sigmaT, float rho, float dt, INOUT(vec3) L,
+                     INOUT(vec3) T) {
+    integrateStep(S * (sigmaS * rho), sigmaT * rho, dt, L, T);
 }

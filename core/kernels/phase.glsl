@@ -15,8 +15,8 @@
 //    and Cloud Rendering"): p = (1 - w) HG(g_HG) + w Draine(g_D, a), the four parameters fitted
 //    to Lorenz-Mie by the droplet diameter d; the fit used here holds for 5 um <= d <= 50 um and
 //    d is clamped to that range.
-//  - Mie table: a Lorenz-Mie phase function tabulated by core/mie.h. Tables live on the host
-//    (core/phase.h evaluates them); here PHASE_MIE_TABLE is a stand-in HG whose g is the table's
+//  - Mie table: a Lorenz-Mie phase function tabulated by core/media/mie.h. Tables live on the host
+//    (core/media/phase.h evaluates them); here PHASE_MIE_TABLE is a stand-in HG whose g is the table's
 //    mean cosine, for code that has no access to the table.
 //
 // Sampling is exact: HG by its closed-form inverse CDF (without the 1/g cancellation of the
@@ -229,7 +229,8 @@ NB_FN vec3 phaseDirection(vec3 wi, float cosTheta, float u) {
     vec3 bt = vec3(b, sgn + wi.y * wi.y * a, -wi.y);
     float sinTheta = sqrt(max(0.0f, 1.0f - cosTheta * cosTheta));
     float phi = 2.0f * NB_PI * u;
-    return (sinTheta * cos(phi)) * t + (sinTheta * sin(phi)) * bt + cosTheta * wi;
+    // renormalised: directions stay unit length along paths of thousands of bounces
+    return normalize((sinTheta * cos(phi)) * t + (sinTheta * sin(phi)) * bt + cosTheta * wi);
 }
 
 // Samples the propagation direction after scattering, given the one before (wi, unit length);

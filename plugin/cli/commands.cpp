@@ -14,9 +14,9 @@
 
 #include <unistd.h>
 
-#include "core/majorant.h"
+#include "core/tracking/majorant.h"
 #include "core/render.h"
-#include "core/volumes.h"
+#include "core/tracking/volumes.h"
 #include "plugin/cli/common.h"
 #include "plugin/cli/progress.h"
 #include "plugin/io/atomic_file.h"

@@ -8,7 +8,7 @@
 #include <embree3/rtcore.h>
 #include <tiny_obj_loader.h>
 
-#include "core/volumes.h"
+#include "core/tracking/volumes.h"
 
 namespace nimbus::geom {
 

@@ -32,7 +32,7 @@
 
 #include <toml++/toml.h>
 
-#include "core/volumes.h"
+#include "core/tracking/volumes.h"
 #include "plugin/io/frames.h"
 
 namespace nimbus::io {

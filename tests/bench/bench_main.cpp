@@ -9,7 +9,7 @@
 #include <cmath>
 #include <random>
 
-#include "core/majorant.h"
+#include "core/tracking/majorant.h"
 #include "core/render.h"
 #include "plugin/io/color.h"
 #include "plugin/io/scene_file.h"

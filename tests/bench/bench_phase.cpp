@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
-#include "core/mie.h"
-#include "core/phase.h"
+#include "core/media/mie.h"
+#include "core/media/phase.h"
 
 using namespace nimbus;
 

@@ -37,9 +37,9 @@
 
 #include "core/accel.h"
 #include "core/geometry.h"
-#include "core/light_volume.h"
-#include "core/phase.h"
-#include "core/volumes.h"
+#include "core/lighting/light_volume.h"
+#include "core/media/phase.h"
+#include "core/tracking/volumes.h"
 
 namespace nimbus {
 

@@ -1,4 +1,4 @@
-#include "core/majorant.h"
+#include "core/tracking/majorant.h"
 
 #include <cmath>
 #include <limits>
@@ -109,11 +109,11 @@ MajorantIterator::MajorantIterator(const MajorantGrid* grid, const Box& bounds, 
 }
 
 int MajorantIterator::cellOf(int a, float x) const {
-    return int(std::floor((x - grid_->bounds.lo[a]) / grid_->cellSize[a]));
+    return kern::ddaCell(x, grid_->bounds.lo[a], grid_->cellSize[a]);
 }
 
 float MajorantIterator::edgeT(int a, int edge) const {
-    return (grid_->bounds.lo[a] + float(edge) * grid_->cellSize[a] - ray_.o[a]) / ray_.d[a];
+    return kern::ddaEdgeT(grid_->bounds.lo[a], edge, grid_->cellSize[a], ray_.o[a], ray_.d[a]);
 }
 
 void MajorantIterator::enterCell(int a, int c) {
@@ -137,8 +137,7 @@ bool MajorantIterator::next(MajorantSegment& seg) {
                 continue;
             }
         }
-        int axis =
-            tNext_.x < tNext_.y ? (tNext_.x < tNext_.z ? 0 : 2) : (tNext_.y < tNext_.z ? 1 : 2);
+        const int axis = kern::ddaAxis(tNext_);
         float tExit = std::min(tNext_[axis], tEnd_);
         float m = grid_->at(cell_);
         float tEnter = t_;

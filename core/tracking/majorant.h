@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/field.h"
+#include "core/fields/field.h"
 
 namespace nimbus {
 

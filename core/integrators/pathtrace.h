@@ -15,56 +15,60 @@
 
 #include <cstdint>
 
+#include "core/accel.h"
 #include "core/camera.h"
 #include "core/image.h"
-#include "core/majorant.h"
-#include "core/march.h"
-#include "core/phase.h"
-#include "core/render.h"
+#include "core/integrators/counters.h"
+#include "core/media/medium.h"
+#include "core/plan.h"
 #include "core/sampler.h"
-#include "core/volumes.h"
+#include "core/tracking/volumes.h"
 
 namespace nimbus {
 
 class PathContext {
   public:
+    /// Per-thread working memory: the ray walk of every tracked ray, reused from ray to ray
+    /// (no allocation per ray).
+    struct Scratch {
+        RayVolumes rv;
+    };
+
     PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                 const SurfaceQuery* surfaces = nullptr);
-    void renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const;
+    void renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt, Scratch& scratch) const;
 
     /// Ratio-tracking estimate of the transmittance from p along d up to tmax (volumes only).
-    vec3 transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt,
+    vec3 transmittance(vec3 p, vec3 d, Sampler& rng, RayCounters& cnt, Scratch& scratch,
                        float tmax = 3.4e38f) const;
     /// Transmittance toward a light: 0 when a surface blocks the way, else ratio tracking.
-    vec3 visibility(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const;
+    vec3 visibility(vec3 p, vec3 d, Sampler& rng, RayCounters& cnt, Scratch& scratch) const;
 
     /// One path from the camera through pixel position (px, py); returns radiance, the
     /// ratio-tracked transmittance of the camera ray in T and the sample's alpha.
     vec3 tracePath(const Ray& cameraRay, Sampler& rng, vec3& T, float& alpha, float& depth,
-                   MarchCounters& cnt) const;
+                   RayCounters& cnt, Scratch& scratch) const;
 
   private:
     enum class Event { Escaped, Scattered, Absorbed };
-    /// Tentative collisions along the ray within the volumes up to tmax, sampled segment by segment
-    /// with each segment's majorant (pbrt-v4's SampleT_maj): visit(t, density, sigma_maj) returns
-    /// false to stop. Returns true when the ray left the field.
+    /// Tentative collisions along the ray within the volumes up to tmax (core/tracking/
+    /// tracking.h): visit(t, density, sigma_maj) returns false to stop. Returns true when the ray
+    /// left the field.
     template <class F>
-    bool sampleCollisions(const Ray& ray, float tmax, Sampler& rng, F&& visit) const;
+    bool sampleCollisions(const Ray& ray, float tmax, Sampler& rng, RayVolumes& rv,
+                          F&& visit) const;
     /// Delta tracking from ray.o along ray.d driven by channel `hero`; multiplies the path
     /// throughput f and the per-channel path pdf p by the events taken. On Scattered, t is the
     /// collision distance.
     Event track(const Ray& ray, float tmax, Sampler& rng, int hero, vec3& f, vec3& p, float& t,
-                MarchCounters& cnt) const;
-    vec3 skyRadiance(vec3 d) const;
+                RayCounters& cnt, Scratch& scratch) const;
 
     const SceneDesc& s_;
     const FramePlan& plan_;
     const VolumeSet& vols_;
     const SurfaceQuery* surfaces_;
     Camera camera_;
-    PhaseFunction phase_;
-    vec3 sigmaS_, sigmaA_, sigmaT_; ///< per unit density, density scale folded in
-    float sigmaTMax_;               ///< max channel of sigmaT_: turns density bounds into majorants
+    Medium medium_;
     std::uint32_t frameKey_;
 };
 

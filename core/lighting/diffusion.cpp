@@ -1,4 +1,4 @@
-#include "core/diffusion.h"
+#include "core/lighting/diffusion.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 /// @file phase.h
 /// @brief Phase functions on the host: `eval(cos)`, `sample(u) -> {cos, pdf}`, `pdf(cos)` over
-///        the kernels of core/kernels/phase.glsl plus the Lorenz-Mie table of core/mie.h.
+///        the kernels of core/kernels/phase.glsl plus the Lorenz-Mie table of core/media/mie.h.
 ///
 /// Convention (as in the kernels): cosTheta is the cosine between the propagation directions
 /// before and after scattering, 1 = forward. eval and pdf are densities over the sphere (1/sr);
@@ -19,7 +19,7 @@
 #include <memory>
 
 #include "core/kernels/kernels.h"
-#include "core/mie.h"
+#include "core/media/mie.h"
 #include "core/scene.h"
 
 namespace nimbus {

@@ -1,4 +1,4 @@
-#include "core/photons.h"
+#include "core/lighting/photons.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/sampler.h"
+#include "core/tracking/tracking.h"
 
 namespace nimbus {
 
@@ -20,6 +21,17 @@ constexpr float kMaxDeposit = 1e12f; // one deposit at most (keeps the sums far 
 inline size_t index(const ivec3& res, int x, int y, int z) {
     return (size_t(z) * res.y + y) * res.x + x;
 }
+
+/// The majorant segments of a walk with every bound scaled (an instance's density scale).
+struct ScaledSegments {
+    MajorantIterator& walk;
+    float scale;
+    bool next(MajorantSegment& seg) {
+        if (!walk.next(seg)) return false;
+        seg.sigma_maj *= scale;
+        return true;
+    }
+};
 
 /// What one thread adds up: 3 channels per recording voxel, and its density lookups.
 struct Tally {
@@ -79,7 +91,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // photons start on a plane on the sun's side of the bounds, over the rectangle that covers
     // the bounds seen from the sun; each carries the flux of its share of that rectangle
     const vec3 d0 = -glm::normalize(p.sunDirection);
-    const vec3 u = aroundAxis(d0, 0.0f, 0.0f);
+    const vec3 u = kern::phaseDirection(d0, 0.0f, 0.0f);
     const vec3 v = glm::cross(d0, u);
     const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
     const float radius = 0.5f * glm::length(geo.bounds.extent());
@@ -147,16 +159,12 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                           vs.wholeMajorant[0]);
                     // delta tracking; the mean channel chooses the events, every channel keeps
                     // its own weight (for grey media the weight changes only by the albedo)
+                    ScaledSegments segments{walk, placement};
                     bool collided = false;
                     float tHit = 0.0f;
-                    MajorantSegment seg;
-                    while (!collided && walk.next(seg)) {
-                        seg.sigma_maj *= placement;
-                        const float sigmaMaj = seg.sigma_maj * sigmaTMax;
-                        float t = seg.t0;
-                        for (;;) {
-                            t -= std::log(1.0f - rng.next()) / sigmaMaj;
-                            if (t >= seg.t1) break;
+                    sampleTmaj(
+                        segments, sigmaTMax, rng,
+                        [&](float t, const MajorantSegment& seg, float sigmaMaj) {
                             const float density = std::min(
                                 seg.sigma_maj, sampleVoxelCentres(fine, geo.bounds.lo, fineRes,
                                                                   fineVoxel, ray.at(t)));
@@ -171,8 +179,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                 if (k >= 0) {
                                     const vec3 toEye =
                                         glm::normalize(p.eye - (cellCentre0 + vec3(c) * geo.voxel));
-                                    // weighted by the density here: the voxel keeps
-                                    // int rho S dV, what march's samples scatter
+                                    // weighted by the density here: the voxel keeps int rho S dV,
+                                    // what march's samples scatter
                                     const vec3 val =
                                         glm::min(w * phase.eval(glm::dot(ray.d, toEye)) /
                                                      (sigmaMaj * pv.skin(q)),
@@ -188,13 +196,13 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                 w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
                                 tHit = t;
                                 collided = true;
-                                break;
+                                return false;
                             }
                             if (pReal < 1.0f)
                                 w *= (vec3(sigmaMaj) - sigmaT * density) /
                                      (sigmaMaj * (1.0f - pReal));
-                        }
-                    }
+                            return true;
+                        });
                     if (!collided) break; // left the volume (or hit a surface)
                     // Russian roulette once absorption has taken weight
                     const float m = maxComponent(w);
@@ -206,7 +214,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     const PhaseSample ps = phase.sample(vec2(u0, u1));
                     if (!(ps.pdf > 0.0f)) break;
                     w *= ps.weight;
-                    ray = Ray{ray.at(tHit), aroundAxis(ray.d, ps.cosTheta, rng.next())};
+                    ray = Ray{ray.at(tHit), kern::phaseDirection(ray.d, ps.cosTheta, rng.next())};
                 }
             }
         });

@@ -15,8 +15,8 @@
 
 #include <vector>
 
-#include "core/field.h"
-#include "core/majorant.h"
+#include "core/fields/field.h"
+#include "core/tracking/majorant.h"
 
 namespace nimbus {
 
@@ -47,18 +47,5 @@ LightVolume buildLightVolume(const Field& field, vec3 sunDirection, float cell,
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid = nullptr,
                                            std::vector<float>* rhoOut = nullptr);
-
-struct DiffusionVolume; // core/diffusion.h
-struct PhotonVolume;    // core/photons.h
-
-/// What march's multiple-scattering and sky terms read (null when unused): the density
-/// integrals straight up and straight down (the vertical column above and below a sample) and
-/// the diffusion solve.
-struct ScatterVolumes {
-    const LightVolume* up = nullptr;
-    const LightVolume* down = nullptr;
-    const DiffusionVolume* diffusion = nullptr; ///< sun and sky multiple scattering
-    const PhotonVolume* photons = nullptr;      ///< the sun's multiple scattering (photons)
-};
 
 } // namespace nimbus

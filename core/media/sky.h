@@ -23,6 +23,34 @@ inline vec3 skyRadiance(const SkyDesc& sky, vec3 d) {
     return vec3(0.0f);
 }
 
+/// Mean sky radiance over the sphere and over the upper and lower hemispheres, times the sky's
+/// ambient scale: what an isotropic medium in-scatters (march's ambient term, the diffusion's
+/// boundary light). A gradient sky mixes horizon and zenith by sqrt(y), whose mean over the
+/// upper hemisphere (y uniform in [0, 1]) is 2/3; below the horizon it is the horizon radiance.
+struct SkyMeans {
+    vec3 sphere{0.0f};
+    vec3 up{0.0f};
+    vec3 down{0.0f};
+};
+
+inline SkyMeans skyMeans(const SkyDesc& sky) {
+    SkyMeans m;
+    switch (sky.kind) {
+    case SkyKind::None:
+        return m;
+    case SkyKind::Uniform:
+        m.sphere = sky.zenith * sky.ambient;
+        m.up = m.down = m.sphere;
+        return m;
+    case SkyKind::Gradient:
+        m.sphere = 0.5f * (sky.zenith + sky.horizon) * sky.ambient;
+        m.up = (sky.horizon + 2.0f * sky.zenith) / 3.0f * sky.ambient;
+        m.down = sky.horizon * sky.ambient;
+        return m;
+    }
+    return m;
+}
+
 /// Irradiance of the sky on a surface by normal: the cosine-weighted integral of skyRadiance
 /// over the hemisphere around n, ignoring clouds. The sky depends on d.y only, so the
 /// irradiance depends on n.y only: tabulated once, interpolated.

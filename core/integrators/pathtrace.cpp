@@ -1,6 +1,7 @@
-#include "core/pathtrace.h"
+#include "core/integrators/pathtrace.h"
 
-#include "core/sky.h"
+#include "core/media/sky.h"
+#include "core/tracking/tracking.h"
 
 #include <algorithm>
 #include <cmath>
@@ -21,43 +22,29 @@ float mean3(vec3 v) {
 PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                          const SurfaceQuery* surfaces)
     : s_(scene), plan_(plan), vols_(volumes), surfaces_(surfaces), camera_(scene.camera),
-      phase_(PhaseFunction::fromMedium(scene.medium)) {
-    sigmaS_ = scene.medium.sigma_s * scene.medium.densityScale;
-    sigmaA_ = scene.medium.sigma_a * scene.medium.densityScale;
-    sigmaT_ = sigmaS_ + sigmaA_;
-    sigmaTMax_ = maxComponent(sigmaT_);
+      medium_(Medium::fromDesc(scene.medium)) {
     frameKey_ = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(scene.render.seed ^ 0x5bd1e995u));
 }
 
-vec3 PathContext::skyRadiance(vec3 d) const {
-    return nimbus::skyRadiance(s_.sky, d);
-}
-
 template <class F>
-bool PathContext::sampleCollisions(const Ray& ray, float tmax, Sampler& rng, F&& visit) const {
-    RayVolumes rv;
-    if (sigmaTMax_ <= 0.0f || !rv.begin(vols_, ray, 0.0f, tmax)) return true;
-    MajorantSegment seg;
-    while (rv.nextSegment(seg)) {
-        const float sigmaMaj = seg.sigma_maj * sigmaTMax_;
-        float t = seg.t0;
-        for (;;) {
-            t -= std::log(1.0f - rng.next()) / sigmaMaj;
-            if (t >= seg.t1) break;
-            if (!visit(t, rv.density(t), sigmaMaj)) return false;
-        }
-    }
-    return true;
+bool PathContext::sampleCollisions(const Ray& ray, float tmax, Sampler& rng, RayVolumes& rv,
+                                   F&& visit) const {
+    if (medium_.sigma_t_max <= 0.0f || !rv.begin(vols_, ray, 0.0f, tmax)) return true;
+    return sampleTmaj(rv, medium_.sigma_t_max, rng,
+                      [&](float t, const MajorantSegment&, float sigmaMaj) {
+                          return visit(t, rv.density(t), sigmaMaj);
+                      });
 }
 
 PathContext::Event PathContext::track(const Ray& ray, float tmax, Sampler& rng, int hero, vec3& f,
-                                      vec3& p, float& tHit, MarchCounters& cnt) const {
+                                      vec3& p, float& tHit, RayCounters& cnt,
+                                      Scratch& scratch) const {
     Event ev = Event::Escaped;
-    sampleCollisions(ray, tmax, rng, [&](float t, float rho, float sigmaMaj) {
+    sampleCollisions(ray, tmax, rng, scratch.rv, [&](float t, float rho, float sigmaMaj) {
         ++cnt.primarySamples;
         // event probabilities of every channel's own delta tracking; the hero channel's choose
         // the event, the path pdf of each channel is kept for spectral MIS
-        const vec3 pS = sigmaS_ * rho / sigmaMaj, pA = sigmaA_ * rho / sigmaMaj;
+        const vec3 pS = medium_.sigma_s * rho / sigmaMaj, pA = medium_.sigma_a * rho / sigmaMaj;
         const vec3 pN = vec3(1.0f) - pS - pA;
         const float u = rng.next();
         if (u < pA[hero]) {
@@ -78,17 +65,18 @@ PathContext::Event PathContext::track(const Ray& ray, float tmax, Sampler& rng, 
     return ev;
 }
 
-vec3 PathContext::visibility(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt) const {
+vec3 PathContext::visibility(vec3 p, vec3 d, Sampler& rng, RayCounters& cnt,
+                             Scratch& scratch) const {
     if (surfaces_ && surfaces_->occluded(Ray{p, d}, 1e-4f, kInf)) return vec3(0.0f);
-    return transmittance(p, d, rng, cnt);
+    return transmittance(p, d, rng, cnt, scratch);
 }
 
-vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt,
+vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, RayCounters& cnt, Scratch& scratch,
                                 float tmax) const {
     vec3 T(1.0f);
-    sampleCollisions(Ray{p, d}, tmax, rng, [&](float, float rho, float sigmaMaj) {
+    sampleCollisions(Ray{p, d}, tmax, rng, scratch.rv, [&](float, float rho, float sigmaMaj) {
         ++cnt.shadowSamples;
-        T *= vec3(1.0f) - sigmaT_ * rho / sigmaMaj;
+        T *= vec3(1.0f) - medium_.sigma_t * rho / sigmaMaj;
         // Russian roulette on small transmittance keeps the estimator unbiased
         const float m = maxComponent(T);
         if (m < 0.1f) {
@@ -105,7 +93,7 @@ vec3 PathContext::transmittance(vec3 p, vec3 d, Sampler& rng, MarchCounters& cnt
 }
 
 vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, float& alphaOut,
-                            float& depthOut, MarchCounters& cnt) const {
+                            float& depthOut, RayCounters& cnt, Scratch& scratch) const {
     const bool sky = s_.sky.kind != SkyKind::None;
     constexpr float kSkyPdf = 0.0795774715459f; // uniform sphere, 1 / (4 pi)
     constexpr float kInvPi = 0.318309886184f;
@@ -117,7 +105,7 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
 
     // camera-ray transmittance for alpha and the AOV (ratio tracking, independent stream)
     Sampler trng{rng.key ^ 0xa511e9b3u, 0};
-    Tcam = transmittance(cameraRay.o, cameraRay.d, trng, cnt, tSurf);
+    Tcam = transmittance(cameraRay.o, cameraRay.d, trng, cnt, scratch, tSurf);
     depthOut = 0.0f;
     alphaOut = (surf && !hit.holdout) || (!surf && s_.render.background == Background::Sky)
                    ? 1.0f
@@ -137,7 +125,7 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
             tSurf = surf ? hit.t : kInf;
         }
         float t = 0.0f;
-        const Event ev = track(ray, tSurf, rng, hero, f, p, t, cnt);
+        const Event ev = track(ray, tSurf, rng, hero, f, p, t, cnt, scratch);
         if (ev == Event::Absorbed) break;
         const vec3 beta = f / mean3(p);
         if (ev == Event::Escaped && surf) {
@@ -148,19 +136,19 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
             const float cosSun = glm::dot(hit.normal, s_.sun.direction);
             if (plan_.shadows && cosSun > 0.0f)
                 L += beta * hit.albedo * (kInvPi * cosSun) * s_.sun.irradiance *
-                     visibility(pos, s_.sun.direction, rng, cnt);
+                     visibility(pos, s_.sun.direction, rng, cnt, scratch);
             if (depth + 1 >= s_.render.maxDepth) break;
             // cosine-weighted bounce: weight albedo
             const float u0 = rng.next(), u1 = rng.next();
-            ray = Ray{pos, aroundAxis(hit.normal, std::sqrt(u0), u1)};
+            ray = Ray{pos, kern::phaseDirection(hit.normal, std::sqrt(u0), u1)};
             f *= hit.albedo;
             fromSurface = true;
         } else if (ev == Event::Escaped) {
             if (depth == 0) {
-                if (s_.render.background == Background::Sky) L += beta * skyRadiance(ray.d);
+                if (s_.render.background == Background::Sky) L += beta * skyRadiance(s_.sky, ray.d);
             } else if (sky) {
                 const float w = fromSurface ? 1.0f : lastPhasePdf / (lastPhasePdf + kSkyPdf);
-                L += beta * skyRadiance(ray.d) * w;
+                L += beta * skyRadiance(s_.sky, ray.d) * w;
             }
             break;
         } else {
@@ -169,25 +157,27 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
 
             // next-event estimation: the sun
             if (plan_.shadows) {
-                const vec3 ph = phase_.eval(glm::dot(ray.d, s_.sun.direction));
-                L += beta * s_.sun.irradiance * ph * visibility(pos, s_.sun.direction, rng, cnt);
+                const vec3 ph = medium_.phase.eval(glm::dot(ray.d, s_.sun.direction));
+                L += beta * s_.sun.irradiance * ph *
+                     visibility(pos, s_.sun.direction, rng, cnt, scratch);
             }
             // next-event estimation: the sky, MIS with phase sampling
             if (sky) {
                 const float z = 1.0f - 2.0f * rng.next();
-                const vec3 wi = aroundAxis(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
+                const vec3 wi = kern::phaseDirection(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
                 const float cosTheta = glm::dot(ray.d, wi);
-                const float w = kSkyPdf / (kSkyPdf + phase_.pdf(cosTheta));
-                const vec3 Tr = visibility(pos, wi, rng, cnt);
-                L += beta * skyRadiance(wi) * Tr * phase_.eval(cosTheta) * (w / kSkyPdf);
+                const float w = kSkyPdf / (kSkyPdf + medium_.phase.pdf(cosTheta));
+                const vec3 Tr = visibility(pos, wi, rng, cnt, scratch);
+                L += beta * skyRadiance(s_.sky, wi) * Tr * medium_.phase.eval(cosTheta) *
+                     (w / kSkyPdf);
             }
             if (depth + 1 >= s_.render.maxDepth) break;
             // continue by sampling the phase function (the same direction for every channel, so
             // its weight eval / pdf goes into the throughput alone)
             const float u0 = rng.next(), u1 = rng.next();
-            const PhaseSample ps = phase_.sample(vec2(u0, u1));
+            const PhaseSample ps = medium_.phase.sample(vec2(u0, u1));
             if (!(ps.pdf > 0.0f)) break;
-            const vec3 d = aroundAxis(ray.d, ps.cosTheta, rng.next());
+            const vec3 d = kern::phaseDirection(ray.d, ps.cosTheta, rng.next());
             f *= ps.weight;
             lastPhasePdf = ps.pdf;
             fromSurface = false;
@@ -206,7 +196,8 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
     return L;
 }
 
-void PathContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt) const {
+void PathContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
+                              Scratch& scratch) const {
     const int spp = std::max(1, s_.render.spp);
     vec3 L(0.0f), T(0.0f);
     double depthSum = 0.0;
@@ -220,7 +211,7 @@ void PathContext::renderPixel(int x, int y, Framebuffer& fb, MarchCounters& cnt)
         ++cnt.rays;
         vec3 Ts;
         float depth, a;
-        vec3 Ls = tracePath(ray, rng, Ts, a, depth, cnt);
+        vec3 Ls = tracePath(ray, rng, Ts, a, depth, cnt, scratch);
         alphaSum += a;
         if (!(std::isfinite(Ls.x) && std::isfinite(Ls.y) && std::isfinite(Ls.z))) {
             ++cnt.nonFinite;

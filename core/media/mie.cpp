@@ -1,4 +1,4 @@
-#include "core/mie.h"
+#include "core/media/mie.h"
 
 #include <algorithm>
 #include <chrono>

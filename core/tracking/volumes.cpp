@@ -1,4 +1,4 @@
-#include "core/volumes.h"
+#include "core/tracking/volumes.h"
 
 #include <algorithm>
 #include <cmath>

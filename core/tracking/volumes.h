@@ -17,8 +17,8 @@
 #include <glm/glm.hpp>
 
 #include "core/accel.h"
-#include "core/field.h"
-#include "core/majorant.h"
+#include "core/fields/field.h"
+#include "core/tracking/majorant.h"
 
 namespace nimbus {
 

@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "core/geometry.h"
-#include "core/light_volume.h"
+#include "core/lighting/light_volume.h"
 
 namespace nimbus {
 

@@ -1,4 +1,4 @@
-#include "core/light_volume.h"
+#include "core/lighting/light_volume.h"
 
 #include <algorithm>
 #include <atomic>

@@ -1,0 +1,64 @@
+#include "core/fields/field.h"
+
+#include <algorithm>
+
+namespace nimbus {
+
+Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVolume> baseBake,
+                std::shared_ptr<const NoiseVolume> detailBake) {
+    Field f;
+    f.kind = desc.kind;
+    switch (desc.kind) {
+    case FieldKind::Homogeneous:
+        f.box = desc.homogeneous.box;
+        f.data = HomogeneousField{desc.homogeneous.density};
+        break;
+    case FieldKind::Cumulus:
+        f.box = desc.cumulus.bounds;
+        f.data = CumulusField{cumulusParams(desc.cumulus, time), std::move(baseBake),
+                              std::move(detailBake)};
+        break;
+    case FieldKind::Vdb:
+        f.box = desc.vdb.bounds;
+        f.data = makeGridField(desc.vdb);
+        break;
+    }
+    return f;
+}
+
+Field emptyField() {
+    Field f;
+    f.kind = FieldKind::Homogeneous;
+    f.box = Box{};
+    f.data = HomogeneousField{0.0f};
+    return f;
+}
+
+float Field::density(vec3 p) const {
+    if (!box.contains(p)) return 0.0f;
+    switch (kind) {
+    case FieldKind::Homogeneous:
+        return as<HomogeneousField>().density(p);
+    case FieldKind::Cumulus:
+        return as<CumulusField>().density(p);
+    case FieldKind::Vdb:
+        return as<GridField>().density(p);
+    }
+    return 0.0f;
+}
+
+float Field::majorant(const Box& b) const {
+    const Box c{glm::max(b.lo, box.lo), glm::min(b.hi, box.hi)};
+    if (c.lo.x > c.hi.x || c.lo.y > c.hi.y || c.lo.z > c.hi.z) return 0.0f;
+    switch (kind) {
+    case FieldKind::Homogeneous:
+        return as<HomogeneousField>().majorant(c);
+    case FieldKind::Cumulus:
+        return as<CumulusField>().majorant(c);
+    case FieldKind::Vdb:
+        return as<GridField>().majorant(c);
+    }
+    return 0.0f;
+}
+
+} // namespace nimbus

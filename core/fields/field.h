@@ -1,0 +1,59 @@
+/// @file field.h
+/// @brief Scalar density fields: `density(p)`, `bounds()`, `majorant(box)`.
+///
+/// A Field is a tagged union of small per-kind structs (core/fields/<kind>.h) with one switch
+/// per verb (no virtual dispatch): a homogeneous box, the procedural cumulus layer of Olajos
+/// 2016, ch. 2, and a NanoVDB grid. A Field is the state of one frame: the wind offsets for that
+/// frame's time are folded in when it is made. Adding a kind = one file in core/fields, one
+/// alternative in Field::Kinds and one case per verb in field.cpp.
+#pragma once
+
+#include <memory>
+#include <variant>
+
+#include "core/fields/cumulus.h"
+#include "core/fields/grid.h"
+#include "core/fields/homogeneous.h"
+#include "core/scene.h"
+
+namespace nimbus {
+
+struct Field {
+    /// Alternatives in FieldKind order.
+    using Kinds = std::variant<HomogeneousField, CumulusField, GridField>;
+
+    FieldKind kind = FieldKind::Homogeneous;
+    Box box; ///< bounds(): no density outside
+    Kinds data;
+
+    const Box& bounds() const { return box; }
+    float density(vec3 p) const;
+    /// Upper bound of density over the box (conservative, rigorous).
+    float majorant(const Box& b) const;
+    /// Grid fields: calls visit(worldBox, maxDensity) for every tree node that holds density
+    /// (leaves, and internal nodes with active tiles), boxes grown by the trilinear support.
+    /// Returns false for fields that are not grids.
+    template <class F> bool forEachDensityNode(F&& visit) const;
+
+    template <class K> const K& as() const { return *std::get_if<K>(&data); }
+};
+
+template <class F> bool Field::forEachDensityNode(F&& visit) const {
+    if (kind != FieldKind::Vdb) return false;
+    as<GridField>().forEachDensityNode(
+        [](void* ctx, const Box& b, float m) {
+            (*static_cast<std::remove_reference_t<F>*>(ctx))(b, m);
+        },
+        &visit);
+    return true;
+}
+
+/// The field of one frame at time `time` (seconds). Pass bakes to read baked noise.
+Field makeField(const FieldDesc& desc, float time,
+                std::shared_ptr<const NoiseVolume> baseBake = nullptr,
+                std::shared_ptr<const NoiseVolume> detailBake = nullptr);
+
+/// A field without density (an unplaced or empty volume).
+Field emptyField();
+
+} // namespace nimbus

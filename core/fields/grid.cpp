@@ -1,0 +1,96 @@
+#include "core/fields/grid.h"
+
+#include <algorithm>
+#include <atomic>
+#include <limits>
+#include <optional>
+
+#include <nanovdb/NanoVDB.h>
+#include <nanovdb/util/SampleFromVoxels.h>
+
+namespace nimbus {
+
+namespace {
+
+const nanovdb::FloatGrid* nanoGrid(const void* g) {
+    return static_cast<const nanovdb::FloatGrid*>(g);
+}
+
+/// World AABB of an index-space box through the grid's affine map.
+Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi) {
+    Box b{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
+    for (int k = 0; k < 8; ++k) {
+        const nanovdb::Vec3f c(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
+        const nanovdb::Vec3f w = g.indexToWorldF(c);
+        b.lo = glm::min(b.lo, vec3(w[0], w[1], w[2]));
+        b.hi = glm::max(b.hi, vec3(w[0], w[1], w[2]));
+    }
+    return b;
+}
+
+} // namespace
+
+GridField makeGridField(const VdbFieldDesc& v) {
+    static std::atomic<std::uint64_t> serials{0};
+    GridField f;
+    f.grid = v.nanoGrid;
+    f.scale = v.density;
+    f.serial = ++serials;
+    return f;
+}
+
+void GridField::forEachDensityNode(void (*fn)(void*, const Box&, float), void* ctx) const {
+    const nanovdb::FloatGrid* g = nanoGrid(grid);
+    if (!g) return;
+    const auto& tree = g->tree();
+    // trilinear sampling at index point x reads the voxels floor(x) .. floor(x) + 1: a node
+    // covering voxels [o, o + n) influences index points in (o - 1, o + n)
+    auto emit = [&](const nanovdb::Coord& o, int n, float m) {
+        if (m <= 0.0f) return;
+        const vec3 lo(float(o[0]) - 1.0f, float(o[1]) - 1.0f, float(o[2]) - 1.0f);
+        fn(ctx, worldBoxOf(*g, lo, lo + vec3(float(n) + 1.0f)), m * scale);
+    };
+    const auto* leaf = tree.getFirstLeaf();
+    for (uint32_t i = 0; i < tree.nodeCount(0); ++i) emit(leaf[i].origin(), 8, leaf[i].maximum());
+    const auto* lower = tree.getFirstLower();
+    for (uint32_t i = 0; i < tree.nodeCount(1); ++i)
+        if (!lower[i].data()->mValueMask.isOff()) emit(lower[i].origin(), 128, lower[i].maximum());
+    const auto* upper = tree.getFirstUpper();
+    for (uint32_t i = 0; i < tree.nodeCount(2); ++i)
+        if (!upper[i].data()->mValueMask.isOff()) emit(upper[i].origin(), 4096, upper[i].maximum());
+}
+
+float GridField::density(vec3 p) const {
+    const nanovdb::FloatGrid* g = nanoGrid(grid);
+    if (!g) return 0.0f;
+    const nanovdb::Vec3f x = g->worldToIndexF(nanovdb::Vec3f(p.x, p.y, p.z));
+    // one accessor per thread and grid: successive lookups along a ray mostly fall in the
+    // same leaf, and the accessor's cached node path skips the walk from the root
+    // (measured: getValue was 42% of a frame with a fresh accessor per lookup)
+    using Accessor = nanovdb::DefaultReadAccessor<float>;
+    // keyed by the field's serial, not the grid's address: a later frame's grid may be
+    // allocated where a freed one was
+    thread_local std::uint64_t cachedSerial = 0;
+    thread_local std::optional<Accessor> acc;
+    if (cachedSerial != serial) {
+        acc.emplace(g->getAccessor());
+        cachedSerial = serial;
+    }
+    auto sampler = nanovdb::createSampler<1>(*acc);
+    return std::max(0.0f, sampler(x)) * scale;
+}
+
+float GridField::majorant(const Box& c) const {
+    float m = 0.0f;
+    auto visit = [&](const Box& n, float v) {
+        if (n.lo.x <= c.hi.x && n.hi.x >= c.lo.x && n.lo.y <= c.hi.y && n.hi.y >= c.lo.y &&
+            n.lo.z <= c.hi.z && n.hi.z >= c.lo.z)
+            m = std::max(m, v);
+    };
+    forEachDensityNode(
+        [](void* ctx, const Box& b, float v) { (*static_cast<decltype(visit)*>(ctx))(b, v); },
+        &visit);
+    return m;
+}
+
+} // namespace nimbus

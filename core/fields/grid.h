@@ -1,0 +1,29 @@
+/// @file grid.h
+/// @brief A sparse density grid (NanoVDB, trilinear), loaded by the host (plugin/vdb) and
+/// handed to core as a nanovdb::FloatGrid.
+#pragma once
+
+#include <cstdint>
+
+#include "core/scene.h"
+
+namespace nimbus {
+
+struct GridField {
+    const void* grid = nullptr; ///< a nanovdb::FloatGrid, kept alive by the scene's bindings
+    float scale = 1.0f;         ///< multiplies the grid values
+    std::uint64_t serial = 0;   ///< unique per field made: keys the per-thread accessors
+
+    /// Density at world point p (p inside the field's bounds).
+    float density(vec3 p) const;
+    /// Upper bound over the world box b: the maxima of the tree nodes that overlap it.
+    float majorant(const Box& b) const;
+    /// Calls fn(ctx, worldBox, maxDensity) for every tree node that holds density (leaves, and
+    /// internal nodes with active tiles), boxes grown by the trilinear support.
+    void forEachDensityNode(void (*fn)(void*, const Box&, float), void* ctx) const;
+};
+
+/// A grid field over the grid of `v` (null grid: no density).
+GridField makeGridField(const VdbFieldDesc& v);
+
+} // namespace nimbus

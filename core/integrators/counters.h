@@ -1,0 +1,16 @@
+/// @file counters.h
+/// @brief What an integrator counts while it renders a tile (added up per frame in RenderStats).
+#pragma once
+
+#include <cstdint>
+
+namespace nimbus {
+
+struct RayCounters {
+    std::uint64_t rays = 0;
+    std::uint64_t primarySamples = 0; ///< density lookups on camera rays (and path segments)
+    std::uint64_t shadowSamples = 0;  ///< density lookups on shadow rays
+    std::uint64_t nonFinite = 0;      ///< pixels or samples that were NaN/Inf (replaced by 0)
+};
+
+} // namespace nimbus

@@ -1,0 +1,92 @@
+/// @file march.h
+/// @brief The `march` integrator (version 1): single-scattering ray marching over majorant
+/// segments with shadow marches toward the sun.
+///
+/// Per camera ray: jittered samples on a step schedule (fixed, or growing with distance),
+/// only inside non-empty majorant segments; at each sample the sun's transmittance from a
+/// shadow march (Beer-Lambert), the medium's phase function (core/media/phase.h), the Olajos
+/// in-scatter or Schneider beer-powder term, and sky ambient; Hillaire's energy-conserving step
+/// integration; early exit when transmittance < epsilon. Olajos 2016 ch. 3; Hillaire 2016;
+/// Schneider 2015.
+///
+/// Multiple scattering: Wrenninge's octaves (the short-range, forward part along the shadow
+/// ray) and, with render.multiple_scattering = "grid", the fluence of the light scattered at
+/// least once from a diffusion solve per frame (core/lighting/diffusion.h; Stam 1995), which also
+/// carries all of the sky light: its P1 radiance (phi + 3 g F.w) / 4 pi is the in-scattered
+/// radiance. Without the grid, the sky enters as an ambient term, occluded by height (v1) or by the
+/// normalised openness of the vertical column (render.sky_occlusion = "column").
+#pragma once
+
+#include <cstdint>
+
+#include "core/accel.h"
+#include "core/camera.h"
+#include "core/image.h"
+#include "core/integrators/counters.h"
+#include "core/lighting/light_volume.h"
+#include "core/media/medium.h"
+#include "core/media/sky.h"
+#include "core/plan.h"
+#include "core/tracking/step_schedule.h"
+#include "core/tracking/volumes.h"
+
+namespace nimbus {
+
+struct DiffusionVolume; // core/lighting/diffusion.h
+struct PhotonVolume;    // core/lighting/photons.h
+
+/// What march's multiple-scattering and sky terms read (null when unused): the density
+/// integrals straight up and straight down (the vertical column above and below a sample) and
+/// the diffusion solve.
+struct ScatterVolumes {
+    const LightVolume* up = nullptr;
+    const LightVolume* down = nullptr;
+    const DiffusionVolume* diffusion = nullptr; ///< sun and sky multiple scattering
+    const PhotonVolume* photons = nullptr;      ///< the sun's multiple scattering (photons)
+};
+
+/// Everything a pixel needs, precomputed once per frame.
+class MarchContext {
+  public:
+    /// Share of the sky ambient left at the base of the layer (below, the ground is seen).
+    static constexpr float kAmbientGround = 0.3f;
+
+    /// Per-thread working memory: the ray walks of a camera ray and of its shadow rays, reused
+    /// from pixel to pixel (no allocation per ray).
+    struct Scratch {
+        RayVolumes primary, shadow;
+    };
+
+    MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
+                 const LightVolume* lightVolume = nullptr, ScatterVolumes scatter = {},
+                 const SurfaceQuery* surfaces = nullptr);
+    void renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt, Scratch& scratch) const;
+
+    /// Density integral along the ray from p toward the sun (shadow march).
+    float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
+    /// Density integral toward the sun from p: light volume or shadow march; infinite when a
+    /// surface blocks the sun.
+    float sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
+    /// Radiance leaving a diffuse surface toward the camera.
+    vec3 surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::uint32_t rng, RayCounters& cnt,
+                         RayVolumes& rv) const;
+    /// In-scattered sky radiance at p (isotropic) by the render.sky_occlusion model.
+    vec3 skyInScatter(vec3 p) const;
+
+  private:
+    const SceneDesc& s_;
+    const FramePlan& plan_;
+    const VolumeSet& vols_;
+    const LightVolume* lightVolume_; ///< when set, replaces the shadow marches
+    ScatterVolumes volumes_;         ///< multiple-scattering and sky-occlusion grids
+    const SurfaceQuery* surfaces_;   ///< null: no surfaces
+    SkyIrradiance skyIrradiance_;
+    Camera camera_;
+    Medium medium_;
+    StepSchedule primary_, shadow_;
+    SkyMeans sky_; ///< mean sky radiance over the sphere and hemispheres, x ambient
+    vec3 kappa_;   ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))
+    std::uint32_t frameKey_;
+};
+
+} // namespace nimbus

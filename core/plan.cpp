@@ -1,0 +1,131 @@
+#include "core/plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "core/tracking/volumes.h"
+
+namespace nimbus {
+
+float autoMajorantCell(const SceneDesc& s, const Box& b) {
+    if (s.render.majorantCell > 0.0f) return s.render.majorantCell;
+    // about four primary steps per cell, at most 256 cells along any axis
+    const vec3 e = b.extent();
+    const float longest = std::max(e.x, std::max(e.y, e.z));
+    return std::max(4.0f * s.render.step, longest / 256.0f);
+}
+
+std::string FramePlan::explain() const {
+    std::ostringstream o;
+    o << "frame " << frame << " (t = " << time << " s)\n";
+    o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
+      << noiseDecision << ")\n";
+    o << "  empty-space skipping: "
+      << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
+      << "\n";
+    o << "  sun transmittance: "
+      << (!shadows      ? std::string("none (no sun)")
+          : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
+                        : std::string("shadow march per sample"))
+      << "\n";
+    o << "  multiple scattering: "
+      << (photons     ? "sun: photons traced through the field, recorded on the light-volume "
+                        "grid; sky: diffusion on that grid"
+          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
+                      : "octaves only")
+      << "\n";
+    o << "  sky ambient: "
+      << (!ambient        ? std::string("no")
+          : diffusion     ? std::string("in the diffusion grid")
+          : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
+                          : std::string("height occlusion"))
+      << "\n";
+    o << "  volumes: " << volumes << ", instances: " << instances;
+    if (instanced)
+        o << " ("
+          << (hierarchical ? "instance boxes, then each volume's majorant grid"
+                           : "one coarse world majorant grid")
+          << ")";
+    o << "\n  surfaces: " << (surfaces ? "ground and/or meshes (Embree)" : "none") << "\n";
+    o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
+      << (aovs.depth ? ", depth" : "") << "\n";
+    return o.str();
+}
+
+FramePlan planFrame(const SceneDesc& s, int frame, const AovSet& aovs) {
+    FramePlan p;
+    p.frame = frame;
+    p.time = float(frame) / s.render.fps;
+    p.aovs = aovs;
+    p.shadows = s.sun.enabled && maxComponent(s.sun.irradiance) > 0.0f;
+    p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
+                maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
+    p.skipEmpty = s.render.skipEmpty;
+    Box bounds = s.field.homogeneous.box;
+    if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
+    if (s.field.kind == FieldKind::Vdb) bounds = s.field.vdb.bounds;
+    p.majorantCell = autoMajorantCell(s, bounds);
+    p.volumes = 1 + int(s.volumes.size());
+    p.instances = s.instances.empty() ? 1 : int(s.instances.size());
+    p.instanced = isInstanced(s);
+    p.hierarchical = s.render.hierarchicalSkip;
+    p.surfaces = s.ground.enabled || !s.meshes.empty();
+    // the light-attenuation volume covers one untransformed volume; instanced scenes march
+    p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
+                    s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty();
+    p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
+    const bool marching = s.render.integrator == Integrator::March;
+    // the grids of the diffusion and the column sky cover one untransformed volume
+    const bool oneVolume = !p.instanced && s.volumes.empty();
+    p.photons = marching && oneVolume && p.shadows &&
+                s.render.multipleScattering == MultipleScattering::Photons;
+    // the sky's multiple scattering is the diffusion grid's in either model
+    p.diffusion =
+        marching && oneVolume &&
+        ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
+         (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
+    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion &&
+                      s.render.skyOcclusion == SkyOcclusion::Column;
+    // the diffusion's sun source needs the density integral toward the sun, and so does the
+    // photons' skin profile (core/lighting/photons.h)
+    p.sunDepthVolume = p.lightVolume || (p.diffusion && p.shadows && !p.photons) ||
+                       (p.photons && s.render.photonSkin > 0.0f);
+    p.densityGrid = p.diffusion || p.photons;
+
+    if (s.field.kind != FieldKind::Cumulus) {
+        p.noiseDecision = "not a procedural field";
+        return p;
+    }
+    const CumulusDesc& c = s.field.cumulus;
+    const double bakeEvals =
+        std::pow(double(c.baseBakeResolution), 3) + std::pow(double(c.detailBakeResolution), 3);
+    // Expected noise evaluations if evaluated directly: every pixel marches the diagonal of the
+    // bounds; about a tenth of the samples survive the cheap envelope test, and each of those
+    // costs a shadow march of ~12 more.
+    const vec3 e = bounds.extent();
+    const double stepsPerRay = std::min(4096.0, double(glm::length(e)) / s.render.step);
+    const double directEvals = double(s.camera.width) * s.camera.height * stepsPerRay * 0.1 *
+                               (1.0 + (p.shadows ? 12.0 : 0.0));
+    char buf[256];
+    switch (c.eval) {
+    case NoiseEval::Direct:
+        p.bakeNoise = false;
+        p.noiseDecision = "field.evaluation = \"direct\"";
+        break;
+    case NoiseEval::Baked:
+        p.bakeNoise = true;
+        p.noiseDecision = "field.evaluation = \"baked\"";
+        break;
+    case NoiseEval::Auto:
+        p.bakeNoise = directEvals > bakeEvals;
+        std::snprintf(buf, sizeof buf, "auto: ~%.3g direct noise evaluations vs %.3g to bake",
+                      directEvals, bakeEvals);
+        p.noiseDecision = buf;
+        break;
+    }
+    return p;
+}
+
+} // namespace nimbus

@@ -1,0 +1,49 @@
+/// @file plan.h
+/// @brief The frame plan: the one place that decides what a frame needs (`nimbus render
+/// --explain` prints it). The renderer builds what the plan names and nothing else.
+#pragma once
+
+#include <string>
+
+#include "core/image.h"
+#include "core/scene.h"
+
+namespace nimbus {
+
+/// What one frame needs. Everything not named here is never built.
+struct FramePlan {
+    int frame = 1;
+    float time = 0.0f; ///< seconds: frame / fps
+    AovSet aovs;
+    bool bakeNoise = false;    ///< cumulus noise read from baked tiles (else evaluated directly)
+    std::string noiseDecision; ///< why
+    bool shadows = true;       ///< sun enabled with non-zero irradiance
+    bool ambient = true;       ///< sky present with non-zero ambient
+    bool skipEmpty = true;
+    bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
+    bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
+    bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
+    bool photons = false;       ///< march: the sun's multiple scattering from traced photons
+    float lightVolumeCell = 0.0f;
+    float majorantCell = 0.0f; ///< world size of a majorant cell
+    int volumes = 1;           ///< `field` and the [[volume]] entries
+    int instances = 1;         ///< placements (1: `field` untransformed)
+    bool instanced = false;    ///< more than one instance or a transformed one
+    bool hierarchical = true;  ///< instanced: instance boxes + per-volume grids (else coarse)
+    bool surfaces = false;     ///< ground or meshes
+    /// march: the density integral toward the sun on the light-volume grid, for the attenuation
+    /// volume, the diffusion's sun source or the photons' skin profile
+    bool sunDepthVolume = false;
+    /// march: the densities at the light-volume grid's voxel centres (diffusion, photons)
+    bool densityGrid = false;
+    std::string explain() const;
+};
+
+/// Plans frame `frame` of the scene.
+FramePlan planFrame(const SceneDesc& scene, int frame, const AovSet& aovs = {});
+
+/// The majorant cell for a volume with the given bounds: render.majorant_cell when set, else
+/// about four primary steps per cell and at most 256 cells along any axis.
+float autoMajorantCell(const SceneDesc& s, const Box& bounds);
+
+} // namespace nimbus

@@ -1,0 +1,70 @@
+/// @file step_schedule.h
+/// @brief Where march samples along a ray: a step schedule (fixed, or growing with distance)
+/// and the walk of those samples over the non-empty majorant segments, written once for camera
+/// and shadow rays.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "core/tracking/majorant.h"
+
+namespace nimbus {
+
+/// Sample positions along a ray as a function of a continuous step coordinate u: samples sit
+/// at u = n + jitter. Fixed steps of dt0 up to distance tg = ceil(1 / growth) dt0, then steps that
+/// grow geometrically (dt ~ growth * t). Closed form in both directions, so skipping a stretch of
+/// empty space lands on exactly the samples a full march would have taken.
+struct StepSchedule {
+    double dt0 = 1.0, growth = 0.0, tg = 0.0, logG = 0.0;
+
+    StepSchedule(double step, double grow) : dt0(step), growth(grow) {
+        if (growth > 0.0) {
+            // start growing at a whole step index, where growth * t >= dt0 already holds
+            tg = std::ceil(1.0 / growth) * dt0;
+            logG = std::log1p(growth);
+        }
+    }
+    double u(double t) const {
+        if (growth <= 0.0 || t <= tg) return t / dt0;
+        return tg / dt0 + std::log(t / tg) / logG;
+    }
+    double t(double u) const {
+        const double ug = growth > 0.0 ? tg / dt0 : 0.0;
+        if (growth <= 0.0 || u <= ug) return u * dt0;
+        return tg * std::exp((u - ug) * logG);
+    }
+};
+
+/// Marches the non-empty majorant segments of a ray (written once, used by camera and shadow
+/// rays). Step n covers [t(n), t(n+1)] clipped to [tIn, tOut], the ray's span inside the field;
+/// its sample sits at the fraction `jitter` of the clipped step and is visited only if it lies
+/// in a non-empty segment, so skipping changes no sample that can see density. The callback
+/// gets (t, dt, n) and returns false to stop.
+template <class Segments, class F>
+void marchSegments(Segments& it, const StepSchedule& sched, double tIn, double tOut, float jitter,
+                   F&& visit) {
+    MajorantSegment seg;
+    std::int64_t nNext = 0;
+    while (it.next(seg)) {
+        for (std::int64_t n = std::max(nNext, std::int64_t(std::floor(sched.u(seg.t0))));; ++n) {
+            const double tA = std::max(sched.t(double(n)), tIn);
+            const double tB = std::min(sched.t(double(n + 1)), tOut);
+            if (tB <= tA) {
+                if (tA >= tOut) return;
+                continue;
+            }
+            const float ts = float(tA + double(jitter) * (tB - tA));
+            if (ts < seg.t0) {
+                nNext = n + 1;
+                continue;
+            }
+            if (ts >= seg.t1) break;
+            nNext = n + 1;
+            if (!visit(ts, float(tB - tA), n)) return;
+        }
+    }
+}
+
+} // namespace nimbus
