@@ -14,10 +14,12 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <dlfcn.h>
+#include <unistd.h>
 
 #include "plugin/cli/commands.h"
+#include "plugin/cli/dispatch.h"
 #include "plugin/io/frames.h"
-#include "plugin/io/scene_file.h"
 
 using namespace nimbus;
 
@@ -33,6 +35,33 @@ void addReferenceFileOptions(CLI::App* cmd, std::string& save, std::string& load
                     "Read the reference from an EXR written by --save-reference instead of "
                     "rendering it (its frame and resolution must match)")
         ->excludes(s);
+}
+
+/// Loads the commands' shared object from beside the executable and runs `command`.
+int run(cli::Command command, const void* options) {
+    std::string dir = ".";
+    char self[4096];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n > 0) {
+        self[n] = '\0';
+        dir = self;
+        dir = dir.substr(0, dir.find_last_of('/'));
+    }
+    const std::string path = dir + "/" + cli::kCommandsLibrary;
+    void* lib = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        std::fprintf(stderr, "nimbus: error: cannot load the commands (%s): %s\n", path.c_str(),
+                     dlerror());
+        return cli::kExitInternal;
+    }
+    using Entry = int (*)(int, const void*);
+    auto entry = reinterpret_cast<Entry>(dlsym(lib, cli::kDispatchSymbol));
+    if (!entry) {
+        std::fprintf(stderr, "nimbus: error: %s has no %s: %s\n", path.c_str(),
+                     cli::kDispatchSymbol, dlerror());
+        return cli::kExitInternal;
+    }
+    return entry(int(command), options);
 }
 
 } // namespace
@@ -288,19 +317,11 @@ int main(int argc, char** argv) {
         return rc == 0 ? 0 : cli::kExitBadInput;
     }
 
-    try {
-        if (*render) return cli::runRender(ro);
-        if (*converge) return cli::runConverge(co);
-        if (*calibrate) return cli::runCalibrate(ko);
-        if (*bake) return cli::runBake(bo);
-        if (*bench) return cli::runBenchVdb(vo);
-        if (*reference) {
-            std::cout << io::sceneFileReference();
-            return 0;
-        }
-    } catch (const std::bad_alloc&) {
-        std::fprintf(stderr, "nimbus: error: out of memory\n");
-        return cli::kExitNoMemory;
-    }
+    if (*render) return run(cli::Command::Render, &ro);
+    if (*converge) return run(cli::Command::Converge, &co);
+    if (*calibrate) return run(cli::Command::Calibrate, &ko);
+    if (*bake) return run(cli::Command::Bake, &bo);
+    if (*bench) return run(cli::Command::BenchVdb, &vo);
+    if (*reference) return run(cli::Command::Reference, nullptr);
     return 0;
 }
