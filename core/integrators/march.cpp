@@ -11,6 +11,11 @@ namespace nimbus {
 
 using kern::pcg;
 
+// the in-scatter model crosses into the kernels as an int
+static_assert(int(InScatter::None) == kern::INSCATTER_NONE);
+static_assert(int(InScatter::Olajos) == kern::INSCATTER_OLAJOS);
+static_assert(int(InScatter::Powder) == kern::INSCATTER_POWDER);
+
 MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                            const LightVolume* lightVolume, ScatterVolumes scatter,
                            const SurfaceQuery* surfaces)
