@@ -852,6 +852,7 @@ TEST_P(GlslParity, MatchesCpp) {
     ASSERT_TRUE(r.ran) << kc->name << " on " << context->renderer() << ":\n" << r.error;
     RecordProperty("worst_ulp_" + kc->name, std::to_string(r.worstUlp));
     RecordProperty("inputs_" + kc->name, std::to_string(r.count));
+    RecordProperty("worst_abs_" + kc->name, std::to_string(r.worstAbs));
     RecordProperty("tolerance_used_" + kc->name, std::to_string(r.worstShare));
     EXPECT_EQ(r.failures, 0) << kc->name << ": " << r.failures << " of " << r.count
                              << " inputs outside " << kc->tolerance.ulps << " ulp"
