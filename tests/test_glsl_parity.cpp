@@ -835,6 +835,27 @@ TEST(GlslEmbedding, EveryPhaseConstantIsAPhaseKind) {
 
 // ------------------------------------------------------------------ GPU parity
 
+TEST(GlslParityTable, EveryKernelFunctionHasARow) {
+    // every NB_FN function of the embedded kernels is called by some row of parityCases():
+    // a new kernel function fails here until it has its row (GLSL call, C++ call, inputs)
+    const std::regex function(R"(NB_FN\s+\w+\s+(\w+)\s*\()");
+    const std::regex call(R"((\w+)\s*\()");
+    std::set<std::string> called;
+    for (const KernelCase& k : parityCases())
+        for (auto it = std::sregex_iterator(k.body.begin(), k.body.end(), call);
+             it != std::sregex_iterator(); ++it)
+            called.insert((*it)[1]);
+    int functions = 0;
+    for (const KernelSource& k : kernelSources()) {
+        const std::string text(k.text);
+        for (auto it = std::sregex_iterator(text.begin(), text.end(), function);
+             it != std::sregex_iterator(); ++it, ++functions)
+            EXPECT_TRUE(called.count((*it)[1]))
+                << (*it)[1] << " (" << k.path << ") has no row in parityCases()";
+    }
+    EXPECT_GT(functions, 40);
+}
+
 class GlslParity : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(GlslParity, MatchesCpp) {
@@ -852,8 +873,14 @@ TEST_P(GlslParity, MatchesCpp) {
     ASSERT_TRUE(r.ran) << kc->name << " on " << context->renderer() << ":\n" << r.error;
     RecordProperty("worst_ulp_" + kc->name, std::to_string(r.worstUlp));
     RecordProperty("inputs_" + kc->name, std::to_string(r.count));
-    RecordProperty("worst_abs_" + kc->name, std::to_string(r.worstAbs));
-    RecordProperty("tolerance_used_" + kc->name, std::to_string(r.worstShare));
+    auto g3 = [](double v) { // 3 significant digits, whatever the magnitude
+        std::ostringstream s;
+        s.precision(3);
+        s << v;
+        return s.str();
+    };
+    RecordProperty("worst_abs_" + kc->name, g3(r.worstAbs));
+    RecordProperty("tolerance_used_" + kc->name, g3(r.worstShare));
     EXPECT_EQ(r.failures, 0) << kc->name << ": " << r.failures << " of " << r.count
                              << " inputs outside " << kc->tolerance.ulps << " ulp"
                              << (kc->tolerance.why.empty() ? "" : " / " + kc->tolerance.why)
