@@ -11,6 +11,7 @@ PACKAGES=(
   libopenvdb-dev libnanovdb-dev libboost-iostreams-dev   # plugin/vdb: VDB reading, baking
   libembree-dev libtinyobjloader-dev                     # plugin/geom: surfaces, instances
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
+  libegl-dev libopengl-dev libgl1-mesa-dri               # tests: GLSL parity on headless GL (llvmpipe)
   gnuplot-nox                                            # nimbus converge --plot
 )
 

@@ -1,8 +1,10 @@
 /// @file kernels.h
 /// @brief The single-source kernels (core/kernels/*.glsl) compiled as C++.
 ///
-/// Include order is the dependency order; the GLSL side assembles the same files in the same
-/// order after prelude.glsl (see tests/glsl_check.cmake and NIMBUS_KERNEL_FILES in CMake).
+/// This include list is THE list of kernel files, in dependency order. CMake reads the
+/// `#include "core/kernels/<name>.glsl"` lines below (NIMBUS_KERNEL_FILES) to embed the same
+/// files in the same order after prelude.glsl (core/kernels/source.h) and to validate them as
+/// GLSL (tests/glsl_check.cmake): a new kernel file is one line here, nothing else.
 #pragma once
 
 #include "core/kernels/prelude.h"

@@ -1,0 +1,58 @@
+/// @file enum_mirrors.h
+/// @brief Host enums that the kernels mirror as int constants, checked value by value at compile
+///        time (GLSL has no enums; the kernels switch on ints).
+///
+/// Mirrored today: PhaseKind (core/scene.h) = PHASE_* (core/kernels/phase.glsl); PhaseParams::kind
+/// holds int(PhaseKind). No other host enum reaches a kernel. To mirror another: a constexpr
+/// switch with one case per enumerator and no default (a missing case is an error, -Wswitch is
+/// made an error below), one static_assert per value, and the all-values check.
+#pragma once
+
+#include "core/kernels/kernels.h"
+#include "core/scene.h"
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic error "-Wswitch"
+
+namespace nimbus {
+
+/// The phase.glsl constant of each PhaseKind; -1 for an int that is no enumerator.
+constexpr int glslPhaseKind(PhaseKind k) {
+    switch (k) {
+    case PhaseKind::Isotropic:
+        return kern::PHASE_ISOTROPIC;
+    case PhaseKind::HenyeyGreenstein:
+        return kern::PHASE_HG;
+    case PhaseKind::DualHG:
+        return kern::PHASE_DUAL_HG;
+    case PhaseKind::Draine:
+        return kern::PHASE_DRAINE;
+    case PhaseKind::MieApprox:
+        return kern::PHASE_MIE_APPROX;
+    case PhaseKind::MieTable:
+        return kern::PHASE_MIE_TABLE;
+    }
+    return -1;
+}
+
+static_assert(int(PhaseKind::Isotropic) == kern::PHASE_ISOTROPIC);
+static_assert(int(PhaseKind::HenyeyGreenstein) == kern::PHASE_HG);
+static_assert(int(PhaseKind::DualHG) == kern::PHASE_DUAL_HG);
+static_assert(int(PhaseKind::Draine) == kern::PHASE_DRAINE);
+static_assert(int(PhaseKind::MieApprox) == kern::PHASE_MIE_APPROX);
+static_assert(int(PhaseKind::MieTable) == kern::PHASE_MIE_TABLE);
+
+/// Every enumerator (the switch above has them all) equals its GLSL constant, so an
+/// enumerator added with its case but without a static_assert is still checked.
+constexpr bool phaseKindsMirrored() {
+    for (int v = -64; v < 64; ++v) {
+        const int glsl = glslPhaseKind(PhaseKind(v));
+        if (glsl != -1 && glsl != v) return false;
+    }
+    return true;
+}
+static_assert(phaseKindsMirrored(), "a PhaseKind differs from its PHASE_* in phase.glsl");
+
+} // namespace nimbus
+
+#pragma GCC diagnostic pop
