@@ -740,3 +740,99 @@ TEST(SceneFileReference, DefaultsExampleParsesToTheDefaults) {
         EXPECT_TRUE(listed) << p.key;
     }
 }
+
+// ------------------------------------------------------------------------------------------
+// Queries derived from the table: settings, the step schedule, calibration knobs
+// ------------------------------------------------------------------------------------------
+
+TEST(SceneSettings, SayWhichIntegratorWasUsed) {
+    const SceneFile pt = parseSceneText("[render]\nintegrator = \"pathtrace\"\nspp = 4\n", "pt");
+    const auto s = io::sceneSettings(pt);
+    EXPECT_EQ(s.at("render.integrator"), "\"pathtrace\"");
+    EXPECT_EQ(s.at("render.spp"), "4");
+    EXPECT_EQ(io::sceneSettings(parseSceneText("", "m")).at("render.integrator"), "\"march\"");
+}
+
+TEST(SceneSettings, ListEveryKeyWithAValue) {
+    for (const char* kind : {"cumulus", "homogeneous"}) {
+        const SceneFile f =
+            parseSceneText(std::string("[field]\nkind = \"") + kind + "\"\n", "settings");
+        const auto s = io::sceneSettings(f);
+        for (const io::SceneParamInfo& p : io::sceneFileParameters()) {
+            if (p.value.empty()) continue; // unset: sun.elevation, sun.azimuth
+            const bool otherKind =
+                !p.only.empty() && p.only.rfind("field.kind = ", 0) == 0 &&
+                p.only.rfind(std::string("field.kind = \"") + kind + "\"", 0) != 0;
+            if (otherKind) {
+                // a key of another kind only appears when this kind has a key of that name
+                continue;
+            }
+            ASSERT_TRUE(s.count(p.key)) << kind << ": " << p.key;
+        }
+        EXPECT_EQ(s.at("field.kind"), std::string("\"") + kind + "\"");
+    }
+}
+
+TEST(SceneSettings, ValuesAreTheEffectiveOnes) {
+    const SceneFile f = parseSceneText("[sun]\nirradiance = 2\nintensity = 3\n"
+                                       "[render]\nstep = 0.1\n[[volume]]\nname = \"a\"\n"
+                                       "path = \"a.vdb\"\n",
+                                       "settings");
+    const auto s = io::sceneSettings(f);
+    EXPECT_EQ(s.at("sun.irradiance"), "6"); // intensity folded in
+    EXPECT_EQ(s.at("sun.intensity"), "1");
+    EXPECT_EQ(s.at("render.step"), "0.1");
+    EXPECT_EQ(s.at("volume[0].path"), "\"a.vdb\"");
+    EXPECT_EQ(s.count("sun.elevation"), 0u);
+    // each value parses back to the same scene
+    const SceneFile again = parseSceneText("", "again", {"render.step=" + s.at("render.step")});
+    EXPECT_EQ(again.scene.render.step, f.scene.render.step);
+}
+
+TEST(SceneSteps, ScaleExactlyTheThreeStepKeys) {
+    EXPECT_EQ(io::stepScheduleKeys(), (std::vector<std::string>{"render.step", "render.step_growth",
+                                                                "render.shadow_step"}));
+    SceneFile f =
+        parseSceneText("[render]\nstep = 0.04\nstep_growth = 0.002\nshadow_step = 0.1\n", "steps");
+    const auto before = io::sceneSettings(f);
+    io::scaleSteps(f.scene, 0.5);
+    EXPECT_EQ(f.scene.render.step, float(double(0.04f) * 0.5));
+    EXPECT_EQ(f.scene.render.stepGrowth, float(double(0.002f) * 0.5));
+    EXPECT_EQ(f.scene.render.shadowStep, float(double(0.1f) * 0.5));
+    const auto after = io::sceneSettings(f);
+    for (const auto& [key, value] : before) {
+        const bool step =
+            key == "render.step" || key == "render.step_growth" || key == "render.shadow_step";
+        EXPECT_EQ(value != after.at(key), step) << key;
+    }
+}
+
+TEST(SceneCalibration, KnobsComeFromTheTable) {
+    const std::vector<io::CalibrationKnob> knobs = io::calibrationKnobs();
+    std::vector<std::string> keys;
+    for (const io::CalibrationKnob& k : knobs) keys.push_back(k.key);
+    EXPECT_EQ(keys, (std::vector<std::string>{"sky.ambient", "render.octave_extinction",
+                                              "render.octave_contribution",
+                                              "render.octave_eccentricity", "render.ms_strength",
+                                              "render.ms_p1", "render.sky_openness"}));
+    SceneDesc d;
+    for (const io::CalibrationKnob& k : knobs) {
+        EXPECT_FALSE(k.values.empty()) << k.key;
+        for (double v : k.values) {
+            EXPECT_GE(v, k.lo) << k.key;
+            EXPECT_LE(v, k.hi) << k.key;
+        }
+        EXPECT_EQ(k.get(d), k.defaultValue) << k.key;
+        k.set(d, 0.25);
+        EXPECT_EQ(k.get(d), 0.25) << k.key;
+    }
+    EXPECT_EQ(d.render.octaveExtinction, 0.25f);
+    EXPECT_EQ(d.sky.ambient, 0.25f);
+    // applies = the key's "used only when"
+    SceneDesc ms;
+    ms.render.multipleScattering = MultipleScattering::None;
+    ms.render.octaves = 1;
+    for (const io::CalibrationKnob& k : knobs)
+        if (k.key == "render.octave_extinction" || k.key == "render.ms_strength")
+            EXPECT_FALSE(k.applies(ms)) << k.key;
+}

@@ -122,8 +122,7 @@ std::string fmt(const char* f, double v) {
 std::map<std::string, std::string> settingsOf(const io::SceneFile& f,
                                               const std::vector<std::string>& overrides,
                                               const FramePlan& plan) {
-    const RenderDesc& r = f.scene.render;
-    std::map<std::string, std::string> m;
+    std::map<std::string, std::string> m = io::sceneSettings(f); // every key, as TOML
     m["scene"] = f.path;
     // the scene file itself, so a frame can be reproduced from its EXR alone
     std::ifstream in(f.path);
@@ -131,14 +130,6 @@ std::map<std::string, std::string> settingsOf(const io::SceneFile& f,
     std::string ov;
     for (const auto& o : overrides) ov += (ov.empty() ? "" : " ") + o;
     m["overrides"] = ov;
-    m["integrator"] = "march";
-    m["render.step"] = fmt("%g", r.step);
-    m["render.step_growth"] = fmt("%g", r.stepGrowth);
-    m["render.shadow_step"] = fmt("%g", r.shadowStep);
-    m["render.shadow_growth"] = fmt("%g", r.shadowGrowth);
-    m["render.epsilon"] = fmt("%g", r.epsilon);
-    m["render.jitter"] = r.jitter ? "true" : "false";
-    m["render.skip_empty"] = r.skipEmpty ? "true" : "false";
     m["plan"] = plan.explain();
     return m;
 }

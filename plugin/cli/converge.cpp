@@ -41,9 +41,7 @@ std::string percent(double v) {
 
 SceneDesc withSteps(const SceneDesc& base, double f) {
     SceneDesc s = base;
-    s.render.step = float(base.render.step * f);
-    s.render.stepGrowth = float(base.render.stepGrowth * f);
-    s.render.shadowStep = float(base.render.shadowStep * f);
+    io::scaleSteps(s, f);
     return s;
 }
 
@@ -466,59 +464,8 @@ int runCalibrate(const CalibrateOptions& o) {
         bestErr = startErr;
     }
     // coordinate descent over the approximations of march that the scene uses, two passes
-    struct Knob {
-        const char* section;
-        const char* name;
-        float* (*get)(SceneDesc&);
-        bool (*applies)(const SceneDesc&);
-        std::vector<float> values;
-    };
-    using Applies = bool (*)(const SceneDesc&);
-    const Applies octavesOn = [](const SceneDesc& s) { return s.render.octaves > 1; };
-    const Applies skyOn = [](const SceneDesc& s) { return s.sky.kind != SkyKind::None; };
-    const Applies msOn = [](const SceneDesc& s) {
-        return s.render.multipleScattering != MultipleScattering::None;
-    };
-    const std::vector<Knob> knobs = {
-        {"render",
-         "octave_extinction",
-         [](SceneDesc& s) { return &s.render.octaveExtinction; },
-         octavesOn,
-         {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
-        {"render",
-         "octave_contribution",
-         [](SceneDesc& s) { return &s.render.octaveContribution; },
-         octavesOn,
-         {0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f}},
-        {"render",
-         "octave_eccentricity",
-         [](SceneDesc& s) { return &s.render.octaveEccentricity; },
-         octavesOn,
-         {0.0f, 0.25f, 0.5f, 0.75f, 1.0f}},
-        {"render",
-         "ms_strength",
-         [](SceneDesc& s) { return &s.render.msStrength; },
-         msOn,
-         {0.25f, 0.5f, 0.75f, 1.0f, 1.25f, 1.5f, 2.0f, 2.5f, 3.0f, 4.0f}},
-        {"render",
-         "ms_p1",
-         [](SceneDesc& s) { return &s.render.msP1; },
-         [](const SceneDesc& s) { return s.render.multipleScattering == MultipleScattering::Grid; },
-         {0.0f, 0.5f, 1.0f}},
-        {"render",
-         "sky_openness",
-         [](SceneDesc& s) { return &s.render.skyOpenness; },
-         [](const SceneDesc& s) {
-             return s.sky.kind != SkyKind::None && s.render.skyOcclusion == SkyOcclusion::Column &&
-                    s.render.multipleScattering != MultipleScattering::Grid;
-         },
-         {0.0f, 0.25f, 0.5f, 1.0f, 2.0f, 4.0f}},
-        {"sky",
-         "ambient",
-         [](SceneDesc& s) { return &s.sky.ambient; },
-         skyOn,
-         {0.25f, 0.5f, 0.75f, 1.0f, 1.25f, 1.5f, 2.0f, 3.0f}},
-    };
+    // the keys tagged for calibration in the parameter table, with their grids of values
+    const std::vector<io::CalibrationKnob> knobs = io::calibrationKnobs();
     for (int pass = 0; pass < 2; ++pass) {
         for (int octaves : {1, 2, 4, 8}) {
             SceneDesc s = best;
@@ -531,12 +478,12 @@ int runCalibrate(const CalibrateOptions& o) {
                 best = s;
             }
         }
-        for (const Knob& k : knobs) {
+        for (const io::CalibrationKnob& k : knobs) {
             if (!k.applies(best)) continue;
-            for (float v : k.values) {
+            for (double v : k.values) {
                 SceneDesc s = best;
-                if (*k.get(s) == v) continue;
-                *k.get(s) = v;
+                if (k.get(s) == v) continue;
+                k.set(s, v);
                 // energy conservation: contribution <= extinction
                 if (s.render.octaveContribution > s.render.octaveExtinction) continue;
                 double e;
@@ -558,11 +505,10 @@ int runCalibrate(const CalibrateOptions& o) {
                 100.0 * corrected(bestErr, noise), best.render.octaves);
     for (const char* section : {"render", "sky"}) {
         if (std::string(section) == "sky") std::printf("\n[sky]\n");
-        for (const Knob& k : knobs) {
-            SceneDesc s = best;
-            if (section == std::string(k.section) && k.applies(s))
-                std::printf("%s = %g\n", k.name, *k.get(s));
-        }
+        const std::string prefix = std::string(section) + ".";
+        for (const io::CalibrationKnob& k : knobs)
+            if (k.key.rfind(prefix, 0) == 0 && k.applies(best))
+                std::printf("%s = %g\n", k.key.substr(prefix.size()).c_str(), k.get(best));
     }
     return kExitOk;
 }

@@ -2,7 +2,8 @@
 /// @brief Strict TOML scene files: parse, apply `--set` overrides, validate, fill SceneDesc.
 ///
 /// Every key a scene file may contain is declared once, in the parameter table of
-/// scene_file.cpp (section, key, type, default, allowed range or words, one-line doc). The same
+/// plugin/io/scene/params_<section>.cpp (section, key, type, default, allowed range or words,
+/// one-line doc, tags). The same
 /// table validates files and generates the reference (sceneFileReference(), checked in as
 /// examples/scenes/reference.md), so documentation and parser cannot drift (pbrt-v4's
 /// `ReportUnused()` idea: a misspelt key is an error, never a silent default).
@@ -22,6 +23,8 @@
 ///       (it owns the OCIO config).
 #pragma once
 
+#include <functional>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -84,5 +87,35 @@ struct SceneParamInfo {
 
 /// All parameters, in reference order.
 std::vector<SceneParamInfo> sceneFileParameters();
+
+/// Every parameter's effective value as TOML text, keyed "section.key" ("frames" at top level),
+/// read from @p f through the table's getters: keys of the other field kinds and unset keys
+/// (`sun.elevation` and `sun.azimuth`, folded into `sun.direction`) are left out;
+/// `sun.irradiance` already includes `sun.intensity` (which then reads 1). Arrays of tables
+/// give "volume[i].key" and "mesh[i].key"; instances (also those of [[scatter]]) are left out.
+std::map<std::string, std::string> sceneSettings(const SceneFile& f);
+
+/// The keys of the march step schedule ("render.step", "render.step_growth",
+/// "render.shadow_step"): the rows tagged as scaling with the step.
+std::vector<std::string> stepScheduleKeys();
+
+/// Multiplies every key of the step schedule (stepScheduleKeys()) of @p s by @p f, rounding to
+/// float as a scene file would (render.shadow_growth is a ratio and is kept).
+void scaleSteps(SceneDesc& s, double f);
+
+/// A parameter that `nimbus calibrate` fits, from the parameter table.
+struct CalibrationKnob {
+    std::string key;            ///< "render.octave_extinction"
+    double lo = 0.0, hi = 0.0;  ///< allowed range (closed or open: see `allowed`)
+    std::string allowed;        ///< the range as the reference writes it
+    double defaultValue = 0.0;  ///< the table's default
+    std::vector<double> values; ///< the grid calibrate tries, each inside the range
+    std::function<bool(const SceneDesc&)> applies; ///< the key's "used only when" condition
+    std::function<double(const SceneDesc&)> get;
+    std::function<void(SceneDesc&, double)> set; ///< rounds to float, as a scene file would
+};
+
+/// The rows tagged for calibration, in table order.
+std::vector<CalibrationKnob> calibrationKnobs();
 
 } // namespace nimbus::io

@@ -1,0 +1,101 @@
+/// @file queries.cpp
+/// @brief What the rest of Nimbus asks of the parameter table: the effective settings of a
+///        scene (EXR metadata), the step schedule and the knobs of `nimbus calibrate`.
+#include <utility>
+
+#include "plugin/io/scene/table.h"
+
+namespace nimbus::io {
+
+using namespace scene;
+
+namespace {
+
+/// Runs @p fn on a staging that holds @p s (moved in and back out, not copied).
+template <class F> auto withStaging(SceneDesc& s, F fn) {
+    struct Back {
+        Staging st;
+        SceneDesc& s;
+        ~Back() { s = std::move(st.file.scene); }
+    } b{{}, s};
+    b.st.file.scene = std::move(s);
+    return fn(b.st);
+}
+
+} // namespace
+
+std::map<std::string, std::string> sceneSettings(const SceneFile& f) {
+    std::map<std::string, std::string> out;
+    Staging st;
+    st.file = f;
+    for (const Param& p : registry()) {
+        if (p.kind && *p.kind != f.scene.field.kind) continue;
+        if (std::optional<Value> v = p.get(st)) out[p.full()] = toToml(p, *v);
+    }
+    for (const ArraySection& a : arraySections()) {
+        size_t count = a.name == "volume" ? f.scene.volumes.size()
+                       : a.name == "mesh" ? f.scene.meshes.size()
+                                          : 0; // instances: too many after [[scatter]]
+        for (size_t i = 0; i < count; ++i) {
+            st.element = i;
+            for (const Param& p : arrayRegistry())
+                if (p.section == a.name)
+                    if (std::optional<Value> v = p.get(st))
+                        out[a.name + "[" + std::to_string(i) + "]." + p.key] = toToml(p, *v);
+        }
+    }
+    return out;
+}
+
+std::vector<std::string> stepScheduleKeys() {
+    std::vector<std::string> out;
+    for (const Param& p : registry())
+        if (p.stepSchedule) out.push_back(p.full());
+    return out;
+}
+
+void scaleSteps(SceneDesc& s, double f) {
+    withStaging(s, [f](Staging& st) {
+        for (const Param& p : registry()) {
+            if (!p.stepSchedule) continue;
+            Value v = *p.get(st);
+            v.x *= f;
+            p.set(st, v);
+        }
+    });
+}
+
+std::vector<CalibrationKnob> calibrationKnobs() {
+    std::vector<CalibrationKnob> out;
+    for (const Param& p : registry()) {
+        if (p.calibrationGrid.empty()) continue;
+        CalibrationKnob k;
+        k.key = p.full();
+        k.lo = p.range.lo;
+        k.hi = p.range.hi;
+        k.allowed = allowedOf(p);
+        Staging defaults;
+        k.defaultValue = p.get(defaults)->x;
+        for (double x : p.calibrationGrid) k.values.push_back(double(float(x))); // as stored
+        k.applies = [&p](const SceneDesc& s) {
+            SceneFile f;
+            f.scene = s;
+            return !p.used || p.used(f);
+        };
+        k.get = [&p](const SceneDesc& s) {
+            SceneDesc copy = s;
+            return withStaging(copy, [&p](Staging& st) { return p.get(st)->x; });
+        };
+        k.set = [&p](SceneDesc& s, double x) {
+            withStaging(s, [&p, x](Staging& st) {
+                Value v;
+                v.x = x;
+                p.set(st, v);
+            });
+        };
+        out.push_back(std::move(k));
+    }
+    return out;
+}
+
+} // namespace nimbus::io

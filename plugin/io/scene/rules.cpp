@@ -1,0 +1,152 @@
+/// @file rules.cpp
+/// @brief The rules across keys of a scene file, each with its one-line doc for the reference
+///        (see reader.h).
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "plugin/io/frames.h"
+#include "plugin/io/scene/reader.h"
+
+namespace nimbus::io::scene {
+
+namespace {
+
+/// The location of the first of @p keys that the file or an override gave.
+Where locate(const Staging& s, const Context& cx, std::initializer_list<std::string_view> keys) {
+    for (std::string_view k : keys) {
+        auto it = s.given.find(std::string(k));
+        if (it != s.given.end()) return it->second;
+    }
+    return {cx.sourceName + ":1:1", 0, 1, 1};
+}
+
+std::string formatVec(const vec3& v) {
+    return "[" + formatFloat(v.x) + ", " + formatFloat(v.y) + ", " + formatFloat(v.z) + "]";
+}
+
+} // namespace
+
+const std::vector<Rule>& rules() {
+    static const std::vector<Rule> table = {
+        {"camera", "`look_at` must differ from `position`.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const CameraDesc& c = s.file.scene.camera;
+             float scale = std::max(1.0f, glm::length(c.position));
+             if (glm::length(c.lookAt - c.position) > 1e-6f * scale) return;
+             pr.add(locate(s, cx, {"camera.look_at", "camera.position"}),
+                    "camera.look_at " + formatVec(c.lookAt) +
+                        " equals camera.position: the view direction is undefined");
+         }},
+        {"camera", "`up` must not be parallel to the view direction `look_at - position`.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const CameraDesc& c = s.file.scene.camera;
+             vec3 d = c.lookAt - c.position;
+             if (glm::length(d) == 0.0f || glm::length(c.up) == 0.0f) return; // reported above
+             float sine = glm::length(glm::cross(glm::normalize(d), glm::normalize(c.up)));
+             if (sine > 1e-3f) return;
+             pr.add(locate(s, cx, {"camera.up", "camera.look_at", "camera.position"}),
+                    "camera.up " + formatVec(c.up) + " is parallel to the view direction " +
+                        formatVec(glm::normalize(d)) +
+                        " (look_at - position); choose an up vector across it");
+         }},
+        {"sun",
+         "Give the sun's position as `direction` or as `elevation` + `azimuth` (both), not "
+         "both ways.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             bool hasDirection = s.given.count("sun.direction") > 0;
+             bool hasEl = s.sunElevation.has_value(), hasAz = s.sunAzimuth.has_value();
+             if (hasDirection && (hasEl || hasAz)) {
+                 pr.add(locate(s, cx, {"sun.elevation", "sun.azimuth"}),
+                        std::string(hasEl ? "sun.elevation" : "sun.azimuth") +
+                            ": the sun is already placed by sun.direction (" +
+                            locate(s, cx, {"sun.direction"}).prefix +
+                            "); give either direction or elevation + azimuth");
+                 return;
+             }
+             if (hasEl != hasAz) {
+                 pr.add(locate(s, cx, {"sun.elevation", "sun.azimuth"}),
+                        hasEl ? "sun.elevation needs sun.azimuth as well (degrees from +z "
+                                "toward +x)"
+                              : "sun.azimuth needs sun.elevation as well (degrees above the "
+                                "horizon)");
+                 return;
+             }
+             if (!hasEl) {
+                 const vec3& d = s.file.scene.sun.direction; // non-zero: checked on reading
+                 double x = d.x, y = d.y, z = d.z, len = std::sqrt(x * x + y * y + z * z);
+                 s.file.scene.sun.direction = vec3(float(x / len), float(y / len), float(z / len));
+                 return;
+             }
+             const double toRad = std::numbers::pi / 180.0;
+             double el = *s.sunElevation * toRad, az = *s.sunAzimuth * toRad;
+             s.file.scene.sun.direction =
+                 glm::normalize(vec3(float(std::cos(el) * std::sin(az)), float(std::sin(el)),
+                                     float(std::cos(el) * std::cos(az))));
+         }},
+        {"field", "`bounds_min` must be below `bounds_max` on every axis.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const FieldDesc& f = s.file.scene.field;
+             const Box& b = f.kind == FieldKind::Cumulus ? f.cumulus.bounds : f.homogeneous.box;
+             const char* axes = "xyz";
+             for (int a = 0; a < 3; ++a) {
+                 if (b.lo[a] < b.hi[a]) continue;
+                 pr.add(locate(s, cx, {"field.bounds_min", "field.bounds_max"}),
+                        "field.bounds_min " + formatVec(b.lo) + " must be below field.bounds_max " +
+                            formatVec(b.hi) + " on every axis; on " + axes[a] + " " +
+                            formatFloat(b.lo[a]) + " >= " + formatFloat(b.hi[a]));
+                 return;
+             }
+         }},
+        {"field",
+         "Cumulus: the largest `tower_radius` may not exceed `tower_spacing`: each tower lives in "
+         "one cell of a `tower_spacing` grid and only the 3 x 3 neighbouring cells are searched, "
+         "so a wider footprint would be cut off at the cell borders.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const CumulusDesc& c = s.file.scene.field.cumulus;
+             if (s.file.scene.field.kind != FieldKind::Cumulus) return;
+             if (c.towerRadiusMax <= c.towerSpacing) return;
+             pr.add(locate(s, cx, {"field.tower_radius", "field.tower_spacing"}),
+                    "field.tower_radius max " + formatFloat(c.towerRadiusMax) +
+                        " exceeds field.tower_spacing " + formatFloat(c.towerSpacing) +
+                        ": footprints may not be wider than the spacing (each tower lives in one "
+                        "cell and only the neighbouring cells are searched); lower the radius or "
+                        "raise the spacing");
+         }},
+        {"render",
+         "With `octaves` > 1, `octave_contribution` may not exceed `octave_extinction`: each "
+         "octave would then add more light than the medium can scatter (Wrenninge 2015).",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const RenderDesc& r = s.file.scene.render;
+             if (r.octaves <= 1 || r.octaveContribution <= r.octaveExtinction) return;
+             pr.add(locate(s, cx,
+                           {"render.octave_contribution", "render.octave_extinction",
+                            "render.octaves"}),
+                    "render.octave_contribution " + formatFloat(r.octaveContribution) +
+                        " exceeds render.octave_extinction " + formatFloat(r.octaveExtinction) +
+                        ": the octaves would not conserve energy; expected contribution <= "
+                        "extinction");
+         }},
+        {"output",
+         "When `frames` names more than one frame, `output.path` (and `output.preview`, if set) "
+         "must contain a frame token, or every frame would overwrite the same file.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             size_t count = parseFrameSpec(s.file.frames).size();
+             if (count <= 1) return;
+             const OutputDesc& o = s.file.output;
+             std::string frames =
+                 "frames " + quote(s.file.frames) + " names " + std::to_string(count) + " frames";
+             if (!patternHasFrameToken(o.path))
+                 pr.add(locate(s, cx, {"output.path", "frames"}),
+                        "output.path " + quote(o.path) + " has no frame token (#### or $F4) but " +
+                            frames);
+             if (!o.preview.empty() && !patternHasFrameToken(o.preview))
+                 pr.add(locate(s, cx, {"output.preview", "frames"}),
+                        "output.preview " + quote(o.preview) +
+                            " has no frame token (#### or $F4) but " + frames);
+         }},
+    };
+    return table;
+}
+
+} // namespace nimbus::io::scene
