@@ -160,11 +160,12 @@ int runBenchVdb(const BenchVdbOptions& o) {
 
     int frame = o.frame;
     SceneDesc base;
-    if (!prepare(ls, frame, o.scale, base)) return kExitBadInput;
+    FrameBindings bindings;
+    if (!prepare(ls, frame, o.scale, base, bindings)) return kExitBadInput;
     const std::vector<std::string> changed = toSingleScattering(base);
     std::optional<vdb::VolumeRenderBaseline> baseline;
     try {
-        baseline.emplace(base.field.vdb);
+        baseline.emplace(base.field.vdb, bindings.grid(0));
     } catch (const std::exception& e) {
         std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame, e.what());
         return kExitBadInput;
@@ -194,7 +195,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
     std::fprintf(stderr, "reference: nimbus step x %g (%s, early exit %g) ...\n", o.referenceStep,
                  nimbusSettings(refScene.render, voxel).c_str(), double(refScene.render.epsilon));
     Measured ref;
-    if (!measure(refScene, frame, ref)) return kExitInterrupted;
+    if (!measure(refScene, bindings, frame, ref)) return kExitInterrupted;
     const double refRms = rms(ref.fb);
     std::fprintf(stderr, "  %.2f s\n", ref.seconds);
     // convergence check: the reference against one twice as coarse; at first order the
@@ -203,7 +204,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
     if (o.checkReference) {
         std::fprintf(stderr, "reference check: nimbus step x %g ...\n", 2.0 * o.referenceStep);
         Measured coarser;
-        if (!measure(referenceScene(2.0 * o.referenceStep), frame, coarser))
+        if (!measure(referenceScene(2.0 * o.referenceStep), bindings, frame, coarser))
             return kExitInterrupted;
         refCheck = rmse(coarser.fb, ref.fb) / std::max(refRms, 1e-30);
         std::fprintf(stderr, "  %.2f s, differs from the reference by rel. RMSE %.3f%%\n",
@@ -269,7 +270,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
             Framebuffer fb;
             if (i < nimbusScenes.size()) {
                 Measured mr;
-                if (!measure(nimbusScenes[i], frame, mr)) return kExitInterrupted;
+                if (!measure(nimbusScenes[i], bindings, frame, mr)) return kExitInterrupted;
                 seconds = mr.seconds;
                 fb = std::move(mr.fb);
             } else {

@@ -79,7 +79,7 @@ int loadScene(const std::string& path, const std::vector<std::string>& overrides
     if (s.ground.enabled || !s.meshes.empty() || isInstanced(s)) {
         std::vector<std::string> warnings;
         try {
-            s.geometry = geom::makeEmbreeGeometry(
+            out.geometry = geom::makeEmbreeGeometry(
                 s, std::filesystem::path(out.file.path).parent_path().string(), warnings);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "nimbus: error: %s: %s\n", out.file.path.c_str(), e.what());
@@ -90,15 +90,20 @@ int loadScene(const std::string& path, const std::vector<std::string>& overrides
     return kExitOk;
 }
 
-bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s) {
+bool bindFrame(const LoadedScene& ls, int frame, FrameBindings& b) {
+    const io::SceneFile& f = ls.file;
+    const SceneDesc& s = f.scene;
     std::vector<std::string> warnings;
     const std::string dir = std::filesystem::path(f.path).parent_path().string();
+    b = FrameBindings{};
+    b.geometry = ls.geometry;
+    b.grids.resize(1 + s.volumes.size());
     try {
-        if (isPlaced(s, 0)) vdb::attachVdbField(s.field, dir, frame, warnings);
+        if (isPlaced(s, 0)) b.grids[0] = vdb::bindVdbField(s.field, dir, frame, warnings);
         for (size_t i = 0; i < s.volumes.size(); ++i) {
             if (!isPlaced(s, int(i) + 1)) continue; // never read
             try {
-                vdb::attachVdbField(s.volumes[i].field, dir, frame, warnings);
+                b.grids[i + 1] = vdb::bindVdbField(s.volumes[i].field, dir, frame, warnings);
             } catch (const std::exception& e) {
                 throw std::runtime_error("volume \"" + s.volumes[i].name + "\": " + e.what());
             }
@@ -198,11 +203,13 @@ int runRender(const RenderOptions& o) {
     if (!vdbField) shared.emplace(f.scene);
     if (o.explain) {
         Renderer& renderer = shared ? *shared : shared.emplace(f.scene);
+        FrameBindings unbound;
+        unbound.geometry = ls.geometry;
         std::printf("scene %s\ncolour: %s, working space %s, output %s\n", f.path.c_str(),
                     ls.cs->description().c_str(), io::workingSpace(*ls.cs).c_str(),
                     f.output.colorSpace.c_str());
         for (int frame : frames) {
-            FramePlan plan = renderer.plan(frame, f.output.aovs);
+            FramePlan plan = renderer.plan(frame, unbound, f.output.aovs);
             std::printf("%s  output: %s\n", plan.explain().c_str(),
                         io::expandFramePattern(f.output.path, frame).c_str());
         }
@@ -230,13 +237,14 @@ int runRender(const RenderOptions& o) {
             continue;
         }
         std::optional<Renderer> own;
+        FrameBindings bindings;
+        bindings.geometry = ls.geometry;
         if (vdbField) {
-            SceneDesc s = f.scene;
-            if (!attachFrameField(f, frame, s)) return kExitBadInput;
-            own.emplace(s);
+            if (!bindFrame(ls, frame, bindings)) return kExitBadInput;
+            own.emplace(f.scene);
         }
         Renderer& renderer = vdbField ? *own : *shared;
-        const FramePlan plan = renderer.plan(frame, f.output.aovs);
+        const FramePlan plan = renderer.plan(frame, bindings, f.output.aovs);
         Framebuffer fb;
         RenderStats st;
         RenderCallbacks cb;
@@ -246,7 +254,7 @@ int runRender(const RenderOptions& o) {
         };
         progress.update(int(k), frame, 0.0);
         const auto t0 = std::chrono::steady_clock::now();
-        const bool complete = renderer.render(plan, fb, st, cb);
+        const bool complete = renderer.render(plan, bindings, fb, st, cb);
         const double seconds = secondsSince(t0);
         if (!complete || gCancel) {
             progress.finishLine();
@@ -322,11 +330,11 @@ int runBake(const BakeOptions& o) {
     if (!framesToRender(o.frames, f.frames, {&o.output}, frames)) return kExitBadInput;
     installSignalHandlers();
     for (int frame : frames) {
-        SceneDesc s = f.scene;
-        if (!attachFrameField(f, frame, s)) return kExitBadInput;
-        Renderer r(s);
-        const FramePlan plan = r.plan(frame);
-        const Field field = r.fieldFor(plan);
+        FrameBindings bindings;
+        if (!bindFrame(ls, frame, bindings)) return kExitBadInput;
+        Renderer r(f.scene);
+        const FramePlan plan = r.plan(frame, bindings);
+        const Field field = r.fieldFor(plan, bindings);
         const MajorantGrid grid = buildMajorantGrid(field, plan.majorantCell);
         const float voxel = o.voxel > 0.0f ? o.voxel : plan.majorantCell;
         const Box b = field.bounds();

@@ -25,6 +25,8 @@ double secondsSince(std::chrono::steady_clock::time_point t0);
 struct LoadedScene {
     std::optional<io::ColorSystem> cs;
     io::SceneFile file;
+    /// Embree, when the scene has surfaces or instances (else null)
+    std::shared_ptr<const GeometryBackend> geometry;
 };
 
 /// Loads a scene; prints errors and returns an exit code (0 on success). `threads` >= 0
@@ -32,9 +34,9 @@ struct LoadedScene {
 int loadScene(const std::string& path, const std::vector<std::string>& overrides, int threads,
               LoadedScene& out);
 
-/// Loads what the scene's field needs for `frame` into s (a VDB field: that frame's grid);
-/// prints warnings, and errors naming the scene file and frame. False on error.
-bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s);
+/// Binds what frame `frame` needs: the VDB grids of the placed volumes and the scene's
+/// geometry; prints warnings, and errors naming the scene file and frame. False on error.
+bool bindFrame(const LoadedScene& ls, int frame, FrameBindings& b);
 
 // --- measuring error against run time (converge, calibrate, bench-vdb-render) ---
 
@@ -51,7 +53,7 @@ SceneDesc withSteps(const SceneDesc& base, double f);
 
 /// Renders frame `frame` of s and times Renderer::render (noise is baked before the clock
 /// starts, so the time is the integrator's); returns false when interrupted.
-bool measure(const SceneDesc& s, int frame, Measured& m);
+bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m);
 
 /// Root mean square difference over every RGBA value of two same-sized framebuffers.
 double rmse(const Framebuffer& a, const Framebuffer& ref);
@@ -62,7 +64,7 @@ double rms(const Framebuffer& a);
 /// would dilute the error), the field of `frame` attached (the scene's first frame when frame
 /// is -1000000000; frame is set to it), resolution scaled, the noise evaluation the scene's own
 /// plan picks (so the error is that of the setting alone). Prints errors; false on bad input.
-bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base);
+bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base, FrameBindings& b);
 
 /// Writes text to path atomically; prints the error and returns false on failure.
 bool writeText(const std::string& path, const std::string& text);

@@ -47,14 +47,14 @@ SceneDesc withSteps(const SceneDesc& base, double f) {
     return s;
 }
 
-bool measure(const SceneDesc& s, int frame, Measured& m) {
+bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m) {
     Renderer r(s);
-    const FramePlan plan = r.plan(frame);
+    const FramePlan plan = r.plan(frame, b);
     RenderCallbacks cb;
     cb.cancel = &gCancel;
-    if (plan.bakeNoise) r.fieldFor(plan);
+    if (plan.bakeNoise) r.fieldFor(plan, b);
     const auto t0 = std::chrono::steady_clock::now();
-    const bool ok = r.render(plan, m.fb, m.stats, cb);
+    const bool ok = r.render(plan, b, m.fb, m.stats, cb);
     m.seconds = secondsSince(t0);
     return ok;
 }
@@ -62,16 +62,17 @@ bool measure(const SceneDesc& s, int frame, Measured& m) {
 /// A path-traced reference rendered as two independent halves (seeds differ): their mean is the
 /// reference and their difference measures its noise. A march reference or a one-sample one is
 /// rendered once, noise 0. Returns false when interrupted.
-bool measureReference(const SceneDesc& s, int frame, Measured& ref, double& noise) {
+bool measureReference(const SceneDesc& s, const FrameBindings& bindings, int frame, Measured& ref,
+                      double& noise) {
     noise = 0.0;
     if (s.render.integrator != Integrator::PathTrace || s.render.spp <= 1)
-        return measure(s, frame, ref);
+        return measure(s, bindings, frame, ref);
     SceneDesc half = s;
     half.render.spp = std::max(1, s.render.spp / 2);
     Measured b;
-    if (!measure(half, frame, ref)) return false;
+    if (!measure(half, bindings, frame, ref)) return false;
     half.render.seed = s.render.seed ^ 0x9e3779b9u;
-    if (!measure(half, frame, b)) return false;
+    if (!measure(half, bindings, frame, b)) return false;
     double sq = 0.0;
     for (size_t i = 0; i < ref.fb.rgba.size(); ++i) {
         const double d = double(ref.fb.rgba[i]) - b.fb.rgba[i];
@@ -105,15 +106,15 @@ double rms(const Framebuffer& a) {
     return std::sqrt(sq / double(a.rgba.size()));
 }
 
-bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base) {
+bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base, FrameBindings& b) {
     base = ls.file.scene;
     base.render.background = Background::Transparent;
     if (frame == -1000000000) frame = io::parseFrameSpec(ls.file.frames).front();
-    if (!attachFrameField(ls.file, frame, base)) return false;
+    if (!bindFrame(ls, frame, b)) return false;
     base.camera.width = std::max(1, int(std::lround(base.camera.width * scale)));
     base.camera.height = std::max(1, int(std::lround(base.camera.height * scale)));
     Renderer probe(base);
-    base.field.cumulus.eval = probe.plan(frame).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
+    base.field.cumulus.eval = probe.plan(frame, b).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
     return true;
 }
 
@@ -136,8 +137,8 @@ namespace {
 /// The reference of converge and calibrate: rendered (and with --save-reference kept as an EXR
 /// in the working space, no colour conversion, its label and noise in the header), or read back
 /// from such a file. Returns an exit code; `label` becomes the file's label when loaded.
-int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, int frame,
-                    const std::string& save, const std::string& load, std::string& label,
+int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, const FrameBindings& bindings,
+                    int frame, const std::string& save, const std::string& load, std::string& label,
                     Measured& ref, double& noise) {
     const int w = refScene.camera.width, h = refScene.camera.height;
     if (!load.empty()) {
@@ -184,7 +185,7 @@ int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, int frame,
         return kExitOk;
     }
     std::fprintf(stderr, "reference: %s at %dx%d ...\n", label.c_str(), w, h);
-    if (!measureReference(refScene, frame, ref, noise)) return kExitInterrupted;
+    if (!measureReference(refScene, bindings, frame, ref, noise)) return kExitInterrupted;
     if (!save.empty()) {
         io::ExrMetadata md;
         md.frame = frame;
@@ -233,7 +234,8 @@ int runConverge(const ConvergeOptions& o) {
     }
     int frame = o.frame;
     SceneDesc base;
-    if (!prepare(ls, frame, o.scale, base)) return kExitBadInput;
+    FrameBindings bindings;
+    if (!prepare(ls, frame, o.scale, base, bindings)) return kExitBadInput;
     installSignalHandlers();
 
     // the reference
@@ -258,8 +260,8 @@ int runConverge(const ConvergeOptions& o) {
     }
     Measured ref;
     double refNoise = 0.0;
-    if (int rc = obtainReference(ls, refScene, frame, o.saveReference, o.loadReference, refLabel,
-                                 ref, refNoise))
+    if (int rc = obtainReference(ls, refScene, bindings, frame, o.saveReference, o.loadReference,
+                                 refLabel, ref, refNoise))
         return rc;
     const double refRms = rms(ref.fb);
     if (refRms > 0)
@@ -315,7 +317,7 @@ int runConverge(const ConvergeOptions& o) {
     std::vector<Row> rows;
     for (const Rung& r : rungs) {
         Row row{&r, {}, 0.0, 0.0};
-        if (!measure(r.scene, frame, row.m)) return kExitInterrupted;
+        if (!measure(r.scene, bindings, frame, row.m)) return kExitInterrupted;
         row.err = rmse(row.m.fb, ref.fb);
         row.rel = refRms > 0 ? row.err / refRms : 0.0;
         std::fprintf(stderr, "  %-9s %-16s %8.3f s  rel. RMSE %6.2f%%\n", r.integrator.c_str(),
@@ -431,7 +433,8 @@ int runCalibrate(const CalibrateOptions& o) {
     }
     int frame = o.frame;
     SceneDesc base;
-    if (!prepare(ls, frame, o.scale, base)) return kExitBadInput;
+    FrameBindings bindings;
+    if (!prepare(ls, frame, o.scale, base, bindings)) return kExitBadInput;
     base.render.integrator = Integrator::March;
     installSignalHandlers();
     SceneDesc refScene = base;
@@ -442,15 +445,15 @@ int runCalibrate(const CalibrateOptions& o) {
                            (o.boxFilter ? ", box filter" : ", pixel centres");
     Measured ref;
     double refNoise = 0.0;
-    if (int rc = obtainReference(ls, refScene, frame, o.saveReference, o.loadReference, refLabel,
-                                 ref, refNoise))
+    if (int rc = obtainReference(ls, refScene, bindings, frame, o.saveReference, o.loadReference,
+                                 refLabel, ref, refNoise))
         return rc;
     const double refRms = rms(ref.fb);
 
     int evaluations = 0;
     auto error = [&](const SceneDesc& s, double& out) {
         Measured m;
-        if (!measure(s, frame, m)) return false;
+        if (!measure(s, bindings, frame, m)) return false;
         ++evaluations;
         out = rmse(m.fb, ref.fb) / std::max(refRms, 1e-30);
         return true;
