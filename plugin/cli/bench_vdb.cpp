@@ -109,7 +109,7 @@ std::string fileLabel(std::string s) {
 int runBenchVdb(const BenchVdbOptions& o) {
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
-    const io::SceneFile& f = ls.file;
+    const io::SceneFile& f = ls.file();
     if (f.scene.field.kind != FieldKind::Vdb) {
         std::fprintf(stderr,
                      "nimbus: error: %s is not a VDB scene (its field.kind is \"%s\"): "
@@ -158,10 +158,10 @@ int runBenchVdb(const BenchVdbOptions& o) {
         return kExitBadInput;
     }
 
-    int frame = o.frame;
+    int frame = 0;
     SceneDesc base;
     FrameBindings bindings;
-    if (!prepare(ls, frame, o.scale, base, bindings)) return kExitBadInput;
+    if (!prepare(ls, o.frame, o.scale, base, frame, bindings)) return kExitBadInput;
     const std::vector<std::string> changed = toSingleScattering(base);
     std::optional<vdb::VolumeRenderBaseline> baseline;
     try {
@@ -360,15 +360,15 @@ int runBenchVdb(const BenchVdbOptions& o) {
         std::fprintf(stderr, "wrote %s\n", o.csv.c_str());
     }
     if (!o.outputDir.empty()) {
-        const std::string ws = io::workingSpace(*ls.cs);
+        const std::string ws = ls.workingSpace();
         auto write = [&](const std::string& stem, const Framebuffer& fb, double seconds) {
             const std::filesystem::path p = std::filesystem::path(o.outputDir) / stem;
             io::ExrMetadata md;
             md.renderSeconds = seconds;
             md.frame = frame;
             md.settings["scene"] = f.path;
-            io::writeExr(p.string() + ".exr", fb, *ls.cs, ws, f.output.colorSpace, md);
-            io::writePreviewPng(p.string() + ".png", fb, *ls.cs, ws, f.output.display,
+            io::writeExr(p.string() + ".exr", fb, ls.colors(), ws, f.output.colorSpace, md);
+            io::writePreviewPng(p.string() + ".png", fb, ls.colors(), ws, f.output.display,
                                 f.output.view);
         };
         try {

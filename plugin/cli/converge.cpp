@@ -106,10 +106,11 @@ double rms(const Framebuffer& a) {
     return std::sqrt(sq / double(a.rgba.size()));
 }
 
-bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base, FrameBindings& b) {
-    base = ls.file.scene;
+bool prepare(LoadedScene& ls, std::optional<int> requested, double scale, SceneDesc& base,
+             int& frame, FrameBindings& b) {
+    base = ls.scene();
     base.render.background = Background::Transparent;
-    if (frame == -1000000000) frame = io::parseFrameSpec(ls.file.frames).front();
+    frame = requested ? *requested : ls.firstFrame();
     if (!bindFrame(ls, frame, b)) return false;
     base.camera.width = std::max(1, int(std::lround(base.camera.width * scale)));
     base.camera.height = std::max(1, int(std::lround(base.camera.height * scale)));
@@ -191,14 +192,14 @@ int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, const Fram
         md.frame = frame;
         md.seed = refScene.render.seed;
         md.renderSeconds = ref.seconds;
-        md.settings["scene"] = ls.file.path;
+        md.settings["scene"] = ls.file().path;
         md.settings["reference"] = label;
         char buf[64];
         std::snprintf(buf, sizeof buf, "%.9g", noise);
         md.settings["reference_noise_rmse"] = buf;
-        const std::string ws = io::workingSpace(*ls.cs);
+        const std::string ws = ls.workingSpace();
         try {
-            io::writeExr(save, ref.fb, *ls.cs, ws, ws, md);
+            io::writeExr(save, ref.fb, ls.colors(), ws, ws, md);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "nimbus: error: --save-reference: %s\n", e.what());
             return kExitIo;
@@ -232,10 +233,10 @@ int runConverge(const ConvergeOptions& o) {
         std::fprintf(stderr, "nimbus: error: --scale must be > 0 and --reference-spp >= 0\n");
         return kExitBadInput;
     }
-    int frame = o.frame;
+    int frame = 0;
     SceneDesc base;
     FrameBindings bindings;
-    if (!prepare(ls, frame, o.scale, base, bindings)) return kExitBadInput;
+    if (!prepare(ls, o.frame, o.scale, base, frame, bindings)) return kExitBadInput;
     installSignalHandlers();
 
     // the reference
@@ -431,10 +432,10 @@ int runCalibrate(const CalibrateOptions& o) {
         std::fprintf(stderr, "nimbus: error: --scale must be > 0 and --reference-spp >= 1\n");
         return kExitBadInput;
     }
-    int frame = o.frame;
+    int frame = 0;
     SceneDesc base;
     FrameBindings bindings;
-    if (!prepare(ls, frame, o.scale, base, bindings)) return kExitBadInput;
+    if (!prepare(ls, o.frame, o.scale, base, frame, bindings)) return kExitBadInput;
     base.render.integrator = Integrator::March;
     installSignalHandlers();
     SceneDesc refScene = base;
