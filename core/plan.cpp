@@ -55,6 +55,11 @@ std::string FramePlan::explain() const {
 }
 
 FramePlan planFrame(const SceneDesc& s, int frame, const AovSet& aovs) {
+    return planFrame(s, frame, FrameBindings{}, aovs);
+}
+
+FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings,
+                    const AovSet& aovs) {
     FramePlan p;
     p.frame = frame;
     p.time = float(frame) / s.render.fps;
@@ -65,7 +70,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const AovSet& aovs) {
     p.skipEmpty = s.render.skipEmpty;
     Box bounds = s.field.homogeneous.box;
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
-    if (s.field.kind == FieldKind::Vdb) bounds = s.field.vdb.bounds;
+    if (s.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
     p.majorantCell = autoMajorantCell(s, bounds);
     p.volumes = 1 + int(s.volumes.size());
     p.instances = s.instances.empty() ? 1 : int(s.instances.size());

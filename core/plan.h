@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "core/bindings.h"
 #include "core/image.h"
 #include "core/scene.h"
 
@@ -39,7 +40,11 @@ struct FramePlan {
     std::string explain() const;
 };
 
-/// Plans frame `frame` of the scene.
+/// Plans frame `frame` of the scene with what is bound to it (a VDB field's bounds size its
+/// majorant cell).
+FramePlan planFrame(const SceneDesc& scene, int frame, const FrameBindings& bindings,
+                    const AovSet& aovs = {});
+/// Plans a frame with nothing bound (procedural scenes; a VDB field counts as empty).
 FramePlan planFrame(const SceneDesc& scene, int frame, const AovSet& aovs = {});
 
 /// The majorant cell for a volume with the given bounds: render.majorant_cell when set, else

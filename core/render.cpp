@@ -68,14 +68,32 @@ Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {
     }
 }
 
+FramePlan Renderer::plan(int frame, const FrameBindings& bindings, const AovSet& aovs) const {
+    return planFrame(scene_, frame, bindings, aovs);
+}
+
 FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
     return planFrame(scene_, frame, aovs);
 }
 
 Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
+    return fieldFor(plan, FrameBindings{}, bakeSeconds);
+}
+
+VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
+    return volumesFor(plan, FrameBindings{}, stats);
+}
+
+bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
+                      const RenderCallbacks& cb) {
+    return render(plan, FrameBindings{}, fb, stats, cb);
+}
+
+Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings,
+                         double* bakeSeconds) {
     if (bakeSeconds) *bakeSeconds = 0.0;
     if (scene_.field.kind != FieldKind::Cumulus || !plan.bakeNoise)
-        return makeField(scene_.field, plan.time);
+        return makeField(scene_.field, plan.time, bindings.grid(0));
     {
         std::lock_guard<std::mutex> lock(bakeMutex_);
         if (!baseBake_) {
@@ -88,13 +106,15 @@ Field Renderer::fieldFor(const FramePlan& plan, double* bakeSeconds) {
     return makeField(scene_.field, plan.time, baseBake_, detailBake_);
 }
 
-VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
+VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindings,
+                               RenderStats& stats) {
     const SceneDesc& s = scene_;
     VolumeSet vs;
     const bool fieldPlaced = isPlaced(s, 0);
     // a [field] no instance places is never built (no noise baked, no grid read)
-    vs.fields.push_back(fieldPlaced ? fieldFor(plan, &stats.bakeSeconds) : emptyField());
-    for (const NamedVolumeDesc& v : s.volumes) vs.fields.push_back(makeField(v.field, plan.time));
+    vs.fields.push_back(fieldPlaced ? fieldFor(plan, bindings, &stats.bakeSeconds) : emptyField());
+    for (size_t i = 0; i < s.volumes.size(); ++i)
+        vs.fields.push_back(makeField(s.volumes[i].field, plan.time, bindings.grid(int(i) + 1)));
     const auto t0 = std::chrono::steady_clock::now();
     vs.instances = makeInstances(vs.fields, s.instances);
     vs.bounds =
@@ -136,18 +156,18 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, RenderStats& stats) {
         stats.majorantUsed = true;
     }
     if (stats.majorantCells) stats.majorantEmptyFraction = emptyCells / double(stats.majorantCells);
-    if (!vs.single() && s.geometry) {
+    if (!vs.single() && bindings.geometry) {
         std::vector<Box> boxes;
         boxes.reserve(vs.instances.size());
         for (const VolumeInstance& in : vs.instances) boxes.push_back(in.worldBounds);
-        vs.query = s.geometry->instances(boxes);
+        vs.query = bindings.geometry->instances(boxes);
     }
     stats.majorantSeconds = secondsSince(t0);
     return vs;
 }
 
-bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
-                      const RenderCallbacks& cb) {
+bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
+                      RenderStats& stats, const RenderCallbacks& cb) {
     const SceneDesc& s = scene_;
     const int threads = s.render.threads > 0 ? s.render.threads : tbb::task_arena::automatic;
     tbb::task_arena arena(threads);
@@ -155,7 +175,7 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
     bool completed = true;
 
     arena.execute([&] {
-        VolumeSet vs = volumesFor(plan, stats);
+        VolumeSet vs = volumesFor(plan, bindings, stats);
         auto t0 = std::chrono::steady_clock::now();
         // the light-volume grids (attenuation, column sky, diffusion) cover one untransformed
         // volume: the plan names them only then
@@ -203,7 +223,7 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
             stats.diffusionSeconds = secondsSince(t0);
             stats.diffusionIterations = dv.iterations;
         }
-        const SurfaceQuery* surfaces = s.geometry ? s.geometry->surfaces() : nullptr;
+        const SurfaceQuery* surfaces = bindings.geometry ? bindings.geometry->surfaces() : nullptr;
         PhotonVolume pv;
         if (photons) {
             t0 = std::chrono::steady_clock::now();

@@ -15,6 +15,7 @@
 #include <mutex>
 #include <string>
 
+#include "core/bindings.h"
 #include "core/fields/field.h"
 #include "core/image.h"
 #include "core/tracking/majorant.h"
@@ -51,19 +52,27 @@ struct RenderCallbacks {
     const std::atomic<bool>* cancel = nullptr;
 };
 
-/// Owns a validated scene and what is shared across its frames (baked noise).
+/// Owns a validated scene and what is shared across its frames (baked noise). What the host
+/// loaded for a frame (grids, geometry: core/bindings.h) is passed per frame; the overloads
+/// without bindings are for scenes with nothing to bind (procedural fields, no surfaces).
 class Renderer {
   public:
     explicit Renderer(const SceneDesc& scene);
 
     const SceneDesc& scene() const { return scene_; }
+    FramePlan plan(int frame, const FrameBindings& bindings, const AovSet& aovs = {}) const;
     FramePlan plan(int frame, const AovSet& aovs = {}) const;
     /// Renders the frame into fb (resized to the camera). Returns false if cancelled.
+    bool render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
+                RenderStats& stats, const RenderCallbacks& cb = {});
     bool render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
                 const RenderCallbacks& cb = {});
     /// The field of a frame as the plan builds it (bakes noise on first use when planned).
+    Field fieldFor(const FramePlan& plan, const FrameBindings& bindings,
+                   double* bakeSeconds = nullptr);
     Field fieldFor(const FramePlan& plan, double* bakeSeconds = nullptr);
     /// Every volume of the frame with majorant grids, instances and the instance query.
+    VolumeSet volumesFor(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats);
     VolumeSet volumesFor(const FramePlan& plan, RenderStats& stats);
 
   private:

@@ -109,17 +109,13 @@ struct CumulusDesc {
 };
 
 /// A density grid from a VDB file, rendered from NanoVDB. core/ never reads files: the host
-/// (plugin/vdb) loads the grid named here and fills in `nanoGrid`, `owner` and `bounds`.
+/// (plugin/vdb) loads the grid named here into a GridBinding (core/bindings.h) per frame.
 struct VdbFieldDesc {
     std::string path;             ///< file or per-frame pattern (`smoke.####.vdb`, `$F4`)
     std::string grid = "density"; ///< grid name
     bool levelsetToFog = false;   ///< convert a level set instead of refusing it
     bool hold = false;            ///< a missing frame repeats the last one instead of failing
     float density = 1.0f;         ///< multiplies the grid values
-    // filled in by the host:
-    std::shared_ptr<const void> owner; ///< keeps the grid's memory alive
-    const void* nanoGrid = nullptr;    ///< a nanovdb::FloatGrid
-    Box bounds;                        ///< world bounds of the density (trilinear support)
 };
 
 struct FieldDesc {
@@ -242,9 +238,6 @@ struct SceneDesc {
     GroundDesc ground;
     std::vector<MeshDesc> meshes;
     RenderDesc render;
-    /// Filled by the host (plugin/geom, Embree) when the scene has surfaces or instances; null:
-    /// instances are found by a linear scan and there are no surfaces.
-    std::shared_ptr<const GeometryBackend> geometry;
 };
 
 } // namespace nimbus

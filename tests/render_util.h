@@ -9,18 +9,27 @@
 
 #include "core/render.h"
 
-/// Renders frame `frame` of `s`, expecting it to complete with every value finite.
+/// Renders frame `frame` of `s` with what is bound to it (grids, geometry), expecting it to
+/// complete with every value finite.
 inline nimbus::Framebuffer renderScene(const nimbus::SceneDesc& s,
+                                       const nimbus::FrameBindings& bindings,
                                        nimbus::RenderStats* statsOut = nullptr,
                                        nimbus::AovSet aovs = {}, int frame = 1) {
     nimbus::Renderer r(s);
     nimbus::Framebuffer fb;
     nimbus::RenderStats stats;
-    EXPECT_TRUE(r.render(r.plan(frame, aovs), fb, stats));
+    EXPECT_TRUE(r.render(r.plan(frame, bindings, aovs), bindings, fb, stats));
     EXPECT_EQ(stats.nonFinite, 0u);
     for (float v : fb.rgba) EXPECT_TRUE(std::isfinite(v));
     if (statsOut) *statsOut = stats;
     return fb;
+}
+
+/// Renders frame `frame` of a scene with nothing to bind (procedural fields, no surfaces).
+inline nimbus::Framebuffer renderScene(const nimbus::SceneDesc& s,
+                                       nimbus::RenderStats* statsOut = nullptr,
+                                       nimbus::AovSet aovs = {}, int frame = 1) {
+    return renderScene(s, nimbus::FrameBindings{}, statsOut, aovs, frame);
 }
 
 /// A small cumulus layer seen from its side (32x20, direct noise, sigma_s 6, albedo 1, no

@@ -110,8 +110,9 @@ TEST(Instances, EmbreeFindsTheSameInstancesAsALinearScan) {
         s.instances.push_back(d);
     }
     const Framebuffer scan = renderScene(s);
-    s.geometry = embree(s);
-    const Framebuffer bvh = renderScene(s);
+    FrameBindings b;
+    b.geometry = embree(s);
+    const Framebuffer bvh = renderScene(s, b);
     ASSERT_GT(maxValue(scan), 0.05);
     EXPECT_LT(maxDiff(scan, bvh), 1e-5);
 }
@@ -131,10 +132,11 @@ TEST(Instances, CoarseGridRendersTheSameImageAsHierarchicalSkipping) {
         s.instances.push_back(InstanceDesc{0,
                                            vec3(float(i) * 7.0f - 17.0f, 0.0f, float(i % 2) * 4.0f),
                                            vec3(0.0f, float(i) * 40.0f, 0.0f), vec3(1.0f), 1.0f});
-    s.geometry = embree(s);
-    const Framebuffer h = renderScene(s);
+    FrameBindings b;
+    b.geometry = embree(s);
+    const Framebuffer h = renderScene(s, b);
     s.render.hierarchicalSkip = false;
-    const Framebuffer c = renderScene(s);
+    const Framebuffer c = renderScene(s, b);
     ASSERT_GT(maxValue(h), 0.01);
     EXPECT_LT(maxDiff(h, c), 1e-4);
 }
@@ -153,11 +155,12 @@ TEST(Instances, MergedMajorantsBoundTheSummedDensity) {
     s.instances = {InstanceDesc{0, vec3(0.0f), vec3(0.0f, 30.0f, 0.0f), vec3(1.0f), 1.0f},
                    InstanceDesc{0, vec3(1.5f, 0.3f, 0.0f), vec3(10.0f, -20.0f, 5.0f),
                                 vec3(1.2f, 0.8f, 1.0f), 0.7f}};
-    s.geometry = embree(s);
+    FrameBindings b;
+    b.geometry = embree(s);
     Renderer r(s);
-    const FramePlan plan = r.plan(1);
+    const FramePlan plan = r.plan(1, b);
     RenderStats st;
-    const VolumeSet vs = r.volumesFor(plan, st);
+    const VolumeSet vs = r.volumesFor(plan, b, st);
     ASSERT_EQ(vs.instances.size(), 2u);
     // a ray through cloud where the two instances overlap (searched, deterministic)
     auto opticalDepth = [&](const Ray& ray) {

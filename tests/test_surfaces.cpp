@@ -46,9 +46,15 @@ SceneDesc groundScene() {
     s.render.shadowGrowth = 0.0f;
     s.render.jitter = false;
     s.render.threads = 2;
-    std::vector<std::string> w;
-    s.geometry = geom::makeEmbreeGeometry(s, "", w);
     return s;
+}
+
+/// Renders s with its surfaces (Embree geometry built from s as it is now).
+Framebuffer renderWithSurfaces(const SceneDesc& s) {
+    std::vector<std::string> w;
+    FrameBindings b;
+    b.geometry = geom::makeEmbreeGeometry(s, "", w);
+    return renderScene(s, b);
 }
 
 vec3 px(const Framebuffer& fb, int x, int y) {
@@ -63,7 +69,7 @@ float alpha(const Framebuffer& fb, int x, int y) {
 
 TEST(Surfaces, LitGroundAndCloudShadowMatchTheClosedForm) {
     SceneDesc s = groundScene();
-    const Framebuffer fb = renderScene(s);
+    const Framebuffer fb = renderWithSurfaces(s);
     const float cosSun = s.sun.direction.y;
     const vec3 lit = s.ground.material.albedo / kPi * s.sun.irradiance * cosSun;
     const vec3 shadowed = lit * std::exp(-0.5f / cosSun); // sigma_t * 1 / sin(elevation)
@@ -85,7 +91,7 @@ TEST(Surfaces, PathTracerAgreesWithTheClosedFormOnTheGround) {
     s.render.maxDepth = 1; // direct light only: the slab's in-scattering onto the ground is off
     s.camera.width = 8;
     s.camera.height = 4;
-    const Framebuffer fb = renderScene(s);
+    const Framebuffer fb = renderWithSurfaces(s);
     const float cosSun = s.sun.direction.y;
     const vec3 lit = s.ground.material.albedo / kPi * s.sun.irradiance * cosSun;
     const vec3 shadowed = lit * std::exp(-0.5f / cosSun);
@@ -107,14 +113,14 @@ TEST(Surfaces, SkyLightOnTheGroundIsAlbedoTimesRadianceForBothIntegrators) {
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.3f, 0.6f, 0.9f);
     s.field.homogeneous.density = 0.0f;
-    const Framebuffer m = renderScene(s);
+    const Framebuffer m = renderWithSurfaces(s);
     const vec3 expect = s.ground.material.albedo * s.sky.zenith;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(px(m, 8, 4)[c], expect[c], 0.005f * expect[c]);
     s.render.integrator = Integrator::PathTrace;
     s.render.spp = 1024;
     s.camera.width = 2;
     s.camera.height = 2;
-    const Framebuffer p = renderScene(s);
+    const Framebuffer p = renderWithSurfaces(s);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(px(p, 1, 1)[c], expect[c], 0.03f * expect[c]);
 }
 
@@ -124,10 +130,7 @@ TEST(Surfaces, HoldoutHasAlphaOfTheCloudInFrontOnly) {
     // a cloud between camera and ground over the middle of the view
     s.field.homogeneous.box = Box{vec3(-0.5f, 4.0f, -500.0f), vec3(0.5f, 5.0f, 500.0f)};
     s.render.background = Background::Sky; // a holdout wins over the background
-    s.geometry = nullptr;
-    std::vector<std::string> w;
-    s.geometry = geom::makeEmbreeGeometry(s, "", w);
-    const Framebuffer fb = renderScene(s);
+    const Framebuffer fb = renderWithSurfaces(s);
     // ground only: nothing at all
     EXPECT_EQ(alpha(fb, 0, 4), 0.0f);
     EXPECT_EQ(px(fb, 0, 4), vec3(0.0f));
@@ -151,12 +154,10 @@ TEST(Surfaces, ObjMeshCastsAShadowOnTheGround) {
     MeshDesc m;
     m.path = obj.string();
     s.meshes.push_back(m);
-    std::vector<std::string> w;
-    s.geometry = geom::makeEmbreeGeometry(s, "", w);
     s.camera.position = vec3(0.0f, 1.0f, 0.0f); // under the roof's height: sees the ground
     s.camera.lookAt = vec3(0.0f, 0.0f, 0.01f);
     s.camera.fovY = 60.0f;
-    const Framebuffer fb = renderScene(s);
+    const Framebuffer fb = renderWithSurfaces(s);
     const vec3 a = px(fb, 0, 4), b = px(fb, 15, 4);
     const float cosSun = s.sun.direction.y;
     const vec3 lit = s.ground.material.albedo / kPi * s.sun.irradiance * cosSun;

@@ -57,11 +57,12 @@ SceneDesc sceneFor(const std::string& path, const glm::mat3& R) {
 
 Framebuffer renderVdb(SceneDesc s) {
     std::vector<std::string> warnings;
-    vdb::attachVdbField(s.field, "", 1, warnings);
+    FrameBindings b;
+    b.grids = {vdb::bindVdbField(s.field, "", 1, warnings)};
     Renderer r(s);
     Framebuffer fb;
     RenderStats st;
-    EXPECT_TRUE(r.render(r.plan(1), fb, st));
+    EXPECT_TRUE(r.render(r.plan(1, b), b, fb, st));
     return fb;
 }
 
@@ -101,8 +102,8 @@ TEST(VdbTransform, NonUniformVoxelSizesAreHonoured) {
     vdb::writeVdbGrids((dir / "a.vdb").string(), {blob(M)});
     SceneDesc s = sceneFor((dir / "a.vdb").string(), glm::mat3(1.0f));
     std::vector<std::string> warnings;
-    vdb::attachVdbField(s.field, "", 1, warnings);
-    Field f = makeField(s.field, 0.0f);
+    const GridBinding grid = vdb::bindVdbField(s.field, "", 1, warnings);
+    Field f = makeField(s.field, 0.0f, grid);
     // at voxel centres the density is the voxel value; the voxel of index (i, j, k) sits at
     // (1 + 0.1 i, 2 + 0.2 j, 3 + 0.15 k)
     for (ivec3 ijk : {ivec3(11, 7, 5), ivec3(5, 9, 3), ivec3(15, 6, 7)}) {
@@ -134,8 +135,8 @@ TEST(VdbTransform, MajorantSegmentsCoverTheLeavesAndSkipTheGap) {
     fd.kind = FieldKind::Vdb;
     fd.vdb.path = (dir / "leaves.vdb").string();
     std::vector<std::string> warnings;
-    vdb::attachVdbField(fd, "", 1, warnings);
-    Field f = makeField(fd, 0.0f);
+    const GridBinding leaves = vdb::bindVdbField(fd, "", 1, warnings);
+    Field f = makeField(fd, 0.0f, leaves);
     const float cell = 0.5f;
     MajorantGrid grid = buildMajorantGrid(f, cell);
     const Ray ray{vec3(-20.0f, 3.5f, 3.5f), vec3(1.0f, 0.0f, 0.0f)};

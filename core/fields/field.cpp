@@ -6,6 +6,12 @@ namespace nimbus {
 
 Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVolume> baseBake,
                 std::shared_ptr<const NoiseVolume> detailBake) {
+    return makeField(desc, time, GridBinding{}, std::move(baseBake), std::move(detailBake));
+}
+
+Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
+                std::shared_ptr<const NoiseVolume> baseBake,
+                std::shared_ptr<const NoiseVolume> detailBake) {
     Field f;
     f.kind = desc.kind;
     switch (desc.kind) {
@@ -19,8 +25,8 @@ Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVo
                               std::move(detailBake)};
         break;
     case FieldKind::Vdb:
-        f.box = desc.vdb.bounds;
-        f.data = makeGridField(desc.vdb);
+        f.box = grid.bounds;
+        f.data = makeGridField(desc.vdb, grid);
         break;
     }
     return f;

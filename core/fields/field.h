@@ -48,7 +48,12 @@ template <class F> bool Field::forEachDensityNode(F&& visit) const {
     return true;
 }
 
-/// The field of one frame at time `time` (seconds). Pass bakes to read baked noise.
+/// The field of one frame at time `time` (seconds): a VDB field over `grid` (its loaded grid,
+/// core/bindings.h). Pass bakes to read baked noise.
+Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
+                std::shared_ptr<const NoiseVolume> baseBake = nullptr,
+                std::shared_ptr<const NoiseVolume> detailBake = nullptr);
+/// The same with no grid bound (procedural fields; a VDB field is then empty).
 Field makeField(const FieldDesc& desc, float time,
                 std::shared_ptr<const NoiseVolume> baseBake = nullptr,
                 std::shared_ptr<const NoiseVolume> detailBake = nullptr);

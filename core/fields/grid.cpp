@@ -30,10 +30,10 @@ Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi) {
 
 } // namespace
 
-GridField makeGridField(const VdbFieldDesc& v) {
+GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b) {
     static std::atomic<std::uint64_t> serials{0};
     GridField f;
-    f.grid = v.nanoGrid;
+    f.grid = b.grid;
     f.scale = v.density;
     f.serial = ++serials;
     return f;

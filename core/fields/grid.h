@@ -5,6 +5,7 @@
 
 #include <cstdint>
 
+#include "core/bindings.h"
 #include "core/scene.h"
 
 namespace nimbus {
@@ -23,7 +24,7 @@ struct GridField {
     void forEachDensityNode(void (*fn)(void*, const Box&, float), void* ctx) const;
 };
 
-/// A grid field over the grid of `v` (null grid: no density).
-GridField makeGridField(const VdbFieldDesc& v);
+/// A grid field of `v` over its loaded grid `b` (null grid: no density).
+GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b);
 
 } // namespace nimbus

@@ -109,7 +109,7 @@ std::string fileLabel(std::string s) {
 int runBenchVdb(const BenchVdbOptions& o) {
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
-    const io::SceneFile& f = ls.file;
+    const io::SceneFile& f = ls.file();
     if (f.scene.field.kind != FieldKind::Vdb) {
         std::fprintf(stderr,
                      "nimbus: error: %s is not a VDB scene (its field.kind is \"%s\"): "
@@ -158,13 +158,14 @@ int runBenchVdb(const BenchVdbOptions& o) {
         return kExitBadInput;
     }
 
-    int frame = o.frame;
+    int frame = 0;
     SceneDesc base;
-    if (!prepare(ls, frame, o.scale, base)) return kExitBadInput;
+    FrameBindings bindings;
+    if (!prepare(ls, o.frame, o.scale, base, frame, bindings)) return kExitBadInput;
     const std::vector<std::string> changed = toSingleScattering(base);
     std::optional<vdb::VolumeRenderBaseline> baseline;
     try {
-        baseline.emplace(base.field.vdb);
+        baseline.emplace(base.field.vdb, bindings.grid(0));
     } catch (const std::exception& e) {
         std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame, e.what());
         return kExitBadInput;
@@ -194,7 +195,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
     std::fprintf(stderr, "reference: nimbus step x %g (%s, early exit %g) ...\n", o.referenceStep,
                  nimbusSettings(refScene.render, voxel).c_str(), double(refScene.render.epsilon));
     Measured ref;
-    if (!measure(refScene, frame, ref)) return kExitInterrupted;
+    if (!measure(refScene, bindings, frame, ref)) return kExitInterrupted;
     const double refRms = rms(ref.fb);
     std::fprintf(stderr, "  %.2f s\n", ref.seconds);
     // convergence check: the reference against one twice as coarse; at first order the
@@ -203,7 +204,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
     if (o.checkReference) {
         std::fprintf(stderr, "reference check: nimbus step x %g ...\n", 2.0 * o.referenceStep);
         Measured coarser;
-        if (!measure(referenceScene(2.0 * o.referenceStep), frame, coarser))
+        if (!measure(referenceScene(2.0 * o.referenceStep), bindings, frame, coarser))
             return kExitInterrupted;
         refCheck = rmse(coarser.fb, ref.fb) / std::max(refRms, 1e-30);
         std::fprintf(stderr, "  %.2f s, differs from the reference by rel. RMSE %.3f%%\n",
@@ -269,7 +270,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
             Framebuffer fb;
             if (i < nimbusScenes.size()) {
                 Measured mr;
-                if (!measure(nimbusScenes[i], frame, mr)) return kExitInterrupted;
+                if (!measure(nimbusScenes[i], bindings, frame, mr)) return kExitInterrupted;
                 seconds = mr.seconds;
                 fb = std::move(mr.fb);
             } else {
@@ -359,15 +360,15 @@ int runBenchVdb(const BenchVdbOptions& o) {
         std::fprintf(stderr, "wrote %s\n", o.csv.c_str());
     }
     if (!o.outputDir.empty()) {
-        const std::string ws = io::workingSpace(*ls.cs);
+        const std::string ws = ls.workingSpace();
         auto write = [&](const std::string& stem, const Framebuffer& fb, double seconds) {
             const std::filesystem::path p = std::filesystem::path(o.outputDir) / stem;
             io::ExrMetadata md;
             md.renderSeconds = seconds;
             md.frame = frame;
             md.settings["scene"] = f.path;
-            io::writeExr(p.string() + ".exr", fb, *ls.cs, ws, f.output.colorSpace, md);
-            io::writePreviewPng(p.string() + ".png", fb, *ls.cs, ws, f.output.display,
+            io::writeExr(p.string() + ".exr", fb, ls.colors(), ws, f.output.colorSpace, md);
+            io::writePreviewPng(p.string() + ".png", fb, ls.colors(), ws, f.output.display,
                                 f.output.view);
         };
         try {

@@ -24,9 +24,7 @@
 #include "plugin/io/frames.h"
 #include "plugin/io/image_output.h"
 #include "plugin/io/scene_file.h"
-#include "plugin/geom/embree_geometry.h"
 #include "plugin/io/scene_setup.h"
-#include "plugin/vdb/vdb_field.h"
 #include "plugin/vdb/vdb_writer.h"
 
 namespace nimbus::cli {
@@ -57,57 +55,31 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-int loadScene(const std::string& path, const std::vector<std::string>& overrides, int threads,
-              LoadedScene& out) {
-    try {
-        out.cs.emplace(io::ColorSystem::load());
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: error: colour configuration: %s\n", e.what());
-        return kExitBadInput;
-    }
-    try {
-        out.file = io::loadSceneFile(path, overrides);
-        if (threads >= 0) out.file.scene.render.threads = threads;
-        io::resolveColours(out.file, *out.cs);
-    } catch (const io::SceneError& e) {
-        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
-        return kExitBadInput;
-    }
-    for (const auto& w : out.file.warnings) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
-    // Embree only for scenes that need it: surfaces, or instances to find
-    SceneDesc& s = out.file.scene;
-    if (s.ground.enabled || !s.meshes.empty() || isInstanced(s)) {
-        std::vector<std::string> warnings;
-        try {
-            s.geometry = geom::makeEmbreeGeometry(
-                s, std::filesystem::path(out.file.path).parent_path().string(), warnings);
-        } catch (const std::exception& e) {
-            std::fprintf(stderr, "nimbus: error: %s: %s\n", out.file.path.c_str(), e.what());
-            return kExitBadInput;
-        }
-        for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
-    }
-    return kExitOk;
+void printWarnings(host::Session& s) {
+    for (const auto& w : s.takeWarnings()) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
 }
 
-bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s) {
-    std::vector<std::string> warnings;
-    const std::string dir = std::filesystem::path(f.path).parent_path().string();
-    try {
-        if (isPlaced(s, 0)) vdb::attachVdbField(s.field, dir, frame, warnings);
-        for (size_t i = 0; i < s.volumes.size(); ++i) {
-            if (!isPlaced(s, int(i) + 1)) continue; // never read
-            try {
-                vdb::attachVdbField(s.volumes[i].field, dir, frame, warnings);
-            } catch (const std::exception& e) {
-                throw std::runtime_error("volume \"" + s.volumes[i].name + "\": " + e.what());
-            }
-        }
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: error: %s: frame %d: %s\n", f.path.c_str(), frame, e.what());
-        return false;
-    }
-    for (const auto& w : warnings) std::fprintf(stderr, "nimbus: warning: %s\n", w.c_str());
+int report(const host::Status& st) {
+    if (st.ok()) return kExitOk;
+    if (st.code == host::StatusCode::interrupted)
+        std::fprintf(stderr, "nimbus: %s\n", st.message.c_str());
+    else
+        std::fprintf(stderr, "nimbus: error: %s\n", st.message.c_str());
+    return host::exitCode(st.code);
+}
+
+int loadScene(const std::string& path, const std::vector<std::string>& overrides, int threads,
+              LoadedScene& out) {
+    const host::Status st = out.load(path, overrides, threads);
+    printWarnings(out);
+    return report(st);
+}
+
+bool bindFrame(LoadedScene& ls, int frame, FrameBindings& b) {
+    const host::Status st = ls.bind(frame);
+    printWarnings(ls);
+    if (report(st)) return false;
+    b = ls.bindings();
     return true;
 }
 
@@ -172,7 +144,7 @@ bool validOutputExists(const std::string& path) {
 int runRender(const RenderOptions& o) {
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
-    io::SceneFile& f = ls.file;
+    io::SceneFile& f = ls.file();
     if (!o.output.empty()) f.output.path = o.output;
     if (f.output.path.size() < 4 || f.output.path.substr(f.output.path.size() - 4) != ".exr") {
         std::fprintf(stderr, "nimbus: error: output path \"%s\" must end in .exr\n",
@@ -183,20 +155,14 @@ int runRender(const RenderOptions& o) {
     if (!framesToRender(o.frames, f.frames, {&f.output.path, &f.output.preview}, frames))
         return kExitBadInput;
 
-    const bool vdbField = f.scene.field.kind == FieldKind::Vdb || !f.scene.volumes.empty();
-    // a VDB field is loaded per frame (only the named grid of that frame's file)
-    std::optional<Renderer> shared;
-    if (!vdbField) shared.emplace(f.scene);
     if (o.explain) {
-        Renderer& renderer = shared ? *shared : shared.emplace(f.scene);
+        // planned without reading grids (a VDB field's grid is not read for --explain)
         std::printf("scene %s\ncolour: %s, working space %s, output %s\n", f.path.c_str(),
-                    ls.cs->description().c_str(), io::workingSpace(*ls.cs).c_str(),
+                    ls.colors().description().c_str(), ls.workingSpace().c_str(),
                     f.output.colorSpace.c_str());
-        for (int frame : frames) {
-            FramePlan plan = renderer.plan(frame, f.output.aovs);
-            std::printf("%s  output: %s\n", plan.explain().c_str(),
-                        io::expandFramePattern(f.output.path, frame).c_str());
-        }
+        for (int frame : frames)
+            std::printf("%s  output: %s\n", ls.plan(frame).explain().c_str(),
+                        ls.outputPath(frame).c_str());
         return kExitOk;
     }
 
@@ -207,12 +173,11 @@ int runRender(const RenderOptions& o) {
                               : o.progress == "none"  ? ProgressMode::None
                                                       : ProgressMode::Auto;
     Progress progress(mode, int(frames.size()));
-    const std::string ws = io::workingSpace(*ls.cs);
     double totalSeconds = 0.0;
     int rendered = 0;
     for (size_t k = 0; k < frames.size(); ++k) {
         const int frame = frames[k];
-        const std::string out = io::expandFramePattern(f.output.path, frame);
+        const std::string out = ls.outputPath(frame);
         if (o.resume && validOutputExists(out)) {
             progress.finishLine();
             if (!o.quiet)
@@ -220,51 +185,39 @@ int runRender(const RenderOptions& o) {
                              out.c_str());
             continue;
         }
-        std::optional<Renderer> own;
-        if (vdbField) {
-            SceneDesc s = f.scene;
-            if (!attachFrameField(f, frame, s)) return kExitBadInput;
-            own.emplace(s);
-        }
-        Renderer& renderer = vdbField ? *own : *shared;
-        const FramePlan plan = renderer.plan(frame, f.output.aovs);
+        // the grids of the frame (a VDB field: only the named grid of that frame's file)
+        const host::Status bound = ls.bind(frame);
+        printWarnings(ls);
+        if (int rc = report(bound)) return rc;
         Framebuffer fb;
         RenderStats st;
-        RenderCallbacks cb;
-        cb.cancel = &gCancel;
-        cb.progress = [&](int done, int total) {
-            progress.update(int(k), frame, double(done) / total);
-        };
+        FramePlan plan;
         progress.update(int(k), frame, 0.0);
         const auto t0 = std::chrono::steady_clock::now();
-        const bool complete = renderer.render(plan, fb, st, cb);
+        const host::Status result = ls.render(
+            frame, fb, st,
+            [&](int done, int total) { progress.update(int(k), frame, double(done) / total); },
+            &gCancel, &plan);
         const double seconds = secondsSince(t0);
-        if (!complete || gCancel) {
+        if (!result.ok() || gCancel) {
             progress.finishLine();
             io::removeInFlightTempFiles();
-            std::fprintf(stderr, "nimbus: interrupted during frame %d; no output written for it\n",
-                         frame);
-            return kExitInterrupted;
-        }
-        try {
-            io::ExrMetadata md;
-            md.settings = settingsOf(f, o.overrides, plan);
-            md.seed = f.scene.render.seed;
-            md.renderSeconds = seconds;
-            md.frame = frame;
-            size_t bad = io::writeExr(out, fb, *ls.cs, ws, f.output.colorSpace, md);
-            if (!f.output.preview.empty())
-                bad += io::writePreviewPng(io::expandFramePattern(f.output.preview, frame), fb,
-                                           *ls.cs, ws, f.output.display, f.output.view);
-            if (bad + st.nonFinite > 0)
+            if (result.ok() || result.code == host::StatusCode::interrupted) {
                 std::fprintf(stderr,
-                             "nimbus: warning: frame %d: %zu non-finite values replaced by 0\n",
-                             frame, size_t(bad + st.nonFinite));
-        } catch (const std::exception& e) {
-            progress.finishLine();
-            std::fprintf(stderr, "nimbus: error: frame %d: %s\n", frame, e.what());
-            return kExitIo;
+                             "nimbus: interrupted during frame %d; no output written for it\n",
+                             frame);
+                return kExitInterrupted;
+            }
+            return report(result);
         }
+        io::ExrMetadata md;
+        md.settings = settingsOf(f, o.overrides, plan);
+        md.seed = f.scene.render.seed;
+        md.renderSeconds = seconds;
+        const host::Status written = ls.writeFrame(frame, fb, md, st.nonFinite);
+        if (!written.ok()) progress.finishLine();
+        printWarnings(ls);
+        if (int rc = report(written)) return rc;
         if (gCancel) {
             progress.finishLine();
             return kExitInterrupted;
@@ -308,16 +261,15 @@ int runRender(const RenderOptions& o) {
 int runBake(const BakeOptions& o) {
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
-    io::SceneFile& f = ls.file;
+    const io::SceneFile& f = ls.file();
     std::vector<int> frames;
     if (!framesToRender(o.frames, f.frames, {&o.output}, frames)) return kExitBadInput;
     installSignalHandlers();
     for (int frame : frames) {
-        SceneDesc s = f.scene;
-        if (!attachFrameField(f, frame, s)) return kExitBadInput;
-        Renderer r(s);
-        const FramePlan plan = r.plan(frame);
-        const Field field = r.fieldFor(plan);
+        FrameBindings bindings;
+        if (!bindFrame(ls, frame, bindings)) return kExitBadInput;
+        const FramePlan plan = ls.plan(frame, AovSet{});
+        const Field field = ls.renderer().fieldFor(plan, bindings);
         const MajorantGrid grid = buildMajorantGrid(field, plan.majorantCell);
         const float voxel = o.voxel > 0.0f ? o.voxel : plan.majorantCell;
         const Box b = field.bounds();

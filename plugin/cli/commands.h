@@ -2,11 +2,13 @@
 /// @brief The subcommands of `nimbus` (render, converge) behind the command-line parser.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace nimbus::cli {
 
+// the exit codes of host::exitCode (plugin/host/session.h)
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitInternal = 1;
 inline constexpr int kExitBadInput = 2;
@@ -29,7 +31,7 @@ struct RenderOptions {
 struct ConvergeOptions {
     std::string scene;
     std::vector<std::string> overrides;
-    int frame = -1000000000;                        ///< sentinel: first frame of the scene
+    std::optional<int> frame;                       ///< none: first frame of the scene
     std::vector<double> ladder{4.0, 2.0, 1.0, 0.5}; ///< march step multipliers
     double referenceStep = 0.125;     ///< march reference: step multiplier (referenceSpp == 0)
     int referenceSpp = 0;             ///< > 0: the reference is pathtrace with this many spp
@@ -47,7 +49,7 @@ struct ConvergeOptions {
 struct CalibrateOptions {
     std::string scene;
     std::vector<std::string> overrides;
-    int frame = -1000000000;
+    std::optional<int> frame; ///< none: first frame of the scene
     int referenceSpp = 256;
     double scale = 0.25;
     int threads = -1;
@@ -71,9 +73,9 @@ struct BakeOptions {
 struct BenchVdbOptions {
     std::string scene;
     std::vector<std::string> overrides;
-    int frame = -1000000000; ///< sentinel: first frame of the scene
-    double scale = 1.0;      ///< resolution multiplier
-    int threads = -1;        ///< both renderers; -1: render.threads
+    std::optional<int> frame; ///< none: first frame of the scene
+    double scale = 1.0;       ///< resolution multiplier
+    int threads = -1;         ///< both renderers; -1: render.threads
     std::vector<double> ladder{8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.5}; ///< nimbus step multipliers
     std::vector<double> vdbLadder{2.0, 1.0, 0.5, 0.25}; ///< VolumeRender step multipliers
     double vdbStep = 1.0;       ///< VolumeRender primary step at multiplier 1, voxels

@@ -1,6 +1,6 @@
 /// @file common.h
-/// @brief What the subcommands share: scene loading with colour resolution, signal handling,
-/// timing.
+/// @brief What the subcommands share: printing the session's statuses and warnings (the
+/// session, plugin/host, does the loading and binding), signal handling, timing.
 #pragma once
 
 #include <atomic>
@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/render.h"
+#include "plugin/host/session.h"
 #include "plugin/io/color.h"
 #include "plugin/io/scene_file.h"
 
@@ -21,20 +22,24 @@ void installSignalHandlers();
 
 double secondsSince(std::chrono::steady_clock::time_point t0);
 
-/// A scene file loaded with overrides and its colours resolved against the OCIO config.
-struct LoadedScene {
-    std::optional<io::ColorSystem> cs;
-    io::SceneFile file;
-};
+/// A scene loaded by the session: file with overrides, colours resolved, geometry built.
+using LoadedScene = host::Session;
 
-/// Loads a scene; prints errors and returns an exit code (0 on success). `threads` >= 0
-/// overrides render.threads.
+/// Prints the warnings the session collected ("nimbus: <warning>").
+void printWarnings(host::Session& s);
+
+/// Prints a failed status ("nimbus: error: <message>"; when interrupted "nimbus: <message>")
+/// and returns its exit code (0 for ok, printing nothing).
+int report(const host::Status& st);
+
+/// Loads a scene into the session; prints warnings and errors and returns an exit code (0 on
+/// success). `threads` >= 0 overrides render.threads.
 int loadScene(const std::string& path, const std::vector<std::string>& overrides, int threads,
               LoadedScene& out);
 
-/// Loads what the scene's field needs for `frame` into s (a VDB field: that frame's grid);
-/// prints warnings, and errors naming the scene file and frame. False on error.
-bool attachFrameField(const io::SceneFile& f, int frame, SceneDesc& s);
+/// Binds frame `frame` in the session (the VDB grids of the placed volumes, the geometry) and
+/// copies its bindings to b; prints warnings and errors. False on error.
+bool bindFrame(LoadedScene& ls, int frame, FrameBindings& b);
 
 // --- measuring error against run time (converge, calibrate, bench-vdb-render) ---
 
@@ -51,7 +56,7 @@ SceneDesc withSteps(const SceneDesc& base, double f);
 
 /// Renders frame `frame` of s and times Renderer::render (noise is baked before the clock
 /// starts, so the time is the integrator's); returns false when interrupted.
-bool measure(const SceneDesc& s, int frame, Measured& m);
+bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m);
 
 /// Root mean square difference over every RGBA value of two same-sized framebuffers.
 double rmse(const Framebuffer& a, const Framebuffer& ref);
@@ -59,10 +64,11 @@ double rmse(const Framebuffer& a, const Framebuffer& ref);
 double rms(const Framebuffer& a);
 
 /// The scene prepared for measuring: clouds alone (background transparent: a noise-free sky
-/// would dilute the error), the field of `frame` attached (the scene's first frame when frame
-/// is -1000000000; frame is set to it), resolution scaled, the noise evaluation the scene's own
+/// would dilute the error), frame `requested` bound into b (the scene's first frame when none;
+/// `frame` is set to the frame used), resolution scaled, the noise evaluation the scene's own
 /// plan picks (so the error is that of the setting alone). Prints errors; false on bad input.
-bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base);
+bool prepare(LoadedScene& ls, std::optional<int> requested, double scale, SceneDesc& base,
+             int& frame, FrameBindings& b);
 
 /// Writes text to path atomically; prints the error and returns false on failure.
 bool writeText(const std::string& path, const std::string& text);

@@ -45,14 +45,14 @@ SceneDesc withSteps(const SceneDesc& base, double f) {
     return s;
 }
 
-bool measure(const SceneDesc& s, int frame, Measured& m) {
+bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m) {
     Renderer r(s);
-    const FramePlan plan = r.plan(frame);
+    const FramePlan plan = r.plan(frame, b);
     RenderCallbacks cb;
     cb.cancel = &gCancel;
-    if (plan.bakeNoise) r.fieldFor(plan);
+    if (plan.bakeNoise) r.fieldFor(plan, b);
     const auto t0 = std::chrono::steady_clock::now();
-    const bool ok = r.render(plan, m.fb, m.stats, cb);
+    const bool ok = r.render(plan, b, m.fb, m.stats, cb);
     m.seconds = secondsSince(t0);
     return ok;
 }
@@ -60,16 +60,17 @@ bool measure(const SceneDesc& s, int frame, Measured& m) {
 /// A path-traced reference rendered as two independent halves (seeds differ): their mean is the
 /// reference and their difference measures its noise. A march reference or a one-sample one is
 /// rendered once, noise 0. Returns false when interrupted.
-bool measureReference(const SceneDesc& s, int frame, Measured& ref, double& noise) {
+bool measureReference(const SceneDesc& s, const FrameBindings& bindings, int frame, Measured& ref,
+                      double& noise) {
     noise = 0.0;
     if (s.render.integrator != Integrator::PathTrace || s.render.spp <= 1)
-        return measure(s, frame, ref);
+        return measure(s, bindings, frame, ref);
     SceneDesc half = s;
     half.render.spp = std::max(1, s.render.spp / 2);
     Measured b;
-    if (!measure(half, frame, ref)) return false;
+    if (!measure(half, bindings, frame, ref)) return false;
     half.render.seed = s.render.seed ^ 0x9e3779b9u;
-    if (!measure(half, frame, b)) return false;
+    if (!measure(half, bindings, frame, b)) return false;
     double sq = 0.0;
     for (size_t i = 0; i < ref.fb.rgba.size(); ++i) {
         const double d = double(ref.fb.rgba[i]) - b.fb.rgba[i];
@@ -103,15 +104,16 @@ double rms(const Framebuffer& a) {
     return std::sqrt(sq / double(a.rgba.size()));
 }
 
-bool prepare(const LoadedScene& ls, int& frame, double scale, SceneDesc& base) {
-    base = ls.file.scene;
+bool prepare(LoadedScene& ls, std::optional<int> requested, double scale, SceneDesc& base,
+             int& frame, FrameBindings& b) {
+    base = ls.scene();
     base.render.background = Background::Transparent;
-    if (frame == -1000000000) frame = io::parseFrameSpec(ls.file.frames).front();
-    if (!attachFrameField(ls.file, frame, base)) return false;
+    frame = requested ? *requested : ls.firstFrame();
+    if (!bindFrame(ls, frame, b)) return false;
     base.camera.width = std::max(1, int(std::lround(base.camera.width * scale)));
     base.camera.height = std::max(1, int(std::lround(base.camera.height * scale)));
     Renderer probe(base);
-    base.field.cumulus.eval = probe.plan(frame).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
+    base.field.cumulus.eval = probe.plan(frame, b).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
     return true;
 }
 
@@ -134,8 +136,8 @@ namespace {
 /// The reference of converge and calibrate: rendered (and with --save-reference kept as an EXR
 /// in the working space, no colour conversion, its label and noise in the header), or read back
 /// from such a file. Returns an exit code; `label` becomes the file's label when loaded.
-int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, int frame,
-                    const std::string& save, const std::string& load, std::string& label,
+int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, const FrameBindings& bindings,
+                    int frame, const std::string& save, const std::string& load, std::string& label,
                     Measured& ref, double& noise) {
     const int w = refScene.camera.width, h = refScene.camera.height;
     if (!load.empty()) {
@@ -182,20 +184,20 @@ int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, int frame,
         return kExitOk;
     }
     std::fprintf(stderr, "reference: %s at %dx%d ...\n", label.c_str(), w, h);
-    if (!measureReference(refScene, frame, ref, noise)) return kExitInterrupted;
+    if (!measureReference(refScene, bindings, frame, ref, noise)) return kExitInterrupted;
     if (!save.empty()) {
         io::ExrMetadata md;
         md.frame = frame;
         md.seed = refScene.render.seed;
         md.renderSeconds = ref.seconds;
-        md.settings["scene"] = ls.file.path;
+        md.settings["scene"] = ls.file().path;
         md.settings["reference"] = label;
         char buf[64];
         std::snprintf(buf, sizeof buf, "%.9g", noise);
         md.settings["reference_noise_rmse"] = buf;
-        const std::string ws = io::workingSpace(*ls.cs);
+        const std::string ws = ls.workingSpace();
         try {
-            io::writeExr(save, ref.fb, *ls.cs, ws, ws, md);
+            io::writeExr(save, ref.fb, ls.colors(), ws, ws, md);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "nimbus: error: --save-reference: %s\n", e.what());
             return kExitIo;
@@ -229,9 +231,10 @@ int runConverge(const ConvergeOptions& o) {
         std::fprintf(stderr, "nimbus: error: --scale must be > 0 and --reference-spp >= 0\n");
         return kExitBadInput;
     }
-    int frame = o.frame;
+    int frame = 0;
     SceneDesc base;
-    if (!prepare(ls, frame, o.scale, base)) return kExitBadInput;
+    FrameBindings bindings;
+    if (!prepare(ls, o.frame, o.scale, base, frame, bindings)) return kExitBadInput;
     installSignalHandlers();
 
     // the reference
@@ -256,8 +259,8 @@ int runConverge(const ConvergeOptions& o) {
     }
     Measured ref;
     double refNoise = 0.0;
-    if (int rc = obtainReference(ls, refScene, frame, o.saveReference, o.loadReference, refLabel,
-                                 ref, refNoise))
+    if (int rc = obtainReference(ls, refScene, bindings, frame, o.saveReference, o.loadReference,
+                                 refLabel, ref, refNoise))
         return rc;
     const double refRms = rms(ref.fb);
     if (refRms > 0)
@@ -313,7 +316,7 @@ int runConverge(const ConvergeOptions& o) {
     std::vector<Row> rows;
     for (const Rung& r : rungs) {
         Row row{&r, {}, 0.0, 0.0};
-        if (!measure(r.scene, frame, row.m)) return kExitInterrupted;
+        if (!measure(r.scene, bindings, frame, row.m)) return kExitInterrupted;
         row.err = rmse(row.m.fb, ref.fb);
         row.rel = refRms > 0 ? row.err / refRms : 0.0;
         std::fprintf(stderr, "  %-9s %-16s %8.3f s  rel. RMSE %6.2f%%\n", r.integrator.c_str(),
@@ -427,9 +430,10 @@ int runCalibrate(const CalibrateOptions& o) {
         std::fprintf(stderr, "nimbus: error: --scale must be > 0 and --reference-spp >= 1\n");
         return kExitBadInput;
     }
-    int frame = o.frame;
+    int frame = 0;
     SceneDesc base;
-    if (!prepare(ls, frame, o.scale, base)) return kExitBadInput;
+    FrameBindings bindings;
+    if (!prepare(ls, o.frame, o.scale, base, frame, bindings)) return kExitBadInput;
     base.render.integrator = Integrator::March;
     installSignalHandlers();
     SceneDesc refScene = base;
@@ -440,15 +444,15 @@ int runCalibrate(const CalibrateOptions& o) {
                            (o.boxFilter ? ", box filter" : ", pixel centres");
     Measured ref;
     double refNoise = 0.0;
-    if (int rc = obtainReference(ls, refScene, frame, o.saveReference, o.loadReference, refLabel,
-                                 ref, refNoise))
+    if (int rc = obtainReference(ls, refScene, bindings, frame, o.saveReference, o.loadReference,
+                                 refLabel, ref, refNoise))
         return rc;
     const double refRms = rms(ref.fb);
 
     int evaluations = 0;
     auto error = [&](const SceneDesc& s, double& out) {
         Measured m;
-        if (!measure(s, frame, m)) return false;
+        if (!measure(s, bindings, frame, m)) return false;
         ++evaluations;
         out = rmse(m.fb, ref.fb) / std::max(refRms, 1e-30);
         return true;

@@ -6,7 +6,8 @@
 /// @code
 ///   std::vector<std::string> warnings;
 ///   auto geometry = geom::makeEmbreeGeometry(scene, "/path/of/scene/dir", warnings);
-///   renderer.setGeometry(geometry); // surfaces() is null when the scene has none
+///   bindings.geometry = geometry; // FrameBindings (core/bindings.h); surfaces() is null when
+///                                // the scene has none
 /// @endcode
 #pragma once
 

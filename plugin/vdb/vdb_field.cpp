@@ -50,10 +50,11 @@ void applyVdbEnvironment(VdbLoadOptions& o) {
     }
 }
 
-void attachVdbField(FieldDesc& field, const std::string& sceneDir, int frame,
-                    std::vector<std::string>& warnings) {
-    if (field.kind != FieldKind::Vdb) return;
-    VdbFieldDesc& v = field.vdb;
+GridBinding bindVdbField(const FieldDesc& field, const std::string& sceneDir, int frame,
+                         std::vector<std::string>& warnings) {
+    GridBinding b;
+    if (field.kind != FieldKind::Vdb) return b;
+    const VdbFieldDesc& v = field.vdb;
     if (v.path.empty())
         throw VdbError("field.path: a VDB file is required for field.kind = \"vdb\"");
     std::filesystem::path pattern(v.path);
@@ -70,15 +71,16 @@ void attachVdbField(FieldDesc& field, const std::string& sceneDir, int frame,
     auto loaded = std::make_shared<LoadedVdbGrid>(loadVdbGrid(opt));
     for (const auto& w : loaded->warnings) warnings.push_back(w);
     if (loaded->empty()) {
-        v.nanoGrid = nullptr;
-        v.bounds = Box{vec3(0.0f), vec3(0.0f)}; // renders as empty space
+        b.grid = nullptr;
+        b.bounds = Box{vec3(0.0f), vec3(0.0f)}; // renders as empty space
     } else {
-        v.nanoGrid = loaded->grid();
+        b.grid = loaded->grid();
         // trilinear lookups reach half a voxel beyond the voxel cells: pad by one voxel
         const float pad = glm::length(loaded->voxelSize);
-        v.bounds = Box{loaded->worldBounds.lo - vec3(pad), loaded->worldBounds.hi + vec3(pad)};
+        b.bounds = Box{loaded->worldBounds.lo - vec3(pad), loaded->worldBounds.hi + vec3(pad)};
     }
-    v.owner = loaded;
+    b.owner = loaded;
+    return b;
 }
 
 } // namespace nimbus::vdb

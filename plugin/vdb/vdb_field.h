@@ -1,12 +1,13 @@
 /// @file vdb_field.h
-/// @brief Attaches the VDB grid a scene names to its field description, for one frame: resolves
-/// the per-frame file (relative to the scene file), reads only the named grid, and hands core/
-/// the NanoVDB grid and its world bounds.
+/// @brief Binds the VDB grid a field description names, for one frame: resolves the per-frame
+/// file (relative to the scene file), reads only the named grid, and hands core/ the NanoVDB
+/// grid and its world bounds (a GridBinding, core/bindings.h).
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "core/bindings.h"
 #include "core/scene.h"
 #include "plugin/vdb/vdb_reader.h"
 
@@ -22,10 +23,11 @@ namespace nimbus::vdb {
 void applyVdbEnvironment(VdbLoadOptions& o);
 
 /// For field.kind = vdb: loads frame `frame` of field.vdb.path (relative paths are taken from
-/// `sceneDir`) and fills nanoGrid, owner and bounds. Other kinds are left alone. Warnings (empty
-/// grid, sanitised voxels, held frames) are appended. Reads in a child process unless the
-/// environment says otherwise (applyVdbEnvironment). @throws VdbError with file and grid.
-void attachVdbField(FieldDesc& field, const std::string& sceneDir, int frame,
-                    std::vector<std::string>& warnings);
+/// `sceneDir`) and returns the grid with its owner and bounds (an empty grid: null grid, empty
+/// bounds). Other kinds get an empty binding. Warnings (empty grid, sanitised voxels, held
+/// frames) are appended. Reads in a child process unless the environment says otherwise
+/// (applyVdbEnvironment). @throws VdbError with file and grid.
+GridBinding bindVdbField(const FieldDesc& field, const std::string& sceneDir, int frame,
+                         std::vector<std::string>& warnings);
 
 } // namespace nimbus::vdb

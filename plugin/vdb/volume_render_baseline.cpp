@@ -74,9 +74,10 @@ struct VolumeRenderBaseline::Impl {
     double voxelSize = 1.0;
 };
 
-VolumeRenderBaseline::VolumeRenderBaseline(const VdbFieldDesc& vdb) : impl_(new Impl) {
+VolumeRenderBaseline::VolumeRenderBaseline(const VdbFieldDesc& vdb, const GridBinding& grid)
+    : impl_(new Impl) {
     openvdb::initialize();
-    const auto* nano = static_cast<const nanovdb::FloatGrid*>(vdb.nanoGrid);
+    const auto* nano = static_cast<const nanovdb::FloatGrid*>(grid.grid);
     if (!nano || nano->activeVoxelCount() == 0)
         throw std::runtime_error("the grid \"" + vdb.grid + "\" is empty: nothing to render");
     impl_->grid = nanovdb::nanoToOpenVDB(*nano);

@@ -46,6 +46,7 @@
 #include <memory>
 #include <string>
 
+#include "core/bindings.h"
 #include "core/image.h"
 #include "core/scene.h"
 
@@ -90,7 +91,7 @@ class VolumeRenderBaseline {
   public:
     /// @throws std::runtime_error when the field is not a loaded, non-empty VDB grid or its
     ///         voxels are not uniform (VolumeRender measures steps in voxels).
-    explicit VolumeRenderBaseline(const VdbFieldDesc& vdb);
+    VolumeRenderBaseline(const VdbFieldDesc& vdb, const GridBinding& grid);
     ~VolumeRenderBaseline();
     VolumeRenderBaseline(const VolumeRenderBaseline&) = delete;
     VolumeRenderBaseline& operator=(const VolumeRenderBaseline&) = delete;

@@ -18,23 +18,30 @@ using namespace nimbus;
 
 namespace {
 
-/// The scene with its grid and Embree geometry attached; null when the shared data is absent.
-const SceneDesc* cloudscape() {
-    static std::unique_ptr<SceneDesc> scene = []() -> std::unique_ptr<SceneDesc> {
+/// The scene and its frame-1 bindings (grid, Embree geometry).
+struct BoundScene {
+    SceneDesc scene;
+    FrameBindings bindings;
+};
+
+/// The scene with its grid and Embree geometry bound; null when the shared data is absent.
+const BoundScene* cloudscape() {
+    static std::unique_ptr<BoundScene> scene = []() -> std::unique_ptr<BoundScene> {
         const std::string path = NIMBUS_SOURCE_DIR "/examples/scenes/cloudscape.toml";
         io::SceneFile f = io::loadSceneFile(path);
         io::resolveColours(f, io::ColorSystem::load());
-        auto s = std::make_unique<SceneDesc>(f.scene);
-        s->camera.width = 160;
-        s->camera.height = 90;
+        auto s = std::make_unique<BoundScene>();
+        s->scene = f.scene;
+        s->scene.camera.width = 160;
+        s->scene.camera.height = 90;
         std::vector<std::string> warnings;
         const std::string dir = std::filesystem::path(path).parent_path().string();
         try {
-            vdb::attachVdbField(s->field, dir, 1, warnings);
+            s->bindings.grids = {vdb::bindVdbField(s->scene.field, dir, 1, warnings)};
         } catch (const std::exception&) {
             return nullptr;
         }
-        s->geometry = geom::makeEmbreeGeometry(*s, dir, warnings);
+        s->bindings.geometry = geom::makeEmbreeGeometry(s->scene, dir, warnings);
         return s;
     }();
     return scene.get();
@@ -42,19 +49,19 @@ const SceneDesc* cloudscape() {
 
 /// Arg: 1 = hierarchical (instance boxes, then the plume's own grid), 0 = coarse world grid.
 void BM_Cloudscape(benchmark::State& state) {
-    const SceneDesc* base = cloudscape();
+    const BoundScene* base = cloudscape();
     if (!base) {
         state.SkipWithError("shared/data/vdb/openvdb_smoke1.vdb is absent");
         return;
     }
-    SceneDesc s = *base;
+    SceneDesc s = base->scene;
     s.render.hierarchicalSkip = state.range(0) != 0;
     s.render.threads = 1; // CPU time of one thread: robust when other work shares the cores
     Renderer r(s);
-    const FramePlan plan = r.plan(1);
+    const FramePlan plan = r.plan(1, base->bindings);
     Framebuffer fb;
     RenderStats st;
-    for (auto _ : state) r.render(plan, fb, st);
+    for (auto _ : state) r.render(plan, base->bindings, fb, st);
     state.counters["lookups"] = double(st.lookups());
     state.counters["majorant_s"] = st.majorantSeconds;
     state.SetLabel(s.render.hierarchicalSkip ? "hierarchical: Embree instance boxes"

@@ -1,0 +1,43 @@
+/// @file bindings.h
+/// @brief What the host loaded for one frame beside the scene's description: the VDB grids of
+/// the placed volumes and the geometry backend (Embree) when the scene has surfaces or
+/// instances.
+///
+/// SceneDesc (core/scene.h) holds descriptions only; a Renderer takes these per frame
+/// (Renderer::plan, Renderer::render). core/ never reads files: plugin/vdb fills GridBinding
+/// (vdb::bindVdbField), plugin/geom the geometry, plugin/host both.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/accel.h"
+#include "core/geometry.h"
+
+namespace nimbus {
+
+/// One volume's loaded density grid. Type-erased so that core's headers need not include
+/// NanoVDB: `grid` is a nanovdb::FloatGrid (core/fields/grid.cpp casts it back).
+struct GridBinding {
+    std::shared_ptr<const void> owner; ///< keeps the grid's memory alive
+    const void* grid = nullptr;        ///< a nanovdb::FloatGrid; null: no density
+    Box bounds;                        ///< world bounds of the density (trilinear support)
+};
+
+/// Everything bound to one frame.
+struct FrameBindings {
+    /// One entry per volume: 0 = the scene's `field`, i = volumes[i - 1]. Entries of
+    /// non-VDB or unplaced volumes stay empty; the vector may be shorter than the volumes.
+    std::vector<GridBinding> grids;
+    /// Surfaces and the instance query; null: instances are found by a linear scan and there
+    /// are no surfaces.
+    std::shared_ptr<const GeometryBackend> geometry;
+
+    /// The grid of volume `i` (an empty binding when there is none).
+    const GridBinding& grid(int i) const {
+        static const GridBinding none;
+        return i >= 0 && size_t(i) < grids.size() ? grids[size_t(i)] : none;
+    }
+};
+
+} // namespace nimbus

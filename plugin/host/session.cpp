@@ -1,0 +1,249 @@
+#include "plugin/host/session.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <new>
+#include <stdexcept>
+
+#include "core/tracking/volumes.h"
+#include "plugin/geom/embree_geometry.h"
+#include "plugin/io/atomic_file.h"
+#include "plugin/io/frames.h"
+#include "plugin/io/scene_setup.h"
+#include "plugin/vdb/vdb_field.h"
+
+namespace nimbus::host {
+
+int exitCode(StatusCode code) {
+    switch (code) {
+    case StatusCode::ok:
+        return 0;
+    case StatusCode::bad_input:
+        return 2;
+    case StatusCode::io:
+        return 3;
+    case StatusCode::no_memory:
+        return 4;
+    case StatusCode::interrupted:
+        return 130;
+    case StatusCode::internal:
+        return 1;
+    }
+    return 1;
+}
+
+Status Status::error(StatusCode code, std::string message, std::string file, int line) {
+    Status s;
+    s.code = code;
+    s.message = std::move(message);
+    s.file = std::move(file);
+    s.line = line;
+    return s;
+}
+
+namespace {
+
+/// A SceneError's message starts "file:line:column: ..." (an override's "--set ...:" has no
+/// line): the file and line of its first problem.
+Status sceneStatus(const std::string& what) {
+    Status s = Status::error(StatusCode::bad_input, what);
+    const std::string first = what.substr(0, what.find('\n'));
+    // scan from the right of each ": " for "<file>:<line>:<column>"
+    for (size_t end = first.find(": "); end != std::string::npos; end = first.find(": ", end + 1)) {
+        const std::string head = first.substr(0, end);
+        const size_t c2 = head.rfind(':');
+        if (c2 == std::string::npos || c2 == 0) continue;
+        const size_t c1 = head.rfind(':', c2 - 1);
+        if (c1 == std::string::npos || c1 == 0) continue;
+        const std::string line = head.substr(c1 + 1, c2 - c1 - 1);
+        const std::string col = head.substr(c2 + 1);
+        auto digits = [](const std::string& t) {
+            return !t.empty() && t.find_first_not_of("0123456789") == std::string::npos;
+        };
+        if (!digits(line) || !digits(col)) continue;
+        s.file = head.substr(0, c1);
+        s.line = std::atoi(line.c_str());
+        break;
+    }
+    return s;
+}
+
+std::string directoryOf(const std::string& path) {
+    return std::filesystem::path(path).parent_path().string();
+}
+
+} // namespace
+
+Session::Session() = default;
+Session::~Session() = default;
+
+Status Session::load(const std::string& path, const std::vector<std::string>& overrides,
+                     int threads) {
+    return loadString({}, path, overrides, threads, /*fromFile=*/true);
+}
+
+Status Session::loadString(const std::string& text, const std::string& name,
+                           const std::vector<std::string>& overrides, int threads) {
+    return loadString(text, name, overrides, threads, /*fromFile=*/false);
+}
+
+Status Session::loadString(const std::string& text, const std::string& name,
+                           const std::vector<std::string>& overrides, int threads, bool fromFile) {
+    file_.reset();
+    renderer_.reset();
+    geometry_.reset();
+    bindings_ = FrameBindings{};
+    boundFrame_.reset();
+    try {
+        if (!cs_) cs_.emplace(io::ColorSystem::load());
+    } catch (const std::bad_alloc&) {
+        return Status::error(StatusCode::no_memory, "out of memory");
+    } catch (const std::exception& e) {
+        return Status::error(StatusCode::bad_input,
+                             std::string("colour configuration: ") + e.what());
+    }
+    io::SceneFile f;
+    try {
+        f = fromFile ? io::loadSceneFile(name, overrides)
+                     : io::parseSceneText(text, name, overrides);
+        if (threads >= 0) f.scene.render.threads = threads;
+        io::resolveColours(f, *cs_);
+    } catch (const io::SceneError& e) {
+        return sceneStatus(e.what());
+    } catch (const std::bad_alloc&) {
+        return Status::error(StatusCode::no_memory, "out of memory");
+    } catch (const std::exception& e) {
+        return Status::error(StatusCode::bad_input, name + ": " + e.what(), name);
+    }
+    for (const std::string& w : f.warnings) warnings_.push_back(w);
+    // Embree only for scenes that need it: surfaces, or instances to find
+    const SceneDesc& s = f.scene;
+    if (s.ground.enabled || !s.meshes.empty() || isInstanced(s)) {
+        std::vector<std::string> warnings;
+        try {
+            geometry_ = geom::makeEmbreeGeometry(s, directoryOf(f.path), warnings);
+        } catch (const std::bad_alloc&) {
+            return Status::error(StatusCode::no_memory, "out of memory");
+        } catch (const std::exception& e) {
+            return Status::error(StatusCode::bad_input, f.path + ": " + e.what(), f.path);
+        }
+        for (const std::string& w : warnings) warnings_.push_back("warning: " + w);
+    }
+    file_.emplace(std::move(f));
+    return Status::success();
+}
+
+std::string Session::workingSpace() const {
+    return io::workingSpace(*cs_);
+}
+
+int Session::firstFrame() const {
+    return io::parseFrameSpec(file_->frames).front();
+}
+
+bool Session::readsGrids() const {
+    return scene().field.kind == FieldKind::Vdb || !scene().volumes.empty();
+}
+
+std::vector<std::string> Session::takeWarnings() {
+    std::vector<std::string> w;
+    w.swap(warnings_);
+    return w;
+}
+
+Renderer& Session::renderer() {
+    if (!renderer_) renderer_ = std::make_unique<Renderer>(file_->scene);
+    return *renderer_;
+}
+
+Status Session::bind(int frame) {
+    const SceneDesc& s = scene();
+    const std::string& path = file_->path;
+    const std::string dir = directoryOf(path);
+    FrameBindings b;
+    b.geometry = geometry_;
+    b.grids.resize(1 + s.volumes.size());
+    std::vector<std::string> warnings;
+    try {
+        if (isPlaced(s, 0)) b.grids[0] = vdb::bindVdbField(s.field, dir, frame, warnings);
+        for (size_t i = 0; i < s.volumes.size(); ++i) {
+            if (!isPlaced(s, int(i) + 1)) continue; // never read
+            try {
+                b.grids[i + 1] = vdb::bindVdbField(s.volumes[i].field, dir, frame, warnings);
+            } catch (const std::exception& e) {
+                throw std::runtime_error("volume \"" + s.volumes[i].name + "\": " + e.what());
+            }
+        }
+    } catch (const std::exception& e) {
+        return Status::error(StatusCode::bad_input,
+                             path + ": frame " + std::to_string(frame) + ": " + e.what(), path);
+    }
+    for (const std::string& w : warnings) warnings_.push_back("warning: " + w);
+    bindings_ = std::move(b);
+    boundFrame_ = frame;
+    return Status::success();
+}
+
+FramePlan Session::plan(int frame, const AovSet& aovs) {
+    if (boundFrame_ == frame) return renderer().plan(frame, bindings_, aovs);
+    FrameBindings unbound;
+    unbound.geometry = geometry_;
+    return renderer().plan(frame, unbound, aovs);
+}
+
+FramePlan Session::plan(int frame) {
+    return plan(frame, file_->output.aovs);
+}
+
+Status Session::render(int frame, Framebuffer& fb, RenderStats& stats, const ProgressFn& progress,
+                       const std::atomic<bool>* cancel, FramePlan* planOut) {
+    if (boundFrame_ != frame)
+        if (Status st = bind(frame); !st.ok()) return st;
+    const FramePlan p = plan(frame);
+    if (planOut) *planOut = p;
+    RenderCallbacks cb;
+    cb.progress = progress;
+    cb.cancel = cancel;
+    bool complete = false;
+    try {
+        complete = renderer().render(p, bindings_, fb, stats, cb);
+    } catch (const std::bad_alloc&) {
+        return Status::error(StatusCode::no_memory, "out of memory");
+    }
+    if (!complete || (cancel && cancel->load())) {
+        io::removeInFlightTempFiles();
+        return Status::error(StatusCode::interrupted, "interrupted during frame " +
+                                                          std::to_string(frame) +
+                                                          "; no output written for it");
+    }
+    return Status::success();
+}
+
+std::string Session::outputPath(int frame) const {
+    return io::expandFramePattern(file_->output.path, frame);
+}
+
+Status Session::writeFrame(int frame, const Framebuffer& fb, io::ExrMetadata md,
+                           std::size_t renderNonFinite) {
+    const io::OutputDesc& out = file_->output;
+    const std::string ws = workingSpace();
+    md.frame = frame;
+    try {
+        std::size_t bad = io::writeExr(outputPath(frame), fb, *cs_, ws, out.colorSpace, md);
+        if (!out.preview.empty())
+            bad += io::writePreviewPng(io::expandFramePattern(out.preview, frame), fb, *cs_, ws,
+                                       out.display, out.view);
+        if (bad + renderNonFinite > 0)
+            warnings_.push_back("warning: frame " + std::to_string(frame) + ": " +
+                                std::to_string(bad + renderNonFinite) +
+                                " non-finite values replaced by 0");
+    } catch (const std::bad_alloc&) {
+        return Status::error(StatusCode::no_memory, "out of memory");
+    } catch (const std::exception& e) {
+        return Status::error(StatusCode::io, "frame " + std::to_string(frame) + ": " + e.what());
+    }
+    return Status::success();
+}
+
+} // namespace nimbus::host
