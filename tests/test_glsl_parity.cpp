@@ -58,6 +58,39 @@ template <> struct GlslType<CloudLayer> {
     }
 };
 
+template <> struct GlslType<CumulusParams> {
+    static_assert(sizeof(CumulusParams) == 28 * 4, "CumulusParams changed: update its GlslType");
+    static std::string type() { return "CumulusParams"; }
+    static std::vector<Field> fields() {
+        std::vector<Field> f;
+        for (const Field& l : GlslType<CloudLayer>::fields())
+            f.push_back({".layer" + l.access, l.kind});
+        f.push_back({".density", Word::Float});
+        f.push_back({".basePeriod", Word::Float});
+        f.push_back({".baseLattice", Word::Int});
+        f.push_back({".baseOctaves", Word::Int});
+        f.push_back({".detailPeriod", Word::Float});
+        f.push_back({".detailLattice", Word::Int});
+        f.push_back({".detailOctaves", Word::Int});
+        for (const char* v : {".baseOffset", ".detailOffset"})
+            for (const char* c : {".x", ".y", ".z"}) f.push_back({std::string(v) + c, Word::Float});
+        return f;
+    }
+    static void put(const CumulusParams& C, std::uint32_t* w) {
+        GlslType<CloudLayer>::put(C.layer, w);
+        w[15] = std::bit_cast<std::uint32_t>(C.density);
+        w[16] = std::bit_cast<std::uint32_t>(C.basePeriod);
+        w[17] = std::bit_cast<std::uint32_t>(C.baseLattice);
+        w[18] = std::bit_cast<std::uint32_t>(C.baseOctaves);
+        w[19] = std::bit_cast<std::uint32_t>(C.detailPeriod);
+        w[20] = std::bit_cast<std::uint32_t>(C.detailLattice);
+        w[21] = std::bit_cast<std::uint32_t>(C.detailOctaves);
+        const float v[] = {C.baseOffset.x,   C.baseOffset.y,   C.baseOffset.z,
+                           C.detailOffset.x, C.detailOffset.y, C.detailOffset.z};
+        for (int i = 0; i < 6; ++i) w[22 + i] = std::bit_cast<std::uint32_t>(v[i]);
+    }
+};
+
 template <> struct GlslType<Tower> {
     static_assert(sizeof(Tower) == 8 * 4, "Tower changed: update its GlslType");
     static std::string type() { return "Tower"; }
@@ -138,6 +171,28 @@ float draineAlpha(Draw& d) {
 }
 float heightFraction(Draw& d) {
     return d.f(-0.5f, 1.5f, {0.0f, 1.0f, -0.0f, 1e-6f, 0.999999f, 0.5f});
+}
+
+/// A cumulus layer of one frame: the scene file's range of periods, lattices and octaves.
+CumulusParams cumulus(Draw& d) {
+    CumulusParams C{};
+    C.layer = layer(d);
+    C.density = d.f(0.1f, 2.0f, {1.0f});
+    C.basePeriod = d.f(2.0f, 20.0f, {12.0f});
+    C.baseLattice = d.i(1, 8, {4});
+    C.baseOctaves = d.i(1, 5, {4});
+    C.detailPeriod = d.f(0.5f, 4.0f, {2.0f});
+    C.detailLattice = d.i(1, 8, {4});
+    C.detailOctaves = d.i(1, 4, {3});
+    C.baseOffset = d.v3(-20.0f, 20.0f, {0.0f});
+    C.detailOffset = d.v3(-20.0f, 20.0f, {0.0f});
+    return C;
+}
+/// A point in or near a cumulus layer's altitude range.
+vec3 layerPoint(Draw& d, const CumulusParams& C) {
+    const float h = heightFraction(d);
+    return vec3(d.f(-40.0f, 40.0f, {0.0f}), C.layer.bottom + h * (C.layer.top - C.layer.bottom),
+                d.f(-40.0f, 40.0f, {0.0f}));
 }
 
 struct PhaseKindDraw {
@@ -737,6 +792,206 @@ std::vector<KernelCase> makeCases() {
             const double e = std::exp(m);
             return float(expError(m) / ((1.0 + e) * (1.0 + e)));
         }));
+    // dda.glsl: the majorant walk's cell arithmetic
+    c.push_back(kernelCase(
+        "ddaCell", "ddaCell(a0, a1, a2)",
+        [](float x, float lo, float cell) { return ddaCell(x, lo, cell); },
+        [](Draw& d) {
+            return std::tuple(d.f(-100.0f, 100.0f, {0.0f, 1.0f, -1.0f}), d.f(-50.0f, 50.0f, {0.0f}),
+                              d.f(0.01f, 10.0f, {0.25f, 1.0f}));
+        }));
+    c.push_back(kernelCase(
+        "ddaEdgeT", "ddaEdgeT(a0, a1, a2, a3, a4)",
+        [](float lo, int e, float cell, float o, float dir) {
+            return ddaEdgeT(lo, e, cell, o, dir);
+        },
+        [](Draw& d) {
+            const float dir = d.f(0.05f, 1.0f, {1.0f});
+            return std::tuple(d.f(-50.0f, 50.0f, {0.0f}), d.i(0, 256, {0, 1}),
+                              d.f(0.01f, 10.0f, {0.25f}), d.f(-100.0f, 100.0f, {0.0f}),
+                              d.chance(0.5f) ? dir : -dir);
+        }));
+    c.push_back(kernelCase(
+        "ddaAxis", "ddaAxis(a0)", [](vec3 t) { return ddaAxis(t); },
+        [](Draw& d) {
+            if (d.chance(0.2f)) {
+                const float t = d.f(0.0f, 10.0f);
+                return std::tuple(vec3(t));
+            }
+            return std::tuple(d.v3(0.0f, 10.0f, {1.0f}));
+        }));
+
+    // cloud.glsl: the cumulus density of one frame and its bounds. The noises reach the result
+    // through cloudShape's soft threshold, which scales their error by up to 1 / softness
+    // (softness >= 0.02) and by the density (<= 2)
+    const Tolerance cumulusTol{
+        .ulps = 4,
+        .abs = 0x1p-12f,
+        .why = "perlinWorley and worleyFbm (<= 4e-7 absolute on [0, 1], see their rows) through "
+               "cloudShape's threshold of width softness >= 0.02, times density <= 2: 2^-12 "
+               "absolute"};
+    const Tolerance noiseTol{
+        .ulps = 4, .abs = 0x1p-20f, .why = "the noise rows' own absolute tolerance on [0, 1]"};
+    c.push_back(kernelCase(
+        "cumulusBaseNoise", "cumulusBaseNoise(a0, a1)",
+        [](CumulusParams C, vec3 q) { return cumulusBaseNoise(C, q); },
+        [](Draw& d) {
+            return std::tuple(cumulus(d), d.v3(-4.0f, 4.0f, {0.0f, 0.5f}));
+        },
+        noiseTol));
+    c.push_back(kernelCase(
+        "cumulusDetailNoise", "cumulusDetailNoise(a0, a1)",
+        [](CumulusParams C, vec3 q) { return cumulusDetailNoise(C, q); },
+        [](Draw& d) {
+            return std::tuple(cumulus(d), d.v3(-4.0f, 4.0f, {0.0f, 0.5f}));
+        },
+        noiseTol));
+    c.push_back(kernelCase(
+        "cumulusBaseDomain", "cumulusBaseDomain(a0, a1)",
+        [](CumulusParams C, vec3 p) { return cumulusBaseDomain(C, p); },
+        [](Draw& d) {
+            const CumulusParams C = cumulus(d);
+            return std::tuple(C, layerPoint(d, C));
+        }));
+    c.push_back(kernelCase(
+        "cumulusDetailDomain", "cumulusDetailDomain(a0, a1)",
+        [](CumulusParams C, vec3 p) { return cumulusDetailDomain(C, p); },
+        [](Draw& d) {
+            const CumulusParams C = cumulus(d);
+            return std::tuple(C, layerPoint(d, C));
+        }));
+    c.push_back(kernelCase(
+        "cumulusEnvelope", "cumulusEnvelope(a0, a1)",
+        [](CumulusParams C, vec3 p) { return cumulusEnvelope(C, p); },
+        [](Draw& d) {
+            const CumulusParams C = cumulus(d);
+            return std::tuple(C, layerPoint(d, C));
+        },
+        towers));
+    c.push_back(kernelCase(
+        "cumulusDensity", "cumulusDensity(a0, a1)",
+        [](CumulusParams C, vec3 p) { return cumulusDensity(C, p); },
+        [](Draw& d) {
+            const CumulusParams C = cumulus(d);
+            return std::tuple(C, layerPoint(d, C));
+        },
+        cumulusTol));
+    c.push_back(kernelCase(
+        "cumulusEnvelopeBound", "cumulusEnvelopeBound(a0, a1, a2)",
+        [](CumulusParams C, vec3 lo, vec3 hi) { return cumulusEnvelopeBound(C, lo, hi); },
+        [](Draw& d) {
+            const CumulusParams C = cumulus(d);
+            const vec3 lo = layerPoint(d, C);
+            return std::tuple(C, lo, lo + d.v3(0.0f, 3.0f * C.layer.towerSpacing, {0.0f}));
+        },
+        towers));
+    c.push_back(kernelCase(
+        "cumulusDensityBound", "cumulusDensityBound(a0, a1, a2)",
+        [](CumulusParams C, float env, float base) { return cumulusDensityBound(C, env, base); },
+        [](Draw& d) {
+            return std::tuple(cumulus(d), d.f(0.0f, 1.0f, {0.0f, 1.0f}),
+                              d.f(0.0f, 1.0f, {0.0f, 1.0f}));
+        },
+        unitScale));
+
+    // lighting.glsl: the march step
+    c.push_back(kernelCase(
+        "powderFactor", "powderFactor(a0)", [](float dd) { return powderFactor(dd); },
+        [depth](Draw& d) { return std::tuple(depth(d)); }, viaExp,
+        [](float dd) { return float(2.0 * expError(-2.0 * dd)); }));
+    c.push_back(kernelCase(
+        "freeFlight", "freeFlight(a0, a1, a2)",
+        [](float t, float sm, float u) { return freeFlight(t, sm, u); },
+        [](Draw& d) {
+            return std::tuple(d.f(0.0f, 100.0f, {0.0f}),
+                              d.chance(0.3f) ? d.logUniform(1e-3f, 1e5f) : d.f(0.1f, 10.0f),
+                              d.f(0.0f, 0.999f, {0.0f, 0.5f}));
+        },
+        Tolerance{.ulps = 4,
+                  .why = "GLSL's log() is exact to 2^-21 absolute on [0.5, 2] (where 1 - u "
+                         "lies for most u), divided by sigma_maj"},
+        [](float, float sm, float) { return float(0x1p-21 / double(sm)); }));
+    c.push_back(kernelCase(
+        "inScatterFactor", "inScatterFactor(a0, a1, a2, a3, a4, a5)",
+        [](int mode, float rho, float tau, vec3 st, float k, float strength) {
+            return inScatterFactor(mode, rho, tau, st, k, strength);
+        },
+        [depth](Draw& d) {
+            return std::tuple(d.i(0, 2), d.f(0.0f, 2.0f, {0.0f}), depth(d),
+                              d.v3(0.0f, 20.0f, {1.0f}), d.f(0.0f, 5.0f, {2.0f}),
+                              d.f(0.0f, 1.0f, {0.0f, 0.5f, 1.0f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-21f,
+                  .why = "exp() inside mix(1, x, s) on [0, 2] (mix differs from glm's by an ulp "
+                         "of its operands): 2^-21 absolute"}));
+    c.push_back(kernelCase(
+        "octaveSun", "octaveSun(a0, a1, a2, a3, a4)",
+        [](vec3 ph, vec3 st, float tau, float w, float e) { return octaveSun(ph, st, tau, w, e); },
+        [depth](Draw& d) {
+            return std::tuple(d.v3(0.0f, 10.0f, {0.0795774715f}), d.v3(0.0f, 20.0f, {1.0f}),
+                              depth(d), d.f(0.0f, 1.0f, {1.0f, 0.5f}),
+                              d.f(0.0f, 1.0f, {1.0f, 0.5f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-20f,
+                  .why = "exp()'s error on e^{-x} in [0, 1], times phase <= 10: 2^-20 absolute"}));
+    c.push_back(kernelCase(
+        "p1Radiance", "p1Radiance(a0, a1, a2, a3, a4, a5, a6)",
+        [](float phi, vec3 g, float str, float rho, float gg, float p1, vec3 wo) {
+            return p1Radiance(phi, g, str, rho, gg, p1, wo);
+        },
+        [](Draw& d) {
+            return std::tuple(d.f(0.0f, 10.0f, {0.0f, 1.0f}), d.v3(-20.0f, 20.0f, {0.0f}),
+                              d.f(0.0f, 20.0f, {0.0f, 1.0f}), d.f(0.0f, 2.0f, {0.0f, 1.0f}),
+                              d.f(-0.9f, 0.9f, {0.0f, 0.8f}), d.f(0.0f, 1.0f, {1.0f}),
+                              d.unitVector());
+        },
+        Tolerance{.ulps = 8,
+                  .abs = 0x1p-18f,
+                  .why = "length() and a dot product on values up to 10 whose sum with phi may "
+                         "cancel toward 0: 2^-18 absolute"}));
+    c.push_back(kernelCase(
+        "skyColumnInScatter", "skyColumnInScatter(a0, a1, a2, a3, a4, a5, a6)",
+        [](float up, float down, vec3 str, vec3 kappa, vec3 su, vec3 sd, float k) {
+            return skyColumnInScatter(up, down, str, kappa, su, sd, k);
+        },
+        [](Draw& d) {
+            return std::tuple(d.f(0.0f, 5.0f, {0.0f}), d.f(0.0f, 5.0f, {0.0f}),
+                              d.v3(0.0f, 10.0f, {1.0f}), d.v3(0.0f, 1.7f, {0.0f}),
+                              d.v3(0.0f, 2.0f, {1.0f}), d.v3(0.0f, 2.0f, {1.0f}),
+                              d.f(0.1f, 4.0f, {1.0f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-20f,
+                  .why = "two exp()s and mix() on skies <= 2: 2^-20 absolute"}));
+    c.push_back(kernelCase(
+        "skyHeightInScatter", "skyHeightInScatter(a0, a1, a2)",
+        [](vec3 a, float h, float g) { return skyHeightInScatter(a, h, g); },
+        [](Draw& d) {
+            return std::tuple(d.v3(0.0f, 2.0f, {1.0f}), d.f(0.0f, 1.0f, {0.0f, 1.0f}),
+                              d.f(0.0f, 1.0f, {0.3f}));
+        }));
+    c.push_back(kernelBlock(
+        "marchStep",
+        "vec3 L = a5; vec3 T = a6; marchStep(a0, a1, a2, a3, a4, L, T);"
+        " r = float[6](L.x, L.y, L.z, T.x, T.y, T.z);",
+        [](vec3 S, vec3 ss, vec3 st, float rho, float dt, vec3 L, vec3 T) {
+            marchStep(S, ss, st, rho, dt, L, T);
+            return std::array<float, 6>{L.x, L.y, L.z, T.x, T.y, T.z};
+        },
+        [](Draw& d) {
+            const vec3 ss = d.v3(0.5f, 20.0f, {1.0f});
+            return std::tuple(d.v3(0.0f, 5.0f, {0.0f}), ss, ss + d.v3(0.0f, 1.0f, {0.0f}),
+                              d.f(0.01f, 2.0f, {1.0f}), d.f(0.001f, 0.5f, {0.05f}),
+                              d.v3(0.0f, 5.0f, {0.0f}), d.v3(0.0f, 1.0f, {1.0f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-19f,
+                  .why = "stepIntegral's exp() where sigma_t rho dt >= 5e-4 (no cancellation "
+                         "regime, see its row), scaled by S sigma_s / sigma_t <= 5: 2^-19 "
+                         "absolute"}));
+
     return c;
 }
 

@@ -97,12 +97,18 @@ std::string paritySource(const KernelCase& c) {
     s += "    uint parityAt = parityIndex * " + std::to_string(c.inWords()) + "u;\n";
     std::size_t word = 0;
     for (std::size_t a = 0; a < c.argTypes.size(); ++a) {
-        s += "    " + c.argTypes[a] + " a" + std::to_string(a) + " = " + c.argTypes[a] + "(";
-        for (std::size_t k = 0; k < c.argFields[a].size(); ++k, ++word) {
-            if (k) s += ", ";
-            s += load(c.argFields[a][k], "parityIn[parityAt + " + std::to_string(word) + "u]");
+        // field by field (member paths reach into nested structs such as CumulusParams.layer)
+        const std::string name = "a" + std::to_string(a);
+        const auto& fields = c.argFields[a];
+        if (fields.size() == 1 && fields[0].access.empty()) {
+            s += "    " + c.argTypes[a] + " " + name + " = " +
+                 load(fields[0], "parityIn[parityAt + " + std::to_string(word++) + "u]") + ";\n";
+            continue;
         }
-        s += ");\n";
+        s += "    " + c.argTypes[a] + " " + name + ";\n";
+        for (std::size_t k = 0; k < fields.size(); ++k, ++word)
+            s += "    " + name + fields[k].access + " = " +
+                 load(fields[k], "parityIn[parityAt + " + std::to_string(word) + "u]") + ";\n";
     }
     s += "    " + c.resultType + " r;\n";
     s += "    " + c.body + "\n";
