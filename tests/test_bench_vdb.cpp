@@ -95,20 +95,17 @@ TEST(BenchVdb, RefusesBadSteps) {
 
 TEST(BenchVdb, RefusesNonUniformVoxels) {
     REQUIRE_DATA();
-    const fs::path dir =
-        fs::temp_directory_path() / ("nimbus_benchvdb_nonuniform_" + std::to_string(getpid()));
+    const TempDir dir("benchvdb");
     CliRun r = runNimbus("bench-vdb-render " + writeScene(dir, "usd_densityAndHeat.vdb").string());
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "non-uniform voxels"));
-    fs::remove_all(dir);
 }
 
 // Both renderers solve the same problem: at fine steps VolumeRender's image converges to the
 // Nimbus reference (a wrong camera, light colour or per-voxel coefficient would not).
 TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
     REQUIRE_DATA();
-    const fs::path dir =
-        fs::temp_directory_path() / ("nimbus_benchvdb_smoke1_" + std::to_string(getpid()));
+    const TempDir dir("benchvdb");
     // early exit 1e-4 for both (VolumeRender's cutoff follows render.epsilon), so the remaining
     // difference is VolumeRender's step error
     CliRun r = runNimbus(
@@ -142,5 +139,4 @@ TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
     EXPECT_LT(relVr, 0.03);
     // the bound catches a camera one pixel off
     EXPECT_GT(relShifted, 0.03);
-    fs::remove_all(dir);
 }

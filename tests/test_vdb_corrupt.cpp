@@ -286,17 +286,7 @@ SweepResult sweep(const std::string& source, const std::string& gridName, int n,
 
 class VdbCorrupt : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        tmp_ = fs::temp_directory_path() /
-               ("nimbus_test_vdbcorrupt_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(tmp_);
-        fs::create_directories(tmp_);
-    }
-    void TearDown() override {
-        detail::setIsolatedChildHookForTests(nullptr);
-        fs::remove_all(tmp_);
-    }
+    void TearDown() override { detail::setIsolatedChildHookForTests(nullptr); }
     std::string path(const std::string& name) const { return (tmp_ / name).string(); }
     std::string write(const std::string& name, const std::vector<VdbGridSpec>& grids) const {
         const std::string p = path(name);
@@ -308,7 +298,7 @@ class VdbCorrupt : public ::testing::Test {
         const fs::path p = kData / name;
         return fs::exists(p) ? p.string() : std::string();
     }
-    fs::path tmp_;
+    TempDir tmp_{"vdbcorrupt"};
 };
 
 #define REQUIRE_SHARED(var, name)                                                                  \
