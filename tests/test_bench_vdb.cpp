@@ -133,9 +133,9 @@ TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
 
     const double relVr = relativeRmse(ref, vr);
     const double relShifted = relativeRmse(ref, vr, 1);
-    std::printf("VolumeRender (0.5, 1.5 voxels) vs reference: rel. RMSE %.2f%%; shifted by one "
-                "pixel: %.2f%%; nimbus step x 4: %.2f%%\n",
-                100.0 * relVr, 100.0 * relShifted, 100.0 * relativeRmse(ref, nb));
+    RecordProperty("volumerender_relative_rmse", std::to_string(relVr));
+    RecordProperty("volumerender_shifted_relative_rmse", std::to_string(relShifted));
+    RecordProperty("nimbus_step_x4_relative_rmse", std::to_string(relativeRmse(ref, nb)));
     EXPECT_LT(relVr, 0.03);
     // the bound catches a camera one pixel off
     EXPECT_GT(relShifted, 0.03);
