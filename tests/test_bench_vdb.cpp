@@ -95,20 +95,17 @@ TEST(BenchVdb, RefusesBadSteps) {
 
 TEST(BenchVdb, RefusesNonUniformVoxels) {
     REQUIRE_DATA();
-    const fs::path dir =
-        fs::temp_directory_path() / ("nimbus_benchvdb_nonuniform_" + std::to_string(getpid()));
+    const TempDir dir("benchvdb");
     CliRun r = runNimbus("bench-vdb-render " + writeScene(dir, "usd_densityAndHeat.vdb").string());
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "non-uniform voxels"));
-    fs::remove_all(dir);
 }
 
 // Both renderers solve the same problem: at fine steps VolumeRender's image converges to the
 // Nimbus reference (a wrong camera, light colour or per-voxel coefficient would not).
 TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
     REQUIRE_DATA();
-    const fs::path dir =
-        fs::temp_directory_path() / ("nimbus_benchvdb_smoke1_" + std::to_string(getpid()));
+    const TempDir dir("benchvdb");
     // early exit 1e-4 for both (VolumeRender's cutoff follows render.epsilon), so the remaining
     // difference is VolumeRender's step error
     CliRun r = runNimbus(
@@ -136,11 +133,10 @@ TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
 
     const double relVr = relativeRmse(ref, vr);
     const double relShifted = relativeRmse(ref, vr, 1);
-    std::printf("VolumeRender (0.5, 1.5 voxels) vs reference: rel. RMSE %.2f%%; shifted by one "
-                "pixel: %.2f%%; nimbus step x 4: %.2f%%\n",
-                100.0 * relVr, 100.0 * relShifted, 100.0 * relativeRmse(ref, nb));
+    RecordProperty("volumerender_relative_rmse", std::to_string(relVr));
+    RecordProperty("volumerender_shifted_relative_rmse", std::to_string(relShifted));
+    RecordProperty("nimbus_step_x4_relative_rmse", std::to_string(relativeRmse(ref, nb)));
     EXPECT_LT(relVr, 0.03);
     // the bound catches a camera one pixel off
     EXPECT_GT(relShifted, 0.03);
-    fs::remove_all(dir);
 }

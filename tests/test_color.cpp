@@ -2,6 +2,7 @@
 /// @brief Tests of nimbus::io::ColorSystem: built-in OCIO config, conversions, display/view
 ///        transforms, chromaticities, unknown names and $OCIO.
 #include "plugin/io/color.h"
+#include "tests/test_util.h"
 
 #include <OpenColorIO/OpenColorIO.h>
 #include <gtest/gtest.h>
@@ -16,7 +17,6 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 using nimbus::io::Chromaticities;
@@ -49,20 +49,12 @@ class ScopedOcioEnv {
 
 class ColorTempDir : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("nimbus_test_color_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
     std::string writeFile(const std::string& name, const std::string& text) {
         const fs::path p = dir_ / name;
         std::ofstream(p) << text;
         return p.string();
     }
-    fs::path dir_;
+    TempDir dir_{"color"};
 };
 
 bool contains(const std::vector<std::string>& v, const std::string& s) {

@@ -3,6 +3,7 @@
 ///        (plugin/io/atomic_file.h).
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/image_output.h"
+#include "tests/test_util.h"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -27,15 +28,6 @@ namespace {
 
 class IoTempDir : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() / ("nimbus_test_io_" + std::to_string(getpid()) + "_" +
-                                            info->test_suite_name() + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-
     /// Every entry of the test directory (recursive, including hidden temp files).
     std::vector<std::string> listing() const {
         std::vector<std::string> out;
@@ -46,7 +38,7 @@ class IoTempDir : public ::testing::Test {
     }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
 
-    fs::path dir_;
+    TempDir dir_{"io"};
 };
 
 std::string readBytes(const std::string& p) {

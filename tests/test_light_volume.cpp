@@ -7,14 +7,12 @@
 
 #include "core/lighting/light_volume.h"
 #include "core/render.h"
+#include "scenes.h"
 
 using namespace nimbus;
 
 TEST(LightVolume, HomogeneousBoxGivesDistanceToExitTimesDensity) {
-    FieldDesc fd;
-    fd.kind = FieldKind::Homogeneous;
-    fd.homogeneous.box = Box{vec3(0.0f), vec3(4.0f, 2.0f, 3.0f)};
-    fd.homogeneous.density = 1.5f;
+    const FieldDesc fd = homogeneousField(Box{vec3(0.0f), vec3(4.0f, 2.0f, 3.0f)}, 1.5f);
     Field f = makeField(fd, 0.0f);
     for (vec3 sun :
          {glm::normalize(vec3(1.0f, 0.6f, 0.3f)), glm::normalize(vec3(-0.2f, 1.0f, -0.4f)),

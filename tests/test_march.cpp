@@ -14,44 +14,17 @@ using glm::ivec2;
 
 namespace {
 
+/// A coloured, absorbing homogeneous slab (density 2 x scale 0.75) seen slightly off-axis, no
+/// early exit, transparent background.
 SceneDesc slabScene() {
-    SceneDesc s;
-    s.camera.position = vec3(0.3f, 0.2f, -5.0f);
-    s.camera.lookAt = vec3(0.0f, 0.0f, 0.0f);
-    s.camera.width = 24;
-    s.camera.height = 16;
-    s.camera.fovY = 30.0f;
-    s.field.kind = FieldKind::Homogeneous;
-    s.field.homogeneous.box = Box{vec3(-1.0f, -1.0f, -0.5f), vec3(1.0f, 1.0f, 0.7f)};
-    s.field.homogeneous.density = 2.0f;
+    SceneDesc s =
+        homogeneousBox(Box{vec3(-1.0f, -1.0f, -0.5f), vec3(1.0f, 1.0f, 0.7f)}, 2.0f,
+                       cameraLookingAt(vec3(0.3f, 0.2f, -5.0f), vec3(0.0f), 24, 16, 30.0f));
     s.medium.sigma_s = vec3(0.5f, 0.8f, 1.1f);
     s.medium.sigma_a = vec3(0.2f, 0.1f, 0.0f);
     s.medium.densityScale = 0.75f;
     s.render.epsilon = 0.0f;
     s.render.background = Background::Transparent;
-    return s;
-}
-
-/// A small, fast cumulus scene: a camera below a thin layer.
-SceneDesc smallCumulus() {
-    SceneDesc s;
-    s.camera.position = vec3(0.0f, 0.5f, -9.0f);
-    s.camera.lookAt = vec3(0.0f, 2.2f, 0.0f);
-    s.camera.width = 40;
-    s.camera.height = 24;
-    s.camera.fovY = 60.0f;
-    s.field.kind = FieldKind::Cumulus;
-    CumulusDesc& c = s.field.cumulus;
-    c.bounds = Box{vec3(-8.0f, 1.5f, -8.0f), vec3(8.0f, 4.0f, 8.0f)};
-    c.baseOctaves = 3;
-    c.detailOctaves = 2;
-    c.eval = NoiseEval::Direct;
-    s.medium.sigma_s = vec3(8.0f);
-    s.medium.sigma_a = vec3(0.0f);
-    s.sun.direction = glm::normalize(vec3(0.6f, 0.4f, 0.5f));
-    s.sun.irradiance = vec3(3.0f);
-    s.render.step = 0.08f;
-    s.render.shadowStep = 0.1f;
     return s;
 }
 
@@ -229,7 +202,7 @@ TEST(March, BlockSkippingYieldsTheSameSpansAsTheCellWalk) {
 
 TEST(March, FieldMajorantBoundsDensity) {
     for (bool baked : {false, true}) {
-        SceneDesc s = smallCumulus();
+        SceneDesc s = cumulusFromBelow();
         s.field.cumulus.baseBakeResolution = 32;
         s.field.cumulus.detailBakeResolution = 16;
         auto base = baked ? bakeCumulusBase(s.field.cumulus) : nullptr;
@@ -269,7 +242,7 @@ TEST(March, BakedNoiseEqualsDirectAtNodes) {
 }
 
 TEST(March, EmptySpaceSkippingSameImageFewerLookups) {
-    SceneDesc s = smallCumulus();
+    SceneDesc s = cumulusFromBelow();
     s.render.skipEmpty = false;
     RenderStats off, on;
     Framebuffer a = renderScene(s, &off, AovSet{true, true});
@@ -290,7 +263,7 @@ TEST(March, EmptySpaceSkippingSameImageFewerLookups) {
 }
 
 TEST(March, DeterministicAcrossThreadCounts) {
-    SceneDesc s = smallCumulus();
+    SceneDesc s = cumulusFromBelow();
     s.render.tileSize = 8;
     std::vector<Framebuffer> fbs;
     for (ivec2 cfg : {ivec2(1, 8), ivec2(2, 8), ivec2(2, 5)}) {
@@ -310,7 +283,7 @@ TEST(March, DeterministicAcrossThreadCounts) {
 }
 
 TEST(March, CancelStopsEarly) {
-    SceneDesc s = smallCumulus();
+    SceneDesc s = cumulusFromBelow();
     Renderer r(s);
     Framebuffer fb;
     RenderStats st;

@@ -16,6 +16,7 @@
 #include "core/media/phase.h"
 #include "core/render.h"
 #include "plugin/io/scene_file.h"
+#include "scenes.h"
 
 namespace nimbus::phasetest {
 
@@ -398,15 +399,9 @@ TEST(PhaseFunction, OctavesScaleTheAsymmetry) {
 TEST(PhaseInMarch, EveryKindScalesTheSunTermByItsPhase) {
     // single scattering from the sun only (no sky, no in-scatter term, one octave): every pixel
     // of a homogeneous slab is L_iso(pixel) * 4 pi * phase(cos(view, sun)), per channel
-    SceneDesc s;
-    s.camera.position = vec3(0.0f, 0.0f, -4.0f);
-    s.camera.lookAt = vec3(0.0f);
-    s.camera.width = 24;
-    s.camera.height = 16;
-    s.camera.fovY = 50.0f;
-    s.field.kind = FieldKind::Homogeneous;
-    s.field.homogeneous.box = Box{vec3(-2.0f), vec3(2.0f)};
-    s.field.homogeneous.density = 0.5f;
+    SceneDesc s =
+        homogeneousBox(Box{vec3(-2.0f), vec3(2.0f)}, 0.5f,
+                       cameraLookingAt(vec3(0.0f, 0.0f, -4.0f), vec3(0.0f), 24, 16, 50.0f));
     s.medium.sigma_s = vec3(0.6f, 0.8f, 1.0f);
     s.sky.kind = SkyKind::None;
     s.sun.direction = glm::normalize(vec3(0.2f, 0.1f, 1.0f)); // nearly behind the slab

@@ -46,7 +46,7 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     // flat voxels (the default): the estimator itself
     RenderStats st;
     const Framebuffer photons = renderScene(sunBox(), &st);
-    EXPECT_EQ(st.photonLookups > 0, true);
+    EXPECT_GT(st.photonLookups, 0u);
     // the skin profile the default scene measured best with (a model: here it must keep the
     // box's energy and stay close)
     SceneDesc k = sunBox();
@@ -66,11 +66,13 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
                  eSingle = relativeRmse(single, ref, false);
     const double mRef = meanRgb(ref);
     // multiple scattering is most of this image; photons get it within a few per cent (the
-    // reference's own noise is about 2%)
-    std::printf("relative RMSE: photons %.4f (skin profile %.4f), grid %.4f, single scattering "
-                "%.4f; mean ratio photons %.4f (skin %.4f), grid %.4f\n",
-                ePhotons, eSkin, eGrid, eSingle, meanRgb(photons) / mRef, meanRgb(skin) / mRef,
-                meanRgb(grid) / mRef);
+    // reference's own noise is about 2%). Thresholds, not a Z-test: march with photons is a
+    // biased approximation (voxelised, step-discretised) of what pathtrace estimates without bias,
+    // so the test bounds its error rather than testing for equal expectations.
+    RecordProperty("relative_rmse_photons", std::to_string(ePhotons));
+    RecordProperty("relative_rmse_photons_skin", std::to_string(eSkin));
+    RecordProperty("relative_rmse_grid", std::to_string(eGrid));
+    RecordProperty("relative_rmse_single", std::to_string(eSingle));
     EXPECT_GT(eSingle, 0.4) << "single scattering alone";
     EXPECT_LT(ePhotons, 0.065) << "photons; grid: " << eGrid;
     EXPECT_LT(ePhotons, eGrid) << "photons against the grid diffusion";

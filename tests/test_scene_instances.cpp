@@ -171,8 +171,7 @@ TEST(SceneInstances, UnplacedVolumeIsNotReadAndSaysSo) {
 TEST(SceneInstances, CliRendersAScatteredVdbCloudscapeOverAGround) {
     if (!fs::is_directory(kData))
         GTEST_SKIP() << "shared VDB folder " << kData << " is absent: cloudscape CLI test skipped";
-    const fs::path dir = fs::temp_directory_path() / ("nimbus_cs_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const TempDir dir("cs");
     const fs::path scene = dir / "cs.toml";
     std::ofstream(scene) << "[camera]\nposition = [0, 40, -400]\nlook_at = [0, 40, 0]\nfov = 50\n"
                             "width = 48\nheight = 32\n[sun]\nelevation = 40\nazimuth = 30\n"
@@ -201,12 +200,10 @@ TEST(SceneInstances, CliRendersAScatteredVdbCloudscapeOverAGround) {
     const CliRun e = runNimbus("render " + scene.string() + " --explain");
     EXPECT_TRUE(contains(e.output, "instances: 12 (instance boxes"));
     EXPECT_TRUE(contains(e.output, "surfaces: ground"));
-    fs::remove_all(dir);
 }
 
 TEST(SceneInstances, CliRefusesAMissingMeshNamingIt) {
-    const fs::path dir = fs::temp_directory_path() / ("nimbus_mesh_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const TempDir dir("mesh");
     const fs::path scene = dir / "m.toml";
     std::ofstream(scene) << "[[mesh]]\npath = \"rock.obj\"\n[output]\npath = \""
                          << (dir / "m.####.exr").string() << "\"\n";
@@ -214,5 +211,4 @@ TEST(SceneInstances, CliRefusesAMissingMeshNamingIt) {
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, (dir / "rock.obj").string() + ": mesh file not found"));
     EXPECT_FALSE(fs::exists(dir / "m.0001.exr"));
-    fs::remove_all(dir);
 }

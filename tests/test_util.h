@@ -1,11 +1,16 @@
 /// @file test_util.h
-/// @brief Small assertions shared by the test files.
+/// @brief Small assertions and helpers shared by the test files: substring checks, runs of the
+/// nimbus command, and a temporary folder per test.
 #pragma once
 
+#include <atomic>
 #include <cstdio>
+#include <filesystem>
 #include <string>
+#include <system_error>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -35,3 +40,39 @@ inline CliRun runNimbus(const std::string& args, const std::string& env = "") {
     r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
     return r;
 }
+
+/// A fresh folder under the system temp folder, created on construction and removed with all it
+/// holds on destruction. Its name is unique within the machine: nimbus_<tag>_<pid>_<suite>_<test>_
+/// <counter>, where the test is the one running (if any) and the counter counts TempDirs made by
+/// this process. Use it as a test fixture's member or as a local; it converts to the path.
+class TempDir {
+  public:
+    explicit TempDir(const std::string& tag = "test") {
+        static std::atomic<unsigned> counter{0};
+        std::string name = "nimbus_" + tag + "_" + std::to_string(getpid());
+        if (const auto* info = testing::UnitTest::GetInstance()->current_test_info())
+            name += std::string("_") + info->test_suite_name() + "_" + info->name();
+        name += "_" + std::to_string(counter++);
+        for (char& c : name)
+            if (c == '/') c = '_'; // parameterised tests are named Suite/Test/0
+        path_ = std::filesystem::temp_directory_path() / name;
+        std::filesystem::remove_all(path_);
+        std::filesystem::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec; // never throw from a destructor; a leftover folder is harmless
+        std::filesystem::remove_all(path_, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+
+    const std::filesystem::path& path() const { return path_; }
+    std::string string() const { return path_.string(); }
+    operator const std::filesystem::path&() const { return path_; }
+    std::filesystem::path operator/(const std::filesystem::path& name) const {
+        return path_ / name;
+    }
+
+  private:
+    std::filesystem::path path_;
+};

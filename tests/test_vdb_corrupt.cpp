@@ -17,7 +17,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <iterator>
 #include <map>
 #include <mutex>
@@ -286,17 +285,7 @@ SweepResult sweep(const std::string& source, const std::string& gridName, int n,
 
 class VdbCorrupt : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        tmp_ = fs::temp_directory_path() /
-               ("nimbus_test_vdbcorrupt_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(tmp_);
-        fs::create_directories(tmp_);
-    }
-    void TearDown() override {
-        detail::setIsolatedChildHookForTests(nullptr);
-        fs::remove_all(tmp_);
-    }
+    void TearDown() override { detail::setIsolatedChildHookForTests(nullptr); }
     std::string path(const std::string& name) const { return (tmp_ / name).string(); }
     std::string write(const std::string& name, const std::vector<VdbGridSpec>& grids) const {
         const std::string p = path(name);
@@ -308,7 +297,7 @@ class VdbCorrupt : public ::testing::Test {
         const fs::path p = kData / name;
         return fs::exists(p) ? p.string() : std::string();
     }
-    fs::path tmp_;
+    TempDir tmp_{"vdbcorrupt"};
 };
 
 #define REQUIRE_SHARED(var, name)                                                                  \
@@ -606,8 +595,9 @@ TEST_F(VdbCorrupt, BitFlipsInAHandBuiltFileLoadOrFailButNeverCrashTheCaller) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
     std::uint64_t bytes = 0;
     const SweepResult r = sweep(p, "density", 200, tmp_, &bytes);
-    std::cout << "[ info ] " << r.summary("hand-built blosc file", 200, bytes) << "\n";
-    for (const std::string& e : r.crashExamples) std::cout << "[ info ]   e.g. " << e << "\n";
+    RecordProperty("sweep_hand_built", r.summary("hand-built blosc file", 200, bytes));
+    for (size_t k = 0; k < r.crashExamples.size(); ++k)
+        RecordProperty("sweep_hand_built_crash_" + std::to_string(k), r.crashExamples[k]);
     EXPECT_EQ(r.loaded + r.refused + r.crashed + r.killed + r.timedOut, 200);
     EXPECT_EQ(r.timedOut, 0);
 }
@@ -621,8 +611,10 @@ TEST_F(VdbCorrupt, BitFlipsInRealFilesLoadOrFailButNeverCrashTheCaller) {
         if (src.empty()) continue;
         std::uint64_t bytes = 0;
         const SweepResult r = sweep(src, "density", 100, tmp_, &bytes);
-        std::cout << "[ info ] " << r.summary(file, 100, bytes) << "\n";
-        for (const std::string& e : r.crashExamples) std::cout << "[ info ]   e.g. " << e << "\n";
+        RecordProperty(std::string("sweep_") + file, r.summary(file, 100, bytes));
+        for (size_t k = 0; k < r.crashExamples.size(); ++k)
+            RecordProperty(std::string("sweep_") + file + "_crash_" + std::to_string(k),
+                           r.crashExamples[k]);
         EXPECT_EQ(r.loaded + r.refused + r.crashed + r.killed + r.timedOut, 100);
         EXPECT_EQ(r.timedOut, 0);
         crashes += r.crashed;
@@ -689,9 +681,10 @@ TEST_F(VdbCorrupt, GiantClaimedSizesAndCountsAreErrorsNotOutOfMemoryKills) {
         }
         EXPECT_LT(msSince(t0), 15000.0) << k.what;
     }
-    std::cout << "[ info ] " << cases.size() << " targeted size/count corruptions: " << loaded
-              << " loaded, " << cases.size() - std::size_t(loaded + crashed)
-              << " VdbError from the reader, " << crashed << " crashed OpenVDB (caught)\n";
+    RecordProperty("corruptions", int(cases.size()));
+    RecordProperty("corruptions_loaded", loaded);
+    RecordProperty("corruptions_refused", int(cases.size()) - loaded - crashed);
+    RecordProperty("corruptions_crashed_openvdb", crashed);
     EXPECT_GT(crashed, 0);
 }
 
@@ -743,18 +736,13 @@ TEST_F(VdbCorrupt, CliRenderOfACorruptedVdbExitsWithBadInputAndTheMessage) {
     EXPECT_TRUE(contains(r.output, "nimbus: error: " + badScene + ": frame 1: " + bad +
                                        ": grid \"density\": the OpenVDB reader crashed ("));
     EXPECT_FALSE(fs::exists(path("bad.0001.exr")));
-    std::cout << "[ info ] nimbus render on the corrupted file, exit code " << r.exitCode << ": "
-              << r.output;
+    RecordProperty("isolated_render_output", r.output);
 
     // in process (NIMBUS_VDB_ISOLATE=0) the same file takes the nimbus command down with it
     const CliRun crash =
         runNimbus("render " + badScene + " --progress none", "ulimit -c 0; NIMBUS_VDB_ISOLATE=0");
     EXPECT_NE(crash.exitCode, 0) << crash.output;
-    std::cout << "[ info ] the same render in process: exit code " << crash.exitCode
-              << (crash.exitCode > 128
-                      ? " (killed by signal " + std::to_string(crash.exitCode - 128) + ")"
-                      : std::string())
-              << "\n";
+    RecordProperty("in_process_render_exit_code", crash.exitCode);
 
     const CliRun badEnv =
         runNimbus("render " + scene(good) + " --progress none", "NIMBUS_VDB_TIMEOUT=soon");
@@ -828,8 +816,8 @@ TEST_F(VdbCorrupt, CostOfIsolationOnSmoke1) {
                 EXPECT_EQ(g.activeVoxelCount, file == p ? 1049275u : 1u);
             }
         }
-        std::cout << "[ info ] " << fs::path(file).filename().string()
-                  << " load, in process: " << text(inProcess)
-                  << "; isolated (fork + pipe): " << text(isolated) << "\n";
+        const std::string name = fs::path(file).filename().string();
+        RecordProperty(name + "_load_in_process", text(inProcess));
+        RecordProperty(name + "_load_isolated", text(isolated));
     }
 }

@@ -12,8 +12,6 @@
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
 #include <nanovdb/NanoVDB.h> // SampleFromVoxels.h does not include it itself
 #include <nanovdb/util/SampleFromVoxels.h>
 
@@ -61,14 +59,6 @@ class VdbRealFiles : public ::testing::Test {
             GTEST_SKIP() << "the shared VDB test files are not here (" << dir_
                          << " is absent): real third-party VDB tests skipped";
         }
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        tmp_ = fs::temp_directory_path() /
-               ("nimbus_test_vdbfiles_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(tmp_);
-        fs::create_directories(tmp_);
-    }
-    void TearDown() override {
-        if (!tmp_.empty()) fs::remove_all(tmp_);
     }
     std::string file(const std::string& name) const {
         std::string p = (fs::path(dir_) / name).string();
@@ -87,7 +77,7 @@ class VdbRealFiles : public ::testing::Test {
     }
 
     std::string dir_;
-    fs::path tmp_;
+    TempDir tmp_{"vdbfiles"};
 };
 
 } // namespace
@@ -97,9 +87,7 @@ TEST_F(VdbRealFiles, OpenVdbSmoke1HalfFloatV222Loads) {
     LoadedVdbGrid g = loadVdbGrid({.path = file("openvdb_smoke1.vdb")});
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    std::cout << "[ info ] openvdb_smoke1.vdb: open + read + sanitise + NanoVDB conversion, in a "
-                 "child process "
-              << ms << " ms\n";
+    // open + read + sanitise + NanoVDB conversion, in a child process
     RecordProperty("smoke1_load_ms", std::to_string(ms));
 
     EXPECT_EQ(g.fileVersion, 222u);

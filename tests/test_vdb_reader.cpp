@@ -14,8 +14,6 @@
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
 #include <glm/gtc/matrix_transform.hpp>
 #include <nanovdb/NanoVDB.h> // SampleFromVoxels.h does not include it itself
 #include <nanovdb/util/SampleFromVoxels.h>
@@ -41,14 +39,6 @@ std::string joined(const std::vector<std::string>& lines) {
 
 class VdbReader : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("nimbus_test_vdbreader_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
     std::string write(const std::string& name, const std::vector<VdbGridSpec>& grids) const {
         std::string p = path(name);
@@ -65,7 +55,7 @@ class VdbReader : public ::testing::Test {
         std::ifstream in(p, std::ios::binary);
         return std::vector<char>(std::istreambuf_iterator<char>(in), {});
     }
-    fs::path dir_;
+    TempDir dir_{"vdbreader"};
 };
 
 VdbGridSpec::Voxel voxel(int i, int j, int k, double v, bool active = true) {

@@ -6,8 +6,6 @@
 #include <fstream>
 #include <string>
 
-#include <unistd.h>
-
 #include "plugin/vdb/vdb_reader.h"
 #include "tests/test_util.h"
 
@@ -19,17 +17,11 @@ namespace {
 class VdbSequence : public ::testing::Test {
   protected:
     void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("nimbus_test_vdbseq_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
         // Frames 1, 2 and 4 exist (resolveVdbFrame only checks that the files exist).
         for (const char* f : {"smoke.0001.vdb", "smoke.0002.vdb", "smoke.0004.vdb"})
             std::ofstream(dir_ / f) << "x";
         fs::create_directories(dir_ / "smoke.0005.vdb"); // a directory is not a frame file
     }
-    void TearDown() override { fs::remove_all(dir_); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
     std::string error(const std::string& pattern, int frame, bool hold, int maxHold = 100000) {
         try {
@@ -40,7 +32,7 @@ class VdbSequence : public ::testing::Test {
         }
         return "";
     }
-    fs::path dir_;
+    TempDir dir_{"vdbseq"};
 };
 
 } // namespace

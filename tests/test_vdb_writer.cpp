@@ -10,8 +10,6 @@
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
 #include "plugin/vdb/vdb_reader.h"
 #include "plugin/vdb/vdb_writer.h"
 #include "tests/test_util.h"
@@ -23,14 +21,6 @@ namespace {
 
 class VdbBake : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("nimbus_test_vdbbake_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
     std::vector<std::string> listing() const {
         std::vector<std::string> out;
@@ -38,7 +28,7 @@ class VdbBake : public ::testing::Test {
             out.push_back(fs::relative(e.path(), dir_).string());
         return out;
     }
-    fs::path dir_;
+    TempDir dir_{"vdbbake"};
 };
 
 /// A deterministic field with zeros, tiny values and large ones, x fastest.
