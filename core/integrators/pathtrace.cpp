@@ -17,6 +17,17 @@ float mean3(vec3 v) {
     return (v.x + v.y + v.z) * (1.0f / 3.0f);
 }
 
+/// Keeps the path weights as ratios (pbrt-v4's beta and r_u): the estimate of channel c is
+/// f_c / mean(p), unchanged when both are divided by the same number, so they are divided by
+/// mean(p) at every event. Multiplied raw, both underflow to 0 after a few hundred null
+/// collisions in thick media, and 0/0 lost the whole sample (13% of them on a dense cloud).
+/// mean(p) > 0: the hero channel's probability of the event it chose is a factor of it.
+inline void rescale(vec3& f, vec3& p) {
+    const float m = mean3(p);
+    f /= m;
+    p /= m;
+}
+
 } // namespace
 
 PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
@@ -54,12 +65,14 @@ PathContext::Event PathContext::track(const Ray& ray, float tmax, Sampler& rng, 
         if (u < pA[hero] + pS[hero]) {
             f *= pS;
             p *= pS;
+            rescale(f, p);
             tHit = t;
             ev = Event::Scattered;
             return false;
         }
         f *= pN;
         p *= pN;
+        rescale(f, p);
         return true;
     });
     return ev;
@@ -137,10 +150,18 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
             if (plan_.shadows && cosSun > 0.0f)
                 L += beta * hit.albedo * (kInvPi * cosSun) * s_.sun.irradiance *
                      visibility(pos, s_.sun.direction, rng, cnt, scratch);
-            if (depth + 1 >= s_.render.maxDepth) break;
             // cosine-weighted bounce: weight albedo
             const float u0 = rng.next(), u1 = rng.next();
-            ray = Ray{pos, kern::phaseDirection(hit.normal, std::sqrt(u0), u1)};
+            const vec3 d = kern::phaseDirection(hit.normal, std::sqrt(u0), u1);
+            if (depth + 1 >= s_.render.maxDepth) {
+                // the last vertex: its sky light through the bounce ray (no sky NEE at
+                // surfaces), the transmittance standing in for tracking to the escape
+                if (sky)
+                    L += beta * hit.albedo * skyRadiance(s_.sky, d) *
+                         visibility(pos, d, rng, cnt, scratch);
+                break;
+            }
+            ray = Ray{pos, d};
             f *= hit.albedo;
             fromSurface = true;
         } else if (ev == Event::Escaped) {
@@ -171,13 +192,21 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
                 L += beta * skyRadiance(s_.sky, wi) * Tr * medium_.phase.eval(cosTheta) *
                      (w / kSkyPdf);
             }
-            if (depth + 1 >= s_.render.maxDepth) break;
             // continue by sampling the phase function (the same direction for every channel, so
             // its weight eval / pdf goes into the throughput alone)
             const float u0 = rng.next(), u1 = rng.next();
             const PhaseSample ps = medium_.phase.sample(vec2(u0, u1));
             if (!(ps.pdf > 0.0f)) break;
             const vec3 d = kern::phaseDirection(ray.d, ps.cosTheta, rng.next());
+            if (depth + 1 >= s_.render.maxDepth) {
+                // the last vertex: the phase-sampled half of the sky's MIS pair, the
+                // transmittance standing in for tracking to the escape (without it the sky
+                // lost the phase-sampled share at max_depth: 0.75 of it at max_depth = 1)
+                if (sky)
+                    L += beta * ps.weight * skyRadiance(s_.sky, d) *
+                         visibility(pos, d, rng, cnt, scratch) * (ps.pdf / (ps.pdf + kSkyPdf));
+                break;
+            }
             f *= ps.weight;
             lastPhasePdf = ps.pdf;
             fromSurface = false;
@@ -186,7 +215,7 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
         // Russian roulette only on throughput below 1 (pbrt-v4): a floor on q would divide an
         // albedo-1 path's weight by 1 - q at every bounce (0.95^-200 = 3e4 after 200 bounces
         // in thick cloud), unbiased but with fireflies that dominated the references' error
-        const float m = maxComponent(f / mean3(p));
+        const float m = maxComponent(f / mean3(p)); // mean3(p) = 1 up to rounding
         if (depth + 1 >= s_.render.rrDepth && m < 1.0f) {
             const float q = 1.0f - m;
             if (rng.next() < q) break;

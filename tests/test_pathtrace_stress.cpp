@@ -1,0 +1,113 @@
+// pathtrace in optically thick media: the reference must stay unbiased where path weights are
+// products of hundreds of collision probabilities (DESIGN.md, "Path weights as ratios"), and the
+// sky's MIS pair must be complete at every depth. Known answers only: the white furnace (an
+// albedo-1 medium under a uniform sky returns the sky) and single scattering of a uniform sky by
+// a semi-infinite isotropic medium, (1 - ln 2) / 2 of the sky seen along the normal.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/render.h"
+#include "render_util.h"
+
+using namespace nimbus;
+
+namespace {
+
+/// A cube of side 2 at the origin, seen face-on from -z through a narrow field of view (every
+/// pixel on the centre of the front face), uniform sky, no sun, albedo 1.
+SceneDesc thickCube(vec3 sigma_s, int maxDepth, int spp) {
+    SceneDesc s;
+    s.render.integrator = Integrator::PathTrace;
+    s.camera.position = vec3(0.0f, 0.0f, -5.0f);
+    s.camera.lookAt = vec3(0.0f);
+    s.camera.width = 2;
+    s.camera.height = 2;
+    s.camera.fovY = 2.0f;
+    s.field.kind = FieldKind::Homogeneous;
+    s.field.homogeneous.box = Box{vec3(-1.0f), vec3(1.0f)};
+    s.field.homogeneous.density = 1.0f;
+    s.medium.sigma_s = sigma_s;
+    s.medium.sigma_a = vec3(0.0f);
+    s.medium.phase = PhaseKind::Isotropic;
+    s.sun.enabled = false;
+    s.sky.kind = SkyKind::Uniform;
+    s.sky.zenith = vec3(1.0f);
+    s.render.maxDepth = maxDepth;
+    s.render.spp = spp;
+    s.render.epsilon = 0.0f;
+    return s;
+}
+
+/// Per channel over all pixels: the mean of `batches` renders with different seeds and the
+/// standard error of that mean (from the spread of the batch means). Every render must be free
+/// of non-finite samples (renderScene checks RenderStats::nonFinite == 0).
+void channelMeans(SceneDesc s, int batches, vec3& mean, vec3& se) {
+    std::vector<vec3> m;
+    for (int b = 0; b < batches; ++b) {
+        s.render.seed = 7000u + std::uint32_t(b);
+        RenderStats stats;
+        const Framebuffer fb = renderScene(s, &stats);
+        EXPECT_EQ(stats.nonFinite, 0u) << "non-finite samples in batch " << b;
+        vec3 sum(0.0f);
+        for (int i = 0; i < fb.width * fb.height; ++i)
+            sum += vec3(fb.rgba[4 * i], fb.rgba[4 * i + 1], fb.rgba[4 * i + 2]);
+        m.push_back(sum / float(fb.width * fb.height));
+    }
+    mean = vec3(0.0f);
+    for (const vec3& v : m) mean += v;
+    mean /= float(batches);
+    vec3 var(0.0f);
+    for (const vec3& v : m) var += (v - mean) * (v - mean);
+    se = glm::sqrt(var / float(batches - 1) / float(batches));
+}
+
+// alpha = 0.01 per channel (two-sided): |z| < 2.576
+constexpr float kZ = 2.576f;
+
+} // namespace
+
+TEST(PathTraceStress, ChromaticWhiteFurnace2000MeanFreePaths) {
+    // 2000 mean free paths across in the thinnest channel; the max-channel majorant makes the
+    // other channels' tracking collide mostly null (p_null = 2/3 and 1/3): hundreds of null
+    // collisions per path, where unnormalised weights underflowed to 0/0
+    SceneDesc s = thickCube(vec3(1000.0f, 2000.0f, 3000.0f), 1 << 30, 512);
+    vec3 mean, se;
+    channelMeans(s, 6, mean, se);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_GT(se[c], 0.0f);
+        EXPECT_LT(std::abs(mean[c] - 1.0f), kZ * se[c])
+            << "channel " << c << ": " << mean[c] << " +- " << se[c];
+        EXPECT_NEAR(mean[c], 1.0f, 0.03f) << "channel " << c;
+    }
+}
+
+TEST(PathTraceStress, SingleScatteredSkyOfASemiInfiniteMedium) {
+    // 10^5 mean free paths across: a half-space for the front face. max_depth = 1: the sky light
+    // scattered once toward the camera, (1 - ln 2) / 2 of a uniform sky along the normal for
+    // isotropic scattering, which needs both halves of the sky's MIS pair (next-event and phase
+    // sampling) at the last vertex
+    SceneDesc s = thickCube(vec3(50000.0f), 1, 4096);
+    const float expect = 0.5f * (1.0f - std::log(2.0f));
+    vec3 mean, se;
+    channelMeans(s, 6, mean, se);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_LT(std::abs(mean[c] - expect), kZ * se[c] + 1e-4f)
+            << "channel " << c << ": " << mean[c] << " +- " << se[c] << ", expected " << expect;
+        EXPECT_NEAR(mean[c] / expect, 1.0f, 0.02f) << "channel " << c;
+    }
+}
+
+TEST(PathTraceStress, NoNonFiniteSamplesAt100000MeanFreePaths) {
+    // chromatic and 10^5 mean free paths: paths of up to 4000 events with many null collisions
+    // each; every sample must be finite and the furnace must stay near 1 (the depth cap takes
+    // the paths that wander longer: about 1.8 / sqrt(4000) = 3% of a half-space's light)
+    SceneDesc s = thickCube(vec3(50000.0f, 100000.0f, 150000.0f), 4000, 128);
+    vec3 mean, se;
+    channelMeans(s, 4, mean, se);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_GT(mean[c], 0.9f) << "channel " << c;
+        EXPECT_LT(mean[c], 1.0f + kZ * se[c]) << "channel " << c;
+    }
+}
