@@ -1,7 +1,7 @@
 /// @file scene.h
 /// @brief Plain description of a scene: what the scene file says, validated, in world units.
 ///
-/// Nothing here knows about files: plugin/io/scene_file.cpp fills these structs from TOML and
+/// Nothing here knows about files: plugin/io/scene/ fills these structs from TOML and
 /// checks ranges; core/ only reads them. Colours are already in the working space (ACEScg by
 /// default) when they arrive here.
 #pragma once

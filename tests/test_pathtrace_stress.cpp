@@ -18,16 +18,9 @@ namespace {
 /// A cube of side 2 at the origin, seen face-on from -z through a narrow field of view (every
 /// pixel on the centre of the front face), uniform sky, no sun, albedo 1.
 SceneDesc thickCube(vec3 sigma_s, int maxDepth, int spp) {
-    SceneDesc s;
+    SceneDesc s = homogeneousBox(Box{vec3(-1.0f), vec3(1.0f)}, 1.0f,
+                                 cameraLookingAt(vec3(0.0f, 0.0f, -5.0f), vec3(0.0f), 2, 2, 2.0f));
     s.render.integrator = Integrator::PathTrace;
-    s.camera.position = vec3(0.0f, 0.0f, -5.0f);
-    s.camera.lookAt = vec3(0.0f);
-    s.camera.width = 2;
-    s.camera.height = 2;
-    s.camera.fovY = 2.0f;
-    s.field.kind = FieldKind::Homogeneous;
-    s.field.homogeneous.box = Box{vec3(-1.0f), vec3(1.0f)};
-    s.field.homogeneous.density = 1.0f;
     s.medium.sigma_s = sigma_s;
     s.medium.sigma_a = vec3(0.0f);
     s.medium.phase = PhaseKind::Isotropic;

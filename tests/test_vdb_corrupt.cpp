@@ -790,7 +790,7 @@ TEST_F(VdbCorrupt, EnvironmentVariablesSetTheOptions) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The cost of isolation (printed; README "Performance").
+// The cost of isolation (recorded as test properties; docs/vdb.md).
 
 TEST_F(VdbCorrupt, CostOfIsolationOnSmoke1) {
     REQUIRE_SHARED(p, "openvdb_smoke1.vdb");
