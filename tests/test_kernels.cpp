@@ -272,3 +272,19 @@ TEST(Kernels, CloudShapeIsMonotoneInItsInputs) {
     // soft edge: half way up the ramp the smoothstep gives exactly 1/2
     EXPECT_NEAR(cloudShape(L, 1.0f, 0.4f + 0.1f, 0.0f), 0.5f, 1e-6f);
 }
+
+TEST(Lighting, StepIntegralIsAccurateForTinyAndLargeOpticalDepths) {
+    // (S - S e^{-x}) / sigma_t in float cancels for x = sigma_t dt << 1 (at sigma_t = 1e-6,
+    // dt = 1e-3 it gave 0 instead of S dt); against the closed form in double, relative
+    // error below 1e-5 from x = 1e-9 to 50
+    const float S = 9.78f;
+    for (float dt : {1e-3f, 0.05f, 1.0f})
+        for (double x = 1e-9; x < 50.0; x *= 1.7) {
+            const float sigma_t = float(x / dt);
+            const double xs = double(sigma_t) * dt;
+            const double exact = double(S) * -std::expm1(-xs) / double(sigma_t);
+            const double got = stepIntegral(S, sigma_t, dt);
+            EXPECT_NEAR(got / exact, 1.0, 1e-5) << "sigma_t " << sigma_t << " dt " << dt;
+        }
+    EXPECT_FLOAT_EQ(stepIntegral(S, 0.0f, 0.5f), S * 0.5f); // no medium: S dt
+}
