@@ -169,6 +169,8 @@ enum class SkyOcclusion { Height, Column };
 enum class Integrator { March, PathTrace };
 enum class ShadowMethod { March, Volume };
 enum class Background { Sky, Transparent };
+/// Pixel reconstruction filter (values = FILTER_* in core/kernels/pixel.glsl).
+enum class PixelFilter { Box = 0, Gaussian = 1, BlackmanHarris = 2 };
 
 struct RenderDesc {
     Integrator integrator = Integrator::March;
@@ -178,7 +180,12 @@ struct RenderDesc {
     float step = 0.05f; ///< primary step length (world units)
     float stepGrowth = 0.0f; ///< distance-adaptive: step = max(step, stepGrowth * distance)
     bool jitter = true;
-    float epsilon = 0.01f; ///< stop when transmittance drops below this
+    /// march: camera rays per pixel, stratified over the filter's width and weighted by it;
+    /// 1 = one ray through the pixel centre (no filter)
+    int pixelSamples = 1;
+    PixelFilter filter = PixelFilter::Box; ///< how samples are weighted (march and pathtrace)
+    float filterWidth = 1.0f;              ///< filter width in pixels
+    float epsilon = 0.01f;                 ///< stop when transmittance drops below this
     float shadowStep = 0.05f;
     float shadowGrowth = 0.3f;                 ///< shadow steps grow geometrically by this factor
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume

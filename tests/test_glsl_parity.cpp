@@ -990,6 +990,38 @@ std::vector<KernelCase> makeCases() {
                          "regime, see its row), scaled by S sigma_s / sigma_t <= 5: 2^-19 "
                          "absolute"}));
 
+    // pixel.glsl: reconstruction filters and stratified sample offsets
+    const Tolerance filterTol{.ulps = 4,
+                              .abs = 0x1p-22f,
+                              .why = "exp() and cos() on values of order 1 that cancel toward 0 "
+                                     "at the filter's edge: 2^-22 absolute"};
+    c.push_back(kernelCase(
+        "pixelFilter1D", "pixelFilter1D(a0, a1, a2)",
+        [](int kind, float x, float r) { return pixelFilter1D(kind, x, r); },
+        [](Draw& d) {
+            const float r = d.f(0.25f, 4.0f, {0.5f, 1.0f, 1.5f});
+            return std::tuple(d.i(0, 2), d.f(-r - 0.5f, r + 0.5f, {0.0f, r, -r}), r);
+        },
+        filterTol));
+    c.push_back(kernelCase(
+        "pixelFilterWeight", "pixelFilterWeight(a0, a1, a2, a3)",
+        [](int kind, float dx, float dy, float w) { return pixelFilterWeight(kind, dx, dy, w); },
+        [](Draw& d) {
+            const float w = d.f(0.5f, 8.0f, {1.0f, 2.0f, 3.0f});
+            return std::tuple(d.i(0, 2), d.f(-0.6f * w, 0.6f * w, {0.0f}),
+                              d.f(-0.6f * w, 0.6f * w, {0.0f}), w);
+        },
+        filterTol));
+    c.push_back(kernelCase(
+        "pixelSampleOffset", "pixelSampleOffset(a0, a1, a2, a3, a4)",
+        [](int k, int n, float ux, float uy, float w) {
+            return pixelSampleOffset(k, n, ux, uy, w);
+        },
+        [](Draw& d) {
+            const int n = d.i(1, 64, {1, 2, 4, 16});
+            return std::tuple(d.i(0, n - 1), n, unit(d), unit(d), d.f(0.5f, 8.0f, {1.0f}));
+        }));
+
     return c;
 }
 

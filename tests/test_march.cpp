@@ -292,3 +292,57 @@ TEST(March, CancelStopsEarly) {
     cb.cancel = &cancel;
     EXPECT_FALSE(r.render(r.plan(1), fb, st, cb));
 }
+
+TEST(MarchPixels, BoxFilteredSamplesEqualTheSupersampledAverage) {
+    // with jitter off, 64 stratified samples of a box filter one pixel wide sit at the centres
+    // of the pixels of the same view rendered 8x larger: the two must agree after averaging
+    // 8x8 blocks (up to the rounding of the ray directions)
+    SceneDesc s = sunlitBox(2.0f, 6, 30.0f, 40.0f);
+    s.render.multipleScattering = MultipleScattering::None;
+    s.render.jitter = false;
+    s.render.pixelSamples = 64;
+    const Framebuffer a = renderScene(s);
+    SceneDesc big = s;
+    big.render.pixelSamples = 1;
+    big.camera.width *= 8;
+    big.camera.height *= 8;
+    const Framebuffer b = renderScene(big);
+    int edge = 0;
+    for (int y = 0; y < s.camera.height; ++y)
+        for (int x = 0; x < s.camera.width; ++x)
+            for (int c = 0; c < 4; ++c) {
+                double mean = 0.0;
+                float lo = 1e30f, hi = -1e30f;
+                for (int j = 0; j < 8; ++j)
+                    for (int i = 0; i < 8; ++i) {
+                        const float v = b.rgba[4 * ((8 * y + j) * b.width + 8 * x + i) + c];
+                        mean += v / 64.0;
+                        lo = std::min(lo, v);
+                        hi = std::max(hi, v);
+                    }
+                edge += c == 3 && hi - lo > 0.5f; // the box's silhouette crosses this pixel
+                EXPECT_NEAR(a.rgba[4 * (y * a.width + x) + c], mean, 1e-4 + 1e-4 * std::abs(mean))
+                    << "pixel " << x << "," << y << " channel " << c;
+            }
+    EXPECT_GT(edge, 0) << "the view must cross the box's edge";
+}
+
+TEST(MarchPixels, EveryFilterKeepsAUniformImage) {
+    // filter weights are normalised: the sky behind an empty view comes back unchanged
+    SceneDesc s = sunlitBox(2.0f, 4, 30.0f, 40.0f);
+    s.field.homogeneous.box = Box{vec3(50.0f), vec3(51.0f)}; // out of view
+    s.sky.kind = SkyKind::Uniform;
+    s.sky.zenith = vec3(0.3f, 0.5f, 0.9f);
+    s.render.background = Background::Sky;
+    s.render.pixelSamples = 9;
+    for (PixelFilter f : {PixelFilter::Box, PixelFilter::Gaussian, PixelFilter::BlackmanHarris})
+        for (float width : {1.0f, 2.0f, 4.0f}) {
+            s.render.filter = f;
+            s.render.filterWidth = width;
+            const Framebuffer fb = renderScene(s);
+            for (int i = 0; i < fb.width * fb.height; ++i)
+                for (int c = 0; c < 3; ++c)
+                    EXPECT_NEAR(fb.rgba[4 * i + c], s.sky.zenith[c], 1e-6f)
+                        << "filter " << int(f) << " width " << width;
+        }
+}

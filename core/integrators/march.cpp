@@ -15,6 +15,9 @@ using kern::pcg;
 static_assert(int(InScatter::None) == kern::INSCATTER_NONE);
 static_assert(int(InScatter::Olajos) == kern::INSCATTER_OLAJOS);
 static_assert(int(InScatter::Powder) == kern::INSCATTER_POWDER);
+static_assert(int(PixelFilter::Box) == kern::FILTER_BOX);
+static_assert(int(PixelFilter::Gaussian) == kern::FILTER_GAUSSIAN);
+static_assert(int(PixelFilter::BlackmanHarris) == kern::FILTER_BLACKMAN_HARRIS);
 
 MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                            const LightVolume* lightVolume, ScatterVolumes scatter,
@@ -94,11 +97,8 @@ vec3 MarchContext::surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::u
     return hit.albedo * E * 0.318309886f;
 }
 
-void MarchContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
-                               Scratch& scratch) const {
-    const std::uint32_t pixelKey = pcg(std::uint32_t(x) ^ pcg(std::uint32_t(y) ^ pcg(frameKey_)));
-    const float jitter = s_.render.jitter ? kern::hashToUnit(pixelKey) : 0.5f;
-    const Ray ray = camera_.generate(float(x) + 0.5f, float(y) + 0.5f);
+MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelKey, float jitter,
+                                            RayCounters& cnt, Scratch& scratch) const {
     ++cnt.rays;
 
     const vec3 sunDir = s_.sun.direction;
@@ -181,7 +181,58 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
         L += T * skyRadiance(s_.sky, ray.d);
         alpha = 1.0f;
     }
-    vec4 out(L, alpha);
+    return Sample{L, T, alpha, depth};
+}
+
+void MarchContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
+                               Scratch& scratch) const {
+    const std::uint32_t pixelKey = pcg(std::uint32_t(x) ^ pcg(std::uint32_t(y) ^ pcg(frameKey_)));
+    const RenderDesc& r = s_.render;
+    vec4 out(0.0f);
+    vec3 T(0.0f);
+    float depth = 0.0f;
+    const int n = std::max(1, r.pixelSamples);
+    if (n == 1) {
+        // one ray through the pixel centre
+        const float jitter = r.jitter ? kern::hashToUnit(pixelKey) : 0.5f;
+        const Sample smp = traceRay(camera_.generate(float(x) + 0.5f, float(y) + 0.5f), pixelKey,
+                                    jitter, cnt, scratch);
+        out = vec4(smp.L, smp.alpha);
+        T = smp.T;
+        depth = smp.depth;
+    } else {
+        // stratified over the filter's width, each sample weighted by the filter; every sample
+        // has its own stream (its jitter along the ray, its shadow rays)
+        float wSum = 0.0f, depthW = 0.0f;
+        for (int k = 0; k < n; ++k) {
+            const std::uint32_t key = pcg(pixelKey ^ pcg(std::uint32_t(k) + 1u));
+            const float ux = r.jitter ? kern::hashToUnit(pcg(key ^ 0x1b873593u)) : 0.5f;
+            const float uy = r.jitter ? kern::hashToUnit(pcg(key ^ 0x85ebca6bu)) : 0.5f;
+            const vec2 o = kern::pixelSampleOffset(k, n, ux, uy, r.filterWidth);
+            const float w = kern::pixelFilterWeight(int(r.filter), o.x, o.y, r.filterWidth);
+            if (!(w > 0.0f)) continue;
+            const float jitter = r.jitter ? kern::hashToUnit(key) : 0.5f;
+            const Sample smp =
+                traceRay(camera_.generate(float(x) + 0.5f + o.x, float(y) + 0.5f + o.y), key,
+                         jitter, cnt, scratch);
+            if (!(std::isfinite(smp.L.x) && std::isfinite(smp.L.y) && std::isfinite(smp.L.z))) {
+                ++cnt.nonFinite;
+                continue;
+            }
+            out += w * vec4(smp.L, smp.alpha);
+            T += w * smp.T;
+            wSum += w;
+            if (smp.depth > 0.0f) {
+                depth += w * smp.depth;
+                depthW += w;
+            }
+        }
+        if (wSum > 0.0f) {
+            out /= wSum;
+            T /= wSum;
+        }
+        if (depthW > 0.0f) depth /= depthW;
+    }
     const bool finite = std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z) &&
                         std::isfinite(out.w);
     if (!finite) {

@@ -62,6 +62,15 @@ class MarchContext {
                  const SurfaceQuery* surfaces = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt, Scratch& scratch) const;
 
+    /// What one camera ray returns: radiance, transmittance, alpha and depth (0: none).
+    struct Sample {
+        vec3 L, T;
+        float alpha, depth;
+    };
+    /// Marches one camera ray; `key` seeds its shadow rays, `jitter` places its samples.
+    Sample traceRay(const Ray& ray, std::uint32_t key, float jitter, RayCounters& cnt,
+                    Scratch& scratch) const;
+
     /// Density integral along the ray from p toward the sun (shadow march).
     float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
     /// Density integral toward the sun from p: light volume or shadow march; infinite when a

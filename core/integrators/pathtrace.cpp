@@ -228,35 +228,42 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
 void PathContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
                               Scratch& scratch) const {
     const int spp = std::max(1, s_.render.spp);
+    const RenderDesc& r = s_.render;
     vec3 L(0.0f), T(0.0f);
     double depthSum = 0.0;
-    float alphaSum = 0.0f;
+    float alphaSum = 0.0f, wSum = 0.0f;
     int depthCount = 0;
     for (int s = 0; s < spp; ++s) {
         Sampler rng = Sampler::forPixel(x, y, frameKey_, std::uint32_t(s));
-        const float jx = s_.render.jitter ? rng.next() : 0.5f;
-        const float jy = s_.render.jitter ? rng.next() : 0.5f;
-        const Ray ray = camera_.generate(float(x) + jx, float(y) + jy);
+        // uniform over the filter's width, weighted by the filter (box of width 1: the pixel)
+        const float ox = r.jitter ? (rng.next() - 0.5f) * r.filterWidth : 0.0f;
+        const float oy = r.jitter ? (rng.next() - 0.5f) * r.filterWidth : 0.0f;
+        const float w = kern::pixelFilterWeight(int(r.filter), ox, oy, r.filterWidth);
+        const Ray ray = camera_.generate(float(x) + 0.5f + ox, float(y) + 0.5f + oy);
         ++cnt.rays;
         vec3 Ts;
         float depth, a;
         vec3 Ls = tracePath(ray, rng, Ts, a, depth, cnt, scratch);
-        alphaSum += a;
         if (!(std::isfinite(Ls.x) && std::isfinite(Ls.y) && std::isfinite(Ls.z))) {
             ++cnt.nonFinite;
             Ls = vec3(0.0f);
         }
-        L += Ls;
-        T += Ts;
+        alphaSum += w * a;
+        L += w * Ls;
+        T += w * Ts;
+        wSum += w;
         if (depth > 0.0f) {
             depthSum += depth;
             ++depthCount;
         }
     }
-    L /= float(spp);
-    T /= float(spp);
+    if (wSum > 0.0f) {
+        L /= wSum;
+        T /= wSum;
+        alphaSum /= wSum;
+    }
     const size_t i = size_t(y) * fb.width + x;
-    const float alpha = alphaSum / float(spp);
+    const float alpha = alphaSum;
     fb.rgba[4 * i + 0] = L.x;
     fb.rgba[4 * i + 1] = L.y;
     fb.rgba[4 * i + 2] = L.z;

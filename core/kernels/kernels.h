@@ -16,4 +16,5 @@ namespace nimbus::kern {
 #include "core/kernels/cloud.glsl"
 #include "core/kernels/phase.glsl"
 #include "core/kernels/lighting.glsl"
+#include "core/kernels/pixel.glsl"
 } // namespace nimbus::kern

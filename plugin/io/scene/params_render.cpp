@@ -69,6 +69,22 @@ void addRenderParams(std::vector<Param>& t) {
                           "Offset the samples within each step by a random fraction per pixel "
                           "(trades banding for noise); off = step midpoints.",
                           &RenderDesc::jitter));
+    t.push_back(ren.param("pixel_samples", closed(1, 4096),
+                          "Camera rays per pixel for march, stratified over the filter's width "
+                          "and weighted by the filter; 1 = one ray through the pixel centre.",
+                          &RenderDesc::pixelSamples)
+                    .usedWhen("render.integrator = \"march\"", marching));
+    t.push_back(ren.param("filter",
+                          WordTable<PixelFilter>{{"box", PixelFilter::Box},
+                                                 {"gaussian", PixelFilter::Gaussian},
+                                                 {"blackman_harris", PixelFilter::BlackmanHarris}},
+                          "Pixel reconstruction filter weighting the samples of a pixel (march "
+                          "with pixel_samples > 1, pathtrace with jitter on).",
+                          &RenderDesc::filter));
+    t.push_back(ren.param("filter_width", closed(0.5, 8),
+                          "Width of the pixel filter in pixels (box 1 = the pixel itself; "
+                          "gaussian and blackman_harris reach into the neighbours from 2 on).",
+                          &RenderDesc::filterWidth));
     t.push_back(ren.param("epsilon", closedOpen(0, 1),
                           "Stop marching when the transmittance falls below this.",
                           &RenderDesc::epsilon));
