@@ -28,9 +28,12 @@ namespace {
 /// --save-reference / --reference of converge and calibrate: a path-traced reference costs
 /// minutes, so it can be kept and reused for every later measurement of the same frame.
 void addReferenceFileOptions(CLI::App* cmd, std::string& save, std::string& load) {
-    auto* s = cmd->add_option("--save-reference", save,
-                              "Also write the reference to this EXR (scene-linear, with its noise "
-                              "and settings in the header) for later runs");
+    auto* s =
+        cmd->add_option("--save-reference", save,
+                        "Also write the reference to this EXR for later runs: the scene-linear "
+                        "working space (ACEScg unless $OCIO says otherwise) and the clouds "
+                        "alone on a transparent background, whatever output.color_space and "
+                        "render.background say, with its noise and settings in the header");
     cmd->add_option("--reference", load,
                     "Read the reference from an EXR written by --save-reference instead of "
                     "rendering it (its frame and resolution must match)")
