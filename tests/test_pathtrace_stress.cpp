@@ -37,23 +37,23 @@ SceneDesc thickCube(vec3 sigma_s, int maxDepth, int spp) {
 /// standard error of that mean (from the spread of the batch means). Every render must be free
 /// of non-finite samples (renderScene checks RenderStats::nonFinite == 0).
 void channelMeans(SceneDesc s, int batches, vec3& mean, vec3& se) {
-    std::vector<vec3> m;
+    std::vector<std::vector<double>> samples;
     for (int b = 0; b < batches; ++b) {
         s.render.seed = 7000u + std::uint32_t(b);
         RenderStats stats;
         const Framebuffer fb = renderScene(s, &stats);
         EXPECT_EQ(stats.nonFinite, 0u) << "non-finite samples in batch " << b;
-        vec3 sum(0.0f);
+        std::vector<double> sum(3, 0.0);
         for (int i = 0; i < fb.width * fb.height; ++i)
-            sum += vec3(fb.rgba[4 * i], fb.rgba[4 * i + 1], fb.rgba[4 * i + 2]);
-        m.push_back(sum / float(fb.width * fb.height));
+            for (int c = 0; c < 3; ++c) sum[c] += fb.rgba[4 * i + c];
+        for (double& v : sum) v /= double(fb.width * fb.height);
+        samples.push_back(sum);
     }
-    mean = vec3(0.0f);
-    for (const vec3& v : m) mean += v;
-    mean /= float(batches);
-    vec3 var(0.0f);
-    for (const vec3& v : m) var += (v - mean) * (v - mean);
-    se = glm::sqrt(var / float(batches - 1) / float(batches));
+    const Estimate e = estimateFromSamples(samples); // tests/stats.h
+    for (int c = 0; c < 3; ++c) {
+        mean[c] = float(e.mean[c]);
+        se[c] = float(std::sqrt(e.variance[c] / e.n));
+    }
 }
 
 // alpha = 0.01 per channel (two-sided): |z| < 2.576
