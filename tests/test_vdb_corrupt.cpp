@@ -688,9 +688,11 @@ TEST_F(VdbCorrupt, GiantClaimedSizesAndCountsAreErrorsNotOutOfMemoryKills) {
     EXPECT_GT(crashed, 0);
 }
 
-TEST_F(VdbCorrupt, ACorruptedChunkSizeCrashesOpenVdbAndTheCrashIsReported) {
+TEST_F(VdbCorrupt, ACorruptedChunkSizeIsReportedWhetherOpenVdbCrashesOrRefusesIt) {
     // A negative size means "raw bytes follow": OpenVDB 10 reads 8 GB into a 2 KB leaf buffer
-    // (up to the end of the file): a heap overflow that kills the reading process.
+    // (up to the end of the file): a heap overflow. What it does next is undefined: it mostly
+    // kills the reading process, but in about one run of four (seen in a clean CI run) OpenVDB's
+    // own size check throws first. Either way the caller gets an error naming file and grid.
     const std::string p = write("smoke.vdb", {smokeSpec()});
     const std::vector<char> clean = bytesOf(p);
     const std::vector<std::size_t> chunks = bloscChunkSizeFields(clean);
@@ -698,8 +700,10 @@ TEST_F(VdbCorrupt, ACorruptedChunkSizeCrashesOpenVdbAndTheCrashIsReported) {
     const std::string bad = path("bad.vdb");
     writeBytesTo(bad, with(clean, chunks.front(), -(std::int64_t(1) << 33)));
     const std::string m = errorOf({.path = bad});
-    EXPECT_TRUE(contains(m, bad + ": grid \"density\": the OpenVDB reader crashed ("));
-    EXPECT_TRUE(contains(m, "while reading the grid: the file is corrupt"));
+    const bool crashed = contains(m, bad + ": grid \"density\": the OpenVDB reader crashed (") &&
+                         contains(m, "while reading the grid: the file is corrupt");
+    const bool refused = contains(m, bad + ": grid \"density\": OpenVDB could not read it");
+    EXPECT_TRUE(crashed || refused) << m;
     // the caller goes on: the clean file still loads, isolated and in process
     EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
     EXPECT_EQ(loadVdbGrid({.path = p, .isolate = false}).activeVoxelCount,
