@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/image_error.h"
 #include "core/render.h"
 #include "scenes.h"
 #include "stats.h"
@@ -36,16 +37,10 @@ inline nimbus::Framebuffer renderScene(const nimbus::SceneDesc& s,
     return renderScene(s, nimbus::FrameBindings{}, statsOut, aovs, frame);
 }
 
-/// RMSE of `a` against `ref` over the RMS of `ref`, over RGBA or over the colour alone.
-inline double relativeRmse(const nimbus::Framebuffer& a, const nimbus::Framebuffer& ref,
-                           bool withAlpha = true) {
-    double sq = 0.0, r2 = 0.0;
-    for (size_t i = 0; i < ref.rgba.size(); ++i) {
-        if (!withAlpha && i % 4 == 3) continue;
-        sq += double(a.rgba[i] - ref.rgba[i]) * (a.rgba[i] - ref.rgba[i]);
-        r2 += double(ref.rgba[i]) * ref.rgba[i];
-    }
-    return std::sqrt(sq / r2);
+/// Relative RMSE of `a` against `ref` over the cloud's pixels (core/image_error.h: the one
+/// error definition of Nimbus).
+inline double relativeRmse(const nimbus::Framebuffer& a, const nimbus::Framebuffer& ref) {
+    return nimbus::imageError(a, ref).relative();
 }
 
 /// Mean of the colour channels over the image.

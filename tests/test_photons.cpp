@@ -61,9 +61,8 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     n.render.multipleScattering = MultipleScattering::None;
     const Framebuffer single = renderScene(n);
 
-    const double ePhotons = relativeRmse(photons, ref, false),
-                 eSkin = relativeRmse(skin, ref, false), eGrid = relativeRmse(grid, ref, false),
-                 eSingle = relativeRmse(single, ref, false);
+    const double ePhotons = relativeRmse(photons, ref), eSkin = relativeRmse(skin, ref),
+                 eGrid = relativeRmse(grid, ref), eSingle = relativeRmse(single, ref);
     const double mRef = meanRgb(ref);
     // multiple scattering is most of this image; photons get it within a few per cent (the
     // reference's own noise is about 2%). Thresholds, not a Z-test: march with photons is a
@@ -109,7 +108,7 @@ TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
         const Framebuffer a = renderScene(s);
         s.render.seed = 2;
         const Framebuffer b = renderScene(s);
-        diff[k] = relativeRmse(a, b, false);
+        diff[k] = relativeRmse(a, b);
         mean[k] = 0.5 * (meanRgb(a) + meanRgb(b));
     }
     const double ratio = diff[1] / diff[0];

@@ -196,7 +196,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
                  nimbusSettings(refScene.render, voxel).c_str(), double(refScene.render.epsilon));
     Measured ref;
     if (!measure(refScene, bindings, frame, ref)) return kExitInterrupted;
-    const double refRms = rms(ref.fb);
+    const double refMean = imageError(ref.fb, ref.fb).mean;
     std::fprintf(stderr, "  %.2f s\n", ref.seconds);
     // convergence check: the reference against one twice as coarse; at first order the
     // reference's own error is about their difference
@@ -206,7 +206,7 @@ int runBenchVdb(const BenchVdbOptions& o) {
         Measured coarser;
         if (!measure(referenceScene(2.0 * o.referenceStep), bindings, frame, coarser))
             return kExitInterrupted;
-        refCheck = rmse(coarser.fb, ref.fb) / std::max(refRms, 1e-30);
+        refCheck = imageError(coarser.fb, ref.fb).relative();
         std::fprintf(stderr, "  %.2f s, differs from the reference by rel. RMSE %.3f%%\n",
                      coarser.seconds, 100.0 * refCheck);
     }
@@ -285,8 +285,8 @@ int runBenchVdb(const BenchVdbOptions& o) {
             if (round == 0) {
                 row.fb = std::move(fb);
                 row.seconds = seconds;
-                row.err = rmse(row.fb, ref.fb);
-                row.rel = refRms > 0.0 ? row.err / refRms : 0.0;
+                row.err = imageError(row.fb, ref.fb).rmse;
+                row.rel = refMean > 0.0 ? row.err / refMean : 0.0;
             } else {
                 row.seconds = std::min(row.seconds, seconds);
             }

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/image_error.h"
 #include "core/render.h"
 #include "plugin/host/session.h"
 #include "plugin/io/color.h"
@@ -57,11 +58,6 @@ SceneDesc withSteps(const SceneDesc& base, double f);
 /// Renders frame `frame` of s and times Renderer::render (noise is baked before the clock
 /// starts, so the time is the integrator's); returns false when interrupted.
 bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m);
-
-/// Root mean square difference over every RGBA value of two same-sized framebuffers.
-double rmse(const Framebuffer& a, const Framebuffer& ref);
-/// Root mean square of every RGBA value (relative RMSE = rmse / rms of the reference).
-double rms(const Framebuffer& a);
 
 /// The scene prepared for measuring: clouds alone (background transparent: a noise-free sky
 /// would dilute the error), frame `requested` bound into b (the scene's first frame when none;

@@ -71,37 +71,12 @@ bool measureReference(const SceneDesc& s, const FrameBindings& bindings, int fra
     if (!measure(half, bindings, frame, ref)) return false;
     half.render.seed = s.render.seed ^ 0x9e3779b9u;
     if (!measure(half, bindings, frame, b)) return false;
-    double sq = 0.0;
-    for (size_t i = 0; i < ref.fb.rgba.size(); ++i) {
-        const double d = double(ref.fb.rgba[i]) - b.fb.rgba[i];
-        sq += d * d;
-        ref.fb.rgba[i] = 0.5f * (ref.fb.rgba[i] + b.fb.rgba[i]);
-    }
-    // each half has noise sigma: their difference 2 sigma^2, the mean sigma^2 / 2
-    noise = 0.5 * std::sqrt(sq / double(ref.fb.rgba.size()));
+    const Framebuffer a = ref.fb;
+    for (size_t i = 0; i < ref.fb.rgba.size(); ++i)
+        ref.fb.rgba[i] = 0.5f * (a.rgba[i] + b.fb.rgba[i]);
+    noise = halvesNoise(a, b.fb, ref.fb);
     ref.seconds += b.seconds;
     return true;
-}
-
-/// The error left once the reference's own noise is taken out (independent errors add in
-/// quadrature).
-double corrected(double err, double noise) {
-    return std::sqrt(std::max(0.0, err * err - noise * noise));
-}
-
-double rmse(const Framebuffer& a, const Framebuffer& ref) {
-    double sq = 0.0;
-    for (size_t i = 0; i < ref.rgba.size(); ++i) {
-        const double d = double(a.rgba[i]) - ref.rgba[i];
-        sq += d * d;
-    }
-    return std::sqrt(sq / double(ref.rgba.size()));
-}
-
-double rms(const Framebuffer& a) {
-    double sq = 0.0;
-    for (float v : a.rgba) sq += double(v) * v;
-    return std::sqrt(sq / double(a.rgba.size()));
 }
 
 bool prepare(LoadedScene& ls, std::optional<int> requested, double scale, SceneDesc& base,
@@ -262,10 +237,13 @@ int runConverge(const ConvergeOptions& o) {
     if (int rc = obtainReference(ls, refScene, bindings, frame, o.saveReference, o.loadReference,
                                  refLabel, ref, refNoise))
         return rc;
-    const double refRms = rms(ref.fb);
-    if (refRms > 0)
-        std::fprintf(stderr, "reference noise (two halves): RMSE %.3g, %.2f%% relative\n", refNoise,
-                     100.0 * refNoise / refRms);
+    const ImageError refSelf = imageError(ref.fb, ref.fb);
+    const double refMean = refSelf.mean; // relative figures divide by it
+    if (refMean > 0)
+        std::fprintf(
+            stderr,
+            "reference noise (two halves): RMSE %.3g, %.2f%% relative over %zu cloud pixels\n",
+            refNoise, 100.0 * refNoise / refMean, refSelf.pixels);
 
     // the rungs
     std::vector<Rung> rungs;
@@ -317,8 +295,8 @@ int runConverge(const ConvergeOptions& o) {
     for (const Rung& r : rungs) {
         Row row{&r, {}, 0.0, 0.0};
         if (!measure(r.scene, bindings, frame, row.m)) return kExitInterrupted;
-        row.err = rmse(row.m.fb, ref.fb);
-        row.rel = refRms > 0 ? row.err / refRms : 0.0;
+        row.err = imageError(row.m.fb, ref.fb).rmse;
+        row.rel = refMean > 0 ? row.err / refMean : 0.0;
         std::fprintf(stderr, "  %-9s %-16s %8.3f s  rel. RMSE %6.2f%%\n", r.integrator.c_str(),
                      r.label.c_str(), row.m.seconds, 100.0 * row.rel);
         rows.push_back(std::move(row));
@@ -327,10 +305,11 @@ int runConverge(const ConvergeOptions& o) {
     // table, CSV, plot
     std::ostringstream table, csv;
     table << "frame " << frame << ", " << base.camera.width << "x" << base.camera.height
-          << ", clouds only (RGBA, background transparent); reference: " << refLabel << ", "
-          << ref.seconds << " s";
+          << ", clouds only (background transparent; relative RMSE over RGB of the cloud pixels, "
+             "divided by the reference's mean there); reference: "
+          << refLabel << ", " << ref.seconds << " s";
     if (refNoise > 0.0)
-        table << ", its noise " << percent(refNoise / refRms)
+        table << ", its noise " << percent(refNoise / refMean)
               << " (from two halves; the last column takes it out in quadrature)";
     table << "\n";
     char line[320];
@@ -348,7 +327,7 @@ int runConverge(const ConvergeOptions& o) {
         const bool pt = rd.integrator == Integrator::PathTrace;
         const double perRay =
             double(r.m.stats.lookups()) / std::max<double>(1.0, double(r.m.stats.rays));
-        const double rel = refRms > 0 ? corrected(r.err, refNoise) / refRms : 0.0;
+        const double rel = refMean > 0 ? withoutNoise(r.err, refNoise) / refMean : 0.0;
         std::snprintf(
             line, sizeof line,
             "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s | %-9s |\n",
@@ -371,20 +350,20 @@ int runConverge(const ConvergeOptions& o) {
         if (r.rung->scene.render.integrator == Integrator::PathTrace &&
             (!pt || r.rung->scene.render.spp > pt->rung->scene.render.spp))
             pt = &r;
-    if (pt && refRms > 0) {
-        const double ptErr = corrected(pt->err, refNoise);
+    if (pt && refMean > 0) {
+        const double ptErr = withoutNoise(pt->err, refNoise);
         const double spp = pt->rung->scene.render.spp;
         const double secondsPerSpp = pt->m.seconds / spp;
         table << "\npathtrace to reach the error of each march row (noise ~ 1/sqrt(spp), from "
-              << int(spp) << " spp: " << percent(ptErr / refRms) << "):\n";
+              << int(spp) << " spp: " << percent(ptErr / refMean) << "):\n";
         for (const Row& r : rows) {
             if (r.rung->scene.render.integrator != Integrator::March) continue;
-            const double e = corrected(r.err, refNoise);
+            const double e = withoutNoise(r.err, refNoise);
             if (!(e > 0.0)) continue;
             const double need = spp * (ptErr / e) * (ptErr / e);
             std::snprintf(line, sizeof line,
                           "  march %-16s %7s in %7.3f s; pathtrace ~%8.1f spp, ~%9.3f s: %6.1fx\n",
-                          r.rung->label.c_str(), percent(e / refRms).c_str(), r.m.seconds, need,
+                          r.rung->label.c_str(), percent(e / refMean).c_str(), r.m.seconds, need,
                           need * secondsPerSpp, need * secondsPerSpp / r.m.seconds);
             table << line;
         }
@@ -447,14 +426,14 @@ int runCalibrate(const CalibrateOptions& o) {
     if (int rc = obtainReference(ls, refScene, bindings, frame, o.saveReference, o.loadReference,
                                  refLabel, ref, refNoise))
         return rc;
-    const double refRms = rms(ref.fb);
+    const double refMean = imageError(ref.fb, ref.fb).mean;
 
     int evaluations = 0;
     auto error = [&](const SceneDesc& s, double& out) {
         Measured m;
         if (!measure(s, bindings, frame, m)) return false;
         ++evaluations;
-        out = rmse(m.fb, ref.fb) / std::max(refRms, 1e-30);
+        out = imageError(m.fb, ref.fb).relative();
         return true;
     };
     SceneDesc best = base;
@@ -500,13 +479,13 @@ int runCalibrate(const CalibrateOptions& o) {
         }
         std::fprintf(stderr, "pass %d: rel. RMSE %.2f%%\n", pass + 1, 100.0 * bestErr);
     }
-    const double noise = refNoise / std::max(refRms, 1e-30);
+    const double noise = refNoise / std::max(refMean, 1e-30);
     std::printf("calibrated against %s (%dx%d, %d march renders; reference noise "
                 "%.2f%%):\n  relative RMSE %.2f%% -> %.2f%% (%.2f%% -> %.2f%% without the "
                 "reference noise)\n\n[render]\noctaves = %d\n",
                 refLabel.c_str(), base.camera.width, base.camera.height, evaluations, 100.0 * noise,
-                100.0 * startErr, 100.0 * bestErr, 100.0 * corrected(startErr, noise),
-                100.0 * corrected(bestErr, noise), best.render.octaves);
+                100.0 * startErr, 100.0 * bestErr, 100.0 * withoutNoise(startErr, noise),
+                100.0 * withoutNoise(bestErr, noise), best.render.octaves);
     for (const char* section : {"render", "sky"}) {
         if (std::string(section) == "sky") std::printf("\n[sky]\n");
         const std::string prefix = std::string(section) + ".";
