@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <limits>
 #include <optional>
 
 #include <nanovdb/NanoVDB.h>
-#include <nanovdb/util/SampleFromVoxels.h>
 
 namespace nimbus {
 
@@ -68,6 +68,7 @@ float GridField::density(vec3 p) const {
     // same leaf, and the accessor's cached node path skips the walk from the root
     // (measured: getValue was 42% of a frame with a fresh accessor per lookup)
     using Accessor = nanovdb::DefaultReadAccessor<float>;
+    using Leaf = nanovdb::NanoLeaf<float>;
     // keyed by the field's serial, not the grid's address: a later frame's grid may be
     // allocated where a freed one was
     thread_local std::uint64_t cachedSerial = 0;
@@ -76,8 +77,40 @@ float GridField::density(vec3 p) const {
         acc.emplace(g->getAccessor());
         cachedSerial = serial;
     }
-    auto sampler = nanovdb::createSampler<1>(*acc);
-    return std::max(0.0f, sampler(x)) * scale;
+    // trilinear over the voxels floor(x) .. floor(x) + 1, the same arithmetic as NanoVDB's
+    // SampleFromVoxels<1> (results bit-identical to it); when the 2x2x2 stencil lies in one
+    // leaf (343 of its 512 corners) the seven other values are read from the leaf the first
+    // lookup cached, instead of seven more accessor lookups (getValue was 27% of a thick-cloud
+    // pathtrace frame)
+    const float fx = std::floor(x[0]), fy = std::floor(x[1]), fz = std::floor(x[2]);
+    const float u = x[0] - fx, v = x[1] - fy, w = x[2] - fz;
+    const nanovdb::Coord ijk{int32_t(fx), int32_t(fy), int32_t(fz)};
+    float c[2][2][2];
+    c[0][0][0] = acc->getValue(ijk);
+    constexpr int32_t kMask = int32_t(Leaf::DIM - 1);
+    const Leaf* leaf = acc->getNode<Leaf>();
+    if ((ijk[0] & kMask) != kMask && (ijk[1] & kMask) != kMask && (ijk[2] & kMask) != kMask &&
+        leaf && leaf->origin() == (ijk & ~kMask)) {
+        const uint32_t o = Leaf::CoordToOffset(ijk);
+        constexpr uint32_t dx = Leaf::DIM * Leaf::DIM, dy = Leaf::DIM;
+        c[0][0][1] = leaf->getValue(o + 1);
+        c[0][1][0] = leaf->getValue(o + dy);
+        c[0][1][1] = leaf->getValue(o + dy + 1);
+        c[1][0][0] = leaf->getValue(o + dx);
+        c[1][0][1] = leaf->getValue(o + dx + 1);
+        c[1][1][0] = leaf->getValue(o + dx + dy);
+        c[1][1][1] = leaf->getValue(o + dx + dy + 1);
+    } else {
+        for (int a = 0; a < 2; ++a)
+            for (int b = 0; b < 2; ++b)
+                for (int d = 0; d < 2; ++d)
+                    if (a | b | d) c[a][b][d] = acc->getValue(ijk.offsetBy(a, b, d));
+    }
+    auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
+    const float value =
+        lerp(lerp(lerp(c[0][0][0], c[0][0][1], w), lerp(c[0][1][0], c[0][1][1], w), v),
+             lerp(lerp(c[1][0][0], c[1][0][1], w), lerp(c[1][1][0], c[1][1][1], w), v), u);
+    return std::max(0.0f, value) * scale;
 }
 
 float GridField::majorant(const Box& c) const {
