@@ -26,18 +26,25 @@ std::string FramePlan::explain() const {
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
       << "\n";
     o << "  sun transmittance: "
-      << (!shadows      ? std::string("none (no sun)")
+      << (!shadows         ? std::string("none (no sun)")
+          : shadowRoulette ? "ratio-tracked shadow rays, traced with a probability from the "
+                             "density integral toward the sun (voxel " +
+                                 std::to_string(lightVolumeCell) + ")"
+          : pathtrace   ? std::string("ratio-tracked shadow rays")
           : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
                         : std::string("shadow march per sample"))
       << "\n";
     o << "  multiple scattering: "
-      << (photons     ? "sun: photons traced through the field, recorded on the light-volume "
+      << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
+          : photons   ? "sun: photons traced through the field, recorded on the light-volume "
                         "grid; sky: diffusion on that grid"
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
     o << "  sky ambient: "
       << (!ambient        ? std::string("no")
+          : pathtrace     ? std::string(skyNee ? "next-event estimation and phase sampling (MIS)"
+                                               : "phase-sampled rays")
           : diffusion     ? std::string("in the diffusion grid")
           : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
                           : std::string("height occlusion"))
@@ -64,6 +71,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.frame = frame;
     p.time = float(frame) / s.render.fps;
     p.aovs = aovs;
+    p.pathtrace = s.render.integrator == Integrator::PathTrace;
     p.shadows = s.sun.enabled && maxComponent(s.sun.irradiance) > 0.0f;
     p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
                 maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
@@ -95,7 +103,11 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                       s.render.skyOcclusion == SkyOcclusion::Column;
     // the diffusion's sun source needs the density integral toward the sun, and so does the
     // photons' skin profile (core/lighting/photons.h)
-    p.sunDepthVolume = p.lightVolume || (p.diffusion && p.shadows && !p.photons) ||
+    p.shadowRoulette = s.render.integrator == Integrator::PathTrace && oneVolume && p.shadows &&
+                       s.render.shadowRoulette;
+    p.skyNee = p.pathtrace && s.render.skyNee;
+    p.sunDepthVolume = p.shadowRoulette || p.lightVolume ||
+                       (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
     p.densityGrid = p.diffusion || p.photons;
 

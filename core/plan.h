@@ -18,6 +18,7 @@ struct FramePlan {
     AovSet aovs;
     bool bakeNoise = false;    ///< cumulus noise read from baked tiles (else evaluated directly)
     std::string noiseDecision; ///< why
+    bool pathtrace = false;    ///< the integrator is pathtrace (else march)
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
     bool skipEmpty = true;
@@ -32,9 +33,13 @@ struct FramePlan {
     bool instanced = false;    ///< more than one instance or a transformed one
     bool hierarchical = true;  ///< instanced: instance boxes + per-volume grids (else coarse)
     bool surfaces = false;     ///< ground or meshes
-    /// march: the density integral toward the sun on the light-volume grid, for the attenuation
-    /// volume, the diffusion's sun source or the photons' skin profile
+    /// the density integral toward the sun on the light-volume grid, for march's attenuation
+    /// volume, diffusion sun source or photon skin profile, or pathtrace's shadow roulette
     bool sunDepthVolume = false;
+    /// pathtrace: the sun's shadow rays are traced with a probability from the sun-depth volume
+    bool shadowRoulette = false;
+    /// pathtrace: the sky by next-event estimation too (render.sky_nee)
+    bool skyNee = false;
     /// march: the densities at the light-volume grid's voxel centres (diffusion, photons)
     bool densityGrid = false;
     std::string explain() const;

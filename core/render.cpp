@@ -252,7 +252,9 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             completed = renderTiles(MarchContext(s, plan, vs, lv, sv, surfaces), s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
-            completed = renderTiles(PathContext(s, plan, vs, surfaces), s, fb, stats, cb);
+            completed = renderTiles(
+                PathContext(s, plan, vs, surfaces, plan.shadowRoulette ? towardVolume : nullptr), s,
+                fb, stats, cb);
             break;
         }
         stats.integrateSeconds = secondsSince(t0);

@@ -194,6 +194,13 @@ struct RenderDesc {
     /// Instanced volumes: per-instance majorant grids found through the instance boxes
     /// (hierarchical), or one coarse world grid over all instances (false; for comparison).
     bool hierarchicalSkip = true;
+    /// pathtrace: trace the sun's shadow ray with a probability from the precomputed density
+    /// integral toward the sun (weighted by its inverse: unbiased), so vertices deep in thick
+    /// cloud skip most of them
+    bool shadowRoulette = true;
+    /// pathtrace: next-event estimation of the sky (uniform sphere directions, MIS with phase
+    /// sampling); off = the sky through phase-sampled rays alone
+    bool skyNee = false;
     float majorantCell = 0.0f; ///< majorant cell size; 0 = chosen by the plan
     /// Multiple-scattering octaves (Wrenninge 2015; Hillaire 2016): octave i adds the sun term
     /// with weight contribution^i, sun optical depth scaled by extinction^i and phase g scaled

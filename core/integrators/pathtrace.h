@@ -19,6 +19,7 @@
 #include "core/camera.h"
 #include "core/image.h"
 #include "core/integrators/counters.h"
+#include "core/lighting/light_volume.h"
 #include "core/media/medium.h"
 #include "core/plan.h"
 #include "core/sampler.h"
@@ -34,8 +35,10 @@ class PathContext {
         RayVolumes rv;
     };
 
+    /// `sunDepth`: the density integral toward the sun over volume 0 (the plan's shadow
+    /// roulette; null: every sun shadow ray is traced).
     PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
-                const SurfaceQuery* surfaces = nullptr);
+                const SurfaceQuery* surfaces = nullptr, const LightVolume* sunDepth = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt, Scratch& scratch) const;
 
     /// Ratio-tracking estimate of the transmittance from p along d up to tmax (volumes only).
@@ -60,6 +63,10 @@ class PathContext {
     /// Delta tracking from ray.o along ray.d driven by channel `hero`; multiplies the path
     /// throughput f and the per-channel path pdf p by the events taken. On Scattered, t is the
     /// collision distance.
+    /// The probability of tracing the sun's shadow ray from p: 1 where the sun-depth volume
+    /// (read a voxel closer to the sun) leaves a transmittance of 0.1 or more; below, in
+    /// proportion to it, never under kMinShadowProbability.
+    float sunShadowProbability(vec3 p) const;
     Event track(const Ray& ray, float tmax, Sampler& rng, int hero, vec3& f, vec3& p, float& t,
                 RayCounters& cnt, Scratch& scratch) const;
 
@@ -69,6 +76,8 @@ class PathContext {
     const SurfaceQuery* surfaces_;
     Camera camera_;
     Medium medium_;
+    const LightVolume* sunDepth_;
+    float sigmaTMin_; ///< smallest channel of sigma_t
     std::uint32_t frameKey_;
 };
 

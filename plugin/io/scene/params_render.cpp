@@ -37,6 +37,20 @@ void addRenderParams(std::vector<Param>& t) {
                           "Russian roulette (unbiased path termination) from this depth on.",
                           &RenderDesc::rrDepth)
                     .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
+    t.push_back(ren.param("shadow_roulette", {},
+                          "pathtrace: trace the sun's shadow ray from a scattering point with a "
+                          "probability from the precomputed density integral toward the sun "
+                          "(weighted by its inverse: unbiased), so points deep in thick cloud "
+                          "skip most of them; one untransformed volume only.",
+                          &RenderDesc::shadowRoulette)
+                    .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
+    t.push_back(ren.param("sky_nee", {},
+                          "pathtrace: sample the sky by next-event estimation too (uniform "
+                          "directions, a shadow ray each, MIS with phase sampling); off = the "
+                          "sky through phase-sampled rays alone (lower noise for less work on "
+                          "smooth skies: docs/accuracy.md).",
+                          &RenderDesc::skyNee)
+                    .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
     t.push_back(ren.param("shadow",
                           WordTable<ShadowMethod>{{"march", ShadowMethod::March},
                                                   {"volume", ShadowMethod::Volume}},
