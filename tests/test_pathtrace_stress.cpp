@@ -104,3 +104,56 @@ TEST(PathTraceStress, NoNonFiniteSamplesAt100000MeanFreePaths) {
         EXPECT_LT(mean[c], 1.0f + kZ * se[c]) << "channel " << c;
     }
 }
+
+namespace {
+
+/// Chandrasekhar's H-function of isotropic scattering at albedo 1, from its integral
+/// representation ln H(mu) = -(mu / pi) int_0^{pi/2} ln(1 - t cot t) / (cos^2 t + mu^2 sin^2 t) dt
+/// (midpoint rule; the logarithmic singularity at t = 0 is integrable).
+double chandrasekharH(double mu) {
+    const int n = 200000;
+    const double h = 0.5 * M_PI / n;
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const double t = (i + 0.5) * h, c = std::cos(t), si = std::sin(t);
+        sum += std::log(1.0 - t * c / si) / (c * c + mu * mu * si * si);
+    }
+    return std::exp(-mu / M_PI * sum * h);
+}
+
+} // namespace
+
+TEST(PathTraceStress, DiffuseReflectionOfA1000MeanFreePathSlab) {
+    // A slab 1000 mean free paths thick (a half-space to 0.2% of its reflection), albedo 1,
+    // isotropic scattering, lit by the sun at mu0 = cos 60 deg and seen along its normal
+    // (mu = 1): all orders of scattering, reflected radiance in closed form (Chandrasekhar,
+    // Radiative Transfer, ch. IV): E / (4 pi) * mu0 / (mu + mu0) * H(mu) H(mu0). The paths
+    // are random walks of about a thousand collisions on average, some of millions.
+    const double mu0 = 0.5, mu = 1.0;
+    ASSERT_NEAR(chandrasekharH(1.0), 2.9078, 2e-4) << "H(1), Chandrasekhar's table";
+    const double expect =
+        1.0 / (4.0 * M_PI) * mu0 / (mu + mu0) * chandrasekharH(mu) * chandrasekharH(mu0);
+
+    SceneDesc s = homogeneousBox(Box{vec3(-2e4f, -2e4f, 0.0f), vec3(2e4f, 2e4f, 1000.0f)}, 1.0f,
+                                 cameraLookingAt(vec3(0.0f, 0.0f, -5.0f), vec3(0.0f), 2, 2, 2.0f));
+    s.render.integrator = Integrator::PathTrace;
+    s.render.epsilon = 0.0f;
+    s.medium.sigma_s = vec3(1.0f);
+    s.medium.sigma_a = vec3(0.0f);
+    s.medium.phase = PhaseKind::Isotropic;
+    s.sky.kind = SkyKind::None;
+    s.sun.enabled = true;
+    s.sun.irradiance = vec3(1.0f);
+    s.sun.direction = glm::normalize(vec3(std::sqrt(1.0f - float(mu0 * mu0)), 0.0f, -float(mu0)));
+    s.render.maxDepth = 1 << 30;
+    s.render.spp = 1024;
+    vec3 mean, se;
+    channelMeans(s, 8, mean, se);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_LT(std::abs(mean[c] - expect), kZ * se[c])
+            << "channel " << c << ": " << mean[c] << " +- " << se[c] << ", expected " << expect;
+        EXPECT_NEAR(mean[c] / expect, 1.0, 0.03) << "channel " << c;
+    }
+    RecordProperty("reflected_radiance", std::to_string(mean[0]));
+    RecordProperty("chandrasekhar", std::to_string(expect));
+}
