@@ -46,6 +46,7 @@ DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan, const
     // the scale of the sun's multiply scattered light; the solve is linear, so scaling its
     // source leaves the sky's part alone (which the diffusion gets right: white furnace)
     if (plan.shadows && !plan.photons) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+    p.sunDirection = s.sun.direction;
     if (plan.ambient) {
         const SkyMeans sky = skyMeans(s.sky);
         p.skyUp = sky.up;

@@ -53,6 +53,35 @@ TEST(Diffusion, WhiteFurnaceInCumulusReturnsTheSky) {
     }
 }
 
+/// The power the sun's beam (irradiance 1, toward the sun `d`) loses in a homogeneous box of
+/// extinction sigmaT: the integral over the box's shadow of 1 - e^{-sigmaT l}, l the length of
+/// each ray through the box (a grid of 1000 x 1000 parallel rays).
+double beamLoss(const Box& box, vec3 d, float sigmaT) {
+    const vec3 u =
+        glm::normalize(glm::cross(d, std::abs(d.x) < 0.9f ? vec3(1, 0, 0) : vec3(0, 1, 0)));
+    const vec3 w = glm::cross(d, u);
+    const vec3 c = 0.5f * (box.lo + box.hi);
+    const float R = 0.5f * glm::length(box.extent());
+    const int n = 1000;
+    const double dA = double(2.0f * R / n) * double(2.0f * R / n);
+    double loss = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const vec3 o = c + u * (-R + (i + 0.5f) * 2.0f * R / n) +
+                           w * (-R + (j + 0.5f) * 2.0f * R / n) + d * (2.0f * R);
+            float t0 = 0.0f, t1 = 1e30f;
+            for (int a = 0; a < 3; ++a) {
+                const float inv = 1.0f / -d[a];
+                float ta = (box.lo[a] - o[a]) * inv, tb = (box.hi[a] - o[a]) * inv;
+                if (ta > tb) std::swap(ta, tb);
+                t0 = std::max(t0, ta);
+                t1 = std::min(t1, tb);
+            }
+            if (t1 > t0) loss += -std::expm1(-double(sigmaT) * (t1 - t0)) * dA;
+        }
+    return loss;
+}
+
 TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
     // a box of cloud lit by the sun alone: with albedo 1 everything the sun's first scattering
     // puts into the diffuse field leaves through the boundary; with absorption, less does
@@ -68,6 +97,7 @@ TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
         p.sigma_a = vec3(sigmaA);
         p.g = 0.5f;
         p.sunIrradiance = vec3(1.0f);
+        p.sunDirection = sunDir;
         p.tolerance = 1e-6f;
         p.maxIterations = 5000;
         const DiffusionVolume dv = solveDiffusion(lv[0], rho, lv[0].tau, p);
@@ -81,7 +111,6 @@ TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
                 for (int x = 0; x < r.x; ++x) {
                     const size_t i = (size_t(z) * r.y + y) * r.x + x;
                     const float phi = dv.phi[i].x;
-                    source += 4.0 * std::exp(-(4.0 + sigmaA) * lv[0].tau[i]) * V;
                     absorbed += sigmaA * phi * V;
                     // Marshak flux through each face on the box's surface
                     const ivec3 q(x, y, z);
@@ -92,12 +121,58 @@ TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
                         out += faces * A * phi / (rr + 2.0f);
                     }
                 }
-        EXPECT_NEAR((out + absorbed) / source, 1.0, 2e-3) << "sigma_a " << sigmaA;
+        // what the sun's first scattering puts in: the beam's loss in the box times the albedo
+        source = 4.0 / (4.0 + sigmaA) * beamLoss(box, sunDir, 4.0f + sigmaA);
+        EXPECT_NEAR((out + absorbed) / source, 1.0, 0.02) << "sigma_a " << sigmaA;
         if (sigmaA == 0.0f)
-            EXPECT_NEAR(out / source, 1.0, 2e-3);
+            EXPECT_NEAR(out / source, 1.0, 0.02);
         else
             EXPECT_LT(out / source, 0.9);
     }
+}
+
+TEST(Diffusion, VoxelsManyMeanFreePathsThickKeepTheSunsLight) {
+    // 40 mean free paths per voxel, albedo 1: all the sun's light that meets the box scatters
+    // and must leave through its boundary. Taken at the voxel centres the first-scattered light
+    // was e^-20 of it (the sun's light scatters in the first mean free path); averaged over the
+    // voxel along the sun's path, it is there.
+    const float cell = 0.1f;
+    Box box{vec3(-1.0f, -0.6f, -0.8f), vec3(1.0f, 0.6f, 0.8f)};
+    const Field field = makeField(homogeneousField(box), 0.0f);
+    const vec3 sunDir = glm::normalize(vec3(0.3f, 0.8f, -0.2f));
+    std::vector<float> rho;
+    std::vector<LightVolume> lv = buildLightVolumes(field, {sunDir}, cell, nullptr, &rho);
+    DiffusionParams p;
+    p.sigma_s = vec3(400.0f);
+    p.g = 0.5f;
+    p.sunIrradiance = vec3(1.0f);
+    p.sunDirection = sunDir;
+    p.tolerance = 1e-6f;
+    p.maxIterations = 20000;
+    const DiffusionVolume dv = solveDiffusion(lv[0], rho, lv[0].tau, p);
+    const vec3 v = lv[0].voxel;
+    const ivec3 r = lv[0].res;
+    double out = 0.0;
+    for (int z = 0; z < r.z; ++z)
+        for (int y = 0; y < r.y; ++y)
+            for (int x = 0; x < r.x; ++x) {
+                const float phi = dv.phi[(size_t(z) * r.y + y) * r.x + x].x;
+                const ivec3 q(x, y, z);
+                for (int a = 0; a < 3; ++a) {
+                    const float A = v[(a + 1) % 3] * v[(a + 2) % 3];
+                    const float rr = 1.5f * v[a] * 400.0f * 0.5f;
+                    out += ((q[a] == 0) + (q[a] == r[a] - 1)) * A * phi / (rr + 2.0f);
+                }
+            }
+    // The light through the faces across the sun's dominant axis (y) is all there. The light
+    // through the side faces is not: the light volume propagates slice by slice along y, and
+    // its voxels beside a side face hold the density integral of their slice column, not the
+    // short oblique path from that face (a limit noted in docs/accuracy.md).
+    const vec3 e = box.extent();
+    const double top = std::abs(sunDir.y) * e.x * e.z;
+    const double seen = beamLoss(box, sunDir, 400.0f); // the box's whole shadow
+    EXPECT_NEAR(out / top, 1.0, 0.02) << "out " << out << ", through the top face " << top;
+    EXPECT_LT(out, seen);
 }
 
 TEST(Diffusion, VanishesInTheSingleScatteringLimit) {

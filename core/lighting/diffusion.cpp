@@ -56,6 +56,22 @@ vec3 DiffusionVolume::sample(vec3 p, vec3 grad[3]) const {
     return glm::mix(c0, c1, f.z);
 }
 
+/// The first-scattered sun light per unit volume and irradiance, averaged over a voxel of density
+/// rho whose centre lies at density integral tauC from the sun and which the sun's path crosses
+/// over a length L: sigma_s / sigma_t (e^{-sigma_t tau_in} - e^{-sigma_t tau_out}) / L.
+static vec3 sunSource(vec3 sigmaS, vec3 sigmaT, float rho, float tauC, float L) {
+    const float tauIn = std::max(0.0f, tauC - 0.5f * rho * L);
+    vec3 q;
+    for (int c = 0; c < 3; ++c) {
+        const float b = sigmaT[c] * rho * L; // optical depth across the voxel
+        const float in = std::exp(-sigmaT[c] * tauIn);
+        // (1 - e^-b) / b -> 1 - b / 2 as b -> 0
+        const float share = b > 1e-4f ? -std::expm1(-b) / b : 1.0f - 0.5f * b;
+        q[c] = sigmaS[c] * rho * in * share;
+    }
+    return q;
+}
+
 DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>& rho,
                                const std::vector<float>& tauSun, const DiffusionParams& p) {
     DiffusionVolume dv;
@@ -72,6 +88,11 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                              kFourPi * p.skyUp,   kFourPi * p.skySide, kFourPi * p.skySide};
     const vec3 skyMean = kFourPi * 0.5f * (p.skyUp + p.skyDown);
     const float V = geo.voxel.x * geo.voxel.y * geo.voxel.z;
+    // the length of the sun's path across a voxel (along the dominant axis, as the light volume
+    // propagates it)
+    const vec3 ad = glm::abs(p.sunDirection);
+    const int sa = ad.x >= ad.y && ad.x >= ad.z ? 0 : (ad.y >= ad.z ? 1 : 2);
+    const float sunPath = geo.voxel[sa] / std::max(ad[sa], 1e-6f);
 
     // the voxels with density, coloured red/black by the parity of x + y + z
     std::vector<int> active(n, -1);
@@ -94,7 +115,8 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
         // h / 2D = 1.5 h sigma_t' per axis
         const vec3 sTr = sigmaTr * rho[i];
         vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f);
-        if (sun) rhs += p.sigma_s * rho[i] * p.sunIrradiance * glm::exp(-sigmaT * tauSun[i]) * V;
+        if (sun)
+            rhs += p.sunIrradiance * sunSource(p.sigma_s, sigmaT, rho[i], tauSun[i], sunPath) * V;
         const ivec3 q(x, y, z);
         for (int f = 0; f < 6; ++f) {
             const int a = f / 2, b = (a + 1) % 3, cc = (a + 2) % 3;

@@ -8,12 +8,18 @@
 /// similarity relation sigma_s' = sigma_s (1 - g) of van de Hulst for anisotropic scattering):
 ///   -div(D grad phi) + sigma_a phi = Q,   D = 1 / (3 sigma_t'),   sigma_t' = sigma_a + sigma_s',
 /// Q = sigma_s E_sun e^{-sigma_t tau_sun}, the sun light scattered for the first time (the
-/// single scattering itself is integrated exactly by march). Finite volumes on the voxel grid;
-/// between two voxels the flux is (phi_i - phi_j) / (h / 2D_i + h / 2D_j); a face toward empty
-/// space takes Marshak's boundary condition with the sky's radiance L_sky seen through that face
-/// as the incoming partial current, which gives the flux (phi_i - 4 pi L_sky) / (h / 2D_i + 2).
-/// An albedo-1 medium under a uniform sky thus solves to phi = 4 pi L_sky everywhere: the white
-/// furnace holds exactly. Solved by red-black successive over-relaxation.
+/// single scattering itself is integrated exactly by march), averaged over each voxel along the
+/// sun's path across it (the light volume's step l along its dominant axis, half of which the
+/// centre's tau holds): Q = sigma_s E e^{-sigma_t tau} sinh(x) / x, x = sigma_t rho l / 2, the
+/// same as at the centre in thin voxels. Taken at the centre, a voxel many mean free paths thick
+/// lost nearly all of it: the sun's light scatters within its first mean free path. Taken at the
+/// centre instead, a voxel many mean free paths thick lost nearly all its source: the sun's light
+/// scatters in its first mean free path. Finite volumes on the voxel grid; between two voxels the
+/// flux is (phi_i - phi_j) / (h / 2D_i + h / 2D_j); a face toward empty space takes Marshak's
+/// boundary condition with the sky's radiance L_sky seen through that face as the incoming partial
+/// current, which gives the flux (phi_i - 4 pi L_sky) / (h / 2D_i + 2). An albedo-1 medium under a
+/// uniform sky thus solves to phi = 4 pi L_sky everywhere: the white furnace holds exactly. Solved
+/// by red-black successive over-relaxation.
 ///
 /// march then adds phi / 4 pi (isotropic in-scattered radiance) to the exact single scattering
 /// of the sun; the sky needs no separate ambient term.
@@ -27,9 +33,10 @@
 namespace nimbus {
 
 struct DiffusionParams {
-    vec3 sigma_s{1.0f}, sigma_a{0.0f}; ///< per unit density, density scale folded in
-    float g = 0.0f;                    ///< mean cosine of the phase function
-    vec3 sunIrradiance{0.0f};          ///< 0 = no sun
+    vec3 sigma_s{1.0f}, sigma_a{0.0f};   ///< per unit density, density scale folded in
+    float g = 0.0f;                      ///< mean cosine of the phase function
+    vec3 sunIrradiance{0.0f};            ///< 0 = no sun
+    vec3 sunDirection{0.0f, 1.0f, 0.0f}; ///< toward the sun (unit)
     /// Sky radiance seen through a face of a voxel, by the face's outward normal: up, down,
     /// sideways (the means over those hemispheres); 0 = no sky.
     vec3 skyUp{0.0f}, skyDown{0.0f}, skySide{0.0f};
