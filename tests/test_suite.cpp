@@ -183,7 +183,9 @@ TEST_F(Suite, TableCsvThicknessAndCache) {
     EXPECT_EQ(num(rows3[0], "reference_spp"), 48.0);
 }
 
-TEST_F(Suite, BadOptionsAreErrors) {
+// needs no VDB file: every one of these is refused before anything is read
+TEST(SuiteOptions, BadOptionsAreErrors) {
+    TempDir dir("suite_options");
     struct Bad {
         std::string args, message;
     };

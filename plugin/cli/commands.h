@@ -56,7 +56,7 @@ struct ConvergeOptions {
     double suiteNoise = 0.05; ///< refine a reference until its relative noise is below this
     double suiteSeconds = 30; ///< ... or its rendering took this long (seconds, all rounds)
     /// render.max_depth of the references (0 = the scene's): effectively unbounded, as a
-    /// converged reference must be (the default 256 loses 15% of thick albedo-1 smoke's light)
+    /// converged reference must be (the default 256 loses 14% of thick albedo-1 smoke's light)
     int suiteMaxDepth = 65536;
     bool suiteRerender = false; ///< render every reference again, ignoring the cache
 };

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -318,7 +319,25 @@ int loadVdbCloud(Cloud& c, const ConvergeOptions& o, int w, int h, std::string& 
     c.voxel = double(std::min(g.voxelSize.x, std::min(g.voxelSize.y, g.voxelSize.z)));
     const float el = glm::radians(kVdbElevation), az = glm::radians(kVdbAzimuth);
     const vec3 toCamera(std::sin(az) * std::cos(el), std::sin(el), -std::cos(az) * std::cos(el));
-    const Box box = g.worldBounds;
+    // frame the voxels that hold density: the active ones (a dense grid's zeros are active
+    // too), within the tree nodes whose largest value is above 0
+    GridBinding binding;
+    binding.grid = g.grid();
+    binding.bounds = g.worldBounds;
+    FieldDesc fd;
+    fd.kind = FieldKind::Vdb;
+    const Field field = makeField(fd, 0.0f, binding);
+    Box nodes{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
+    field.forEachDensityNode([&](const Box& b, float maxDensity) {
+        if (!(maxDensity > 0.0f)) return;
+        nodes.lo = glm::min(nodes.lo, b.lo);
+        nodes.hi = glm::max(nodes.hi, b.hi);
+    });
+    if (nodes.empty()) {
+        skip = "grid \"" + c.grid + "\" holds no density above 0";
+        return kExitOk;
+    }
+    const Box box{glm::max(g.worldBounds.lo, nodes.lo), glm::min(g.worldBounds.hi, nodes.hi)};
     const vec3 centre = 0.5f * (box.lo + box.hi);
     const vec3 eye = framingPosition(box, toCamera, kVdbFov, float(w) / float(h));
     std::ostringstream t;
@@ -338,7 +357,7 @@ int loadVdbCloud(Cloud& c, const ConvergeOptions& o, int w, int h, std::string& 
 
 /// The settings a path-traced reference depends on, one "key = value" a line: every scene
 /// setting (io::sceneSettings) except those only march reads and the output's, plus the frame,
-/// the source file's size and time, the Nimbus version and the suite's format.
+/// a VDB file's size and modification time, the Nimbus version and the suite's format.
 std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string& caseName) {
     io::SceneFile f = c.ls->file();
     f.scene = ref;
@@ -372,8 +391,9 @@ std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string
     for (const char* k : marchOnly) m.erase(k);
     std::ostringstream key;
     key << "suite format = " << kSuiteFormat << "\nnimbus = " << NIMBUS_VERSION
-        << "\ncase = " << caseName << "\nframe = " << c.frame << "\nsource = " << c.source << " ("
-        << fileStamp(c.source) << ")\n";
+        << "\ncase = " << caseName << "\nframe = " << c.frame << "\n";
+    // a scene's settings below say all; a VDB file's data is in the file
+    if (c.vdb) key << "vdb file = " << fileStamp(c.source) << "\n";
     for (const auto& [k, v] : m)
         if (k.rfind("output.", 0) != 0) key << k << " = " << v << "\n";
     return key.str();
@@ -681,8 +701,14 @@ int runSuite(const ConvergeOptions& o) {
     installSignalHandlers();
     const auto start = std::chrono::steady_clock::now();
     std::fprintf(stderr,
-                 "suite: %zu cases at %dx%d, references pathtrace %d spp (two halves), cache %s\n",
-                 cases.size(), w, h, o.suiteSpp, o.suiteDir.c_str());
+                 "suite: %zu cases at %dx%d; references: pathtrace at pixel centres, two halves, "
+                 "max_depth %s, first round %d spp, refined to a noise of %s or %d spp or %g s; "
+                 "cache %s\n",
+                 cases.size(), w, h,
+                 o.suiteMaxDepth > 0 ? std::to_string(o.suiteMaxDepth).c_str() : "of the scene",
+                 o.suiteSpp, percent(o.suiteNoise).c_str(), o.suiteMaxSpp, o.suiteSeconds,
+                 o.suiteDir.c_str());
+    for (const std::string& n : notes) std::fprintf(stderr, "suite: %s\n", n.c_str());
 
     std::vector<Result> results;
     size_t done = 0;
