@@ -44,6 +44,21 @@ struct ConvergeOptions {
     bool boxFilter = false;    ///< pathtrace averages over pixels (march samples their centres)
     std::string saveReference; ///< write the reference here (EXR, scene-linear working space)
     std::string loadReference; ///< read the reference from here instead of rendering it
+
+    // --suite: the validation matrix of march against pathtrace (plugin/cli/suite.cpp)
+    bool suite = false;
+    std::string suiteData; ///< VDB folder; empty = ../shared/data/vdb beside the repository
+    std::string suiteDir = "suite-cache"; ///< cached references, suite.md, suite.csv
+    std::vector<std::string> suiteFilter; ///< run the cases whose name contains any of these
+    std::string suiteSize = "64x36";      ///< width x height of every render
+    int suiteSpp = 16;                    ///< first round of samples per pixel of each reference
+    int suiteMaxSpp = 16384;              ///< samples per pixel of a reference at most
+    double suiteNoise = 0.05; ///< refine a reference until its relative noise is below this
+    double suiteSeconds = 30; ///< ... or its rendering took this long (seconds, all rounds)
+    /// render.max_depth of the references (0 = the scene's): effectively unbounded, as a
+    /// converged reference must be (the default 256 loses 14% of thick albedo-1 smoke's light)
+    int suiteMaxDepth = 65536;
+    bool suiteRerender = false; ///< render every reference again, ignoring the cache
 };
 
 struct CalibrateOptions {

@@ -69,4 +69,10 @@ bool prepare(LoadedScene& ls, std::optional<int> requested, double scale, SceneD
 /// Writes text to path atomically; prints the error and returns false on failure.
 bool writeText(const std::string& path, const std::string& text);
 
+struct ConvergeOptions;
+
+/// `nimbus converge --suite`: the validation matrix of march against pathtrace over every
+/// cloud, thickness, sun position and albedo (suite.cpp). Returns an exit code.
+int runSuite(const ConvergeOptions& o);
+
 } // namespace nimbus::cli

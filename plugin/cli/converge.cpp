@@ -185,6 +185,7 @@ int obtainReference(const LoadedScene& ls, const SceneDesc& refScene, const Fram
 } // namespace
 
 int runConverge(const ConvergeOptions& o) {
+    if (o.suite) return runSuite(o);
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
     for (double m : o.ladder)

@@ -81,6 +81,7 @@ int main(int argc, char** argv) {
                "  nimbus render scene.toml --frames 1-4 --set render.step=0.5\n"
                "  nimbus render scene.toml --frames 101-110 --resume    # one farm task\n"
                "  nimbus converge scene.toml --csv error.csv\n"
+               "  nimbus converge --suite       # march against pathtrace on every cloud\n"
                "  nimbus converge scene.toml --scale 0.25 --reference-spp 1024 "
                "--pathtrace-ladder 4,16,64 --plot error.png\n"
                "  nimbus calibrate scene.toml --scale 0.25\n"
@@ -125,7 +126,9 @@ int main(int argc, char** argv) {
     auto* converge = app.add_subcommand(
         "converge", "Measure error against run time: a fine-step reference, then a ladder of "
                     "coarser steps (table + CSV)");
-    converge->add_option("scene", co.scene, "Scene file (TOML)")->required();
+    converge->add_option("scene", co.scene,
+                         "Scene file (TOML); with --suite optional (default: "
+                         "examples/scenes/cumulus.toml of the repository)");
     converge->add_option("-s,--set", co.overrides, "Override a scene value (as for render)")
         ->allow_extra_args(false);
     converge->add_option("--frame", co.frame, "Frame to measure (default: first of the scene)");
@@ -166,6 +169,96 @@ int main(int argc, char** argv) {
                        "pixel centres, as march does, so the error is the lighting's, not "
                        "aliasing)");
     addReferenceFileOptions(converge, co.saveReference, co.loadReference);
+    converge->add_flag("--suite", co.suite,
+                       "Run the validation matrix instead of a ladder: march against a "
+                       "pathtrace reference on every cloud x thickness x sun x albedo (see "
+                       "below)");
+    converge->add_option("--suite-data", co.suiteData,
+                         "--suite: folder of VDB files, each file's fog density grid one cloud "
+                         "(default: ../shared/data/vdb beside the repository)");
+    converge
+        ->add_option("--suite-dir", co.suiteDir,
+                     "--suite: folder of the cached references (EXR, one per case) and of "
+                     "suite.md and suite.csv")
+        ->capture_default_str();
+    converge
+        ->add_option("--suite-filter", co.suiteFilter,
+                     "--suite: run only the cases whose name contains one of these substrings "
+                     "(comma-separated), e.g. gaffer_fogsphere_small or thick/behind")
+        ->delimiter(',');
+    converge->add_option("--suite-size", co.suiteSize, "--suite: WIDTHxHEIGHT of every render")
+        ->capture_default_str();
+    converge
+        ->add_option("--suite-spp", co.suiteSpp,
+                     "--suite: samples per pixel of a reference's first round (two halves of "
+                     "spp/2 with different seeds)")
+        ->capture_default_str()
+        ->check(CLI::Range(2, 1 << 20));
+    converge
+        ->add_option("--suite-noise", co.suiteNoise,
+                     "--suite: refine each reference in rounds until its noise (relative to its "
+                     "mean over the cloud's pixels) is below this, ...")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    converge
+        ->add_option("--suite-seconds", co.suiteSeconds,
+                     "--suite: ... or its rendering (every round, cached ones included) took "
+                     "this long, ...")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    converge
+        ->add_option("--suite-max-spp", co.suiteMaxSpp,
+                     "--suite: ... or it has this many samples per pixel")
+        ->capture_default_str()
+        ->check(CLI::Range(2, 1 << 24));
+    converge
+        ->add_option("--suite-max-depth", co.suiteMaxDepth,
+                     "--suite: render.max_depth of the references (0 = the scene's, "
+                     "256 by default, which loses light in thick albedo-1 media)")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    converge->add_flag("--suite-rerender", co.suiteRerender,
+                       "--suite: render every selected reference again instead of reading the "
+                       "cache (e.g. after a change to pathtrace)");
+    converge->footer(
+        "--suite: the validation matrix (docs/accuracy.md, \"The validation matrix\")\n"
+        "  Clouds: the scene (default examples/scenes/cumulus.toml, its first frame and camera, "
+        "its own render\n"
+        "  settings) and every *.vdb of --suite-data: the grid named density (or the file's only "
+        "float grid),\n"
+        "  framed by a camera from -z (20 deg toward +x, 10 deg up, fov 40); march with the "
+        "renderer's defaults\n"
+        "  except render.step = render.shadow_step = one voxel. Level sets, empty grids and "
+        "files without a\n"
+        "  float grid are skipped with a note.\n"
+        "  Thickness: tau = sigma_t x density_scale x the density integral along each pixel's "
+        "centre ray,\n"
+        "  averaged over the pixels whose ray meets density; density_scale is set for a mean "
+        "tau of 1 (thin),\n"
+        "  20 (medium) and 500 (thick). Albedo 1 and 0.9 (sigma_s = albedo sigma_t, sigma_a = "
+        "the rest).\n"
+        "  Sun (angle between the sunlight's travel and the view direction): front 20 deg "
+        "(behind the camera,\n"
+        "  above it), side 90 deg (from the image's right, 30 deg up), behind 150 deg (ahead, "
+        "30 deg above the\n"
+        "  view axis). Light: sun 12 x (1, 0.93, 0.82), gradient sky zenith (0.16, 0.32, 0.70), "
+        "horizon\n"
+        "  (0.60, 0.70, 0.82), lin_rec709: the default scene's. Cases are named "
+        "CLOUD/THICKNESS/SUN/aALBEDO.\n"
+        "  Error: core/image_error.h, relative RMSE over the cloud's pixels (reference alpha > "
+        "0.01), RGB,\n"
+        "  divided by the reference's mean, its noise (two halves) taken out in quadrature. "
+        "Output: a markdown\n"
+        "  table on stdout (also DIR/suite.md) and a CSV (--csv, default DIR/suite.csv), worst "
+        "first.\n"
+        "  -s/--set applies to every cloud's scene; the suite then sets the size, background, "
+        "sun, sky and medium\n"
+        "  coefficients. A cached reference is used only when every setting it depends on "
+        "matches.\n"
+        "Examples:\n"
+        "  nimbus converge --suite\n"
+        "  nimbus converge --suite --suite-filter gaffer_fogsphere_small,cumulus/thin "
+        "--suite-spp 64");
 
     cli::CalibrateOptions ko;
     auto* calibrate = app.add_subcommand(
@@ -321,7 +414,33 @@ int main(int argc, char** argv) {
     }
 
     if (*render) return run(cli::Command::Render, &ro);
-    if (*converge) return run(cli::Command::Converge, &co);
+    if (*converge) {
+        if (co.suite) {
+            // the ladder's options mean nothing to the suite
+            for (const char* opt : {"--frame", "--ladder", "--reference-step", "--reference-spp",
+                                    "--pathtrace-ladder", "--photon-ladder", "--scale", "--plot",
+                                    "--box-filter", "--save-reference", "--reference"})
+                if (converge->count(opt)) {
+                    std::fprintf(stderr, "nimbus: error: converge: %s does not apply to --suite\n",
+                                 opt);
+                    return cli::kExitBadInput;
+                }
+        } else {
+            if (co.scene.empty()) {
+                std::fprintf(stderr, "nimbus: error: converge: a scene file is required (or "
+                                     "--suite)\nRun with --help for more information.\n");
+                return cli::kExitBadInput;
+            }
+            for (const char* opt : {"--suite-data", "--suite-dir", "--suite-filter", "--suite-size",
+                                    "--suite-spp", "--suite-noise", "--suite-seconds",
+                                    "--suite-max-spp", "--suite-max-depth", "--suite-rerender"})
+                if (converge->count(opt)) {
+                    std::fprintf(stderr, "nimbus: error: converge: %s needs --suite\n", opt);
+                    return cli::kExitBadInput;
+                }
+        }
+        return run(cli::Command::Converge, &co);
+    }
     if (*calibrate) return run(cli::Command::Calibrate, &ko);
     if (*bake) return run(cli::Command::Bake, &bo);
     if (*bench) return run(cli::Command::BenchVdb, &vo);

@@ -1,0 +1,229 @@
+// `nimbus converge --suite` (plugin/cli/suite.cpp): the real command on the real Gaffer fog
+// sphere from ../shared/data/vdb, a few cases at a tiny size: the table and the CSV, the
+// thickness, the cache (reused, refined, refused when stale or corrupt) and bad options.
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "plugin/io/image_output.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kData = NIMBUS_SHARED_VDB_DIR;
+const char* kSphere = "gaffer_fogsphere_small";
+
+/// The CSV of a run as rows of column -> value.
+std::vector<std::map<std::string, std::string>> readCsv(const fs::path& p) {
+    std::ifstream in(p);
+    std::string line;
+    std::vector<std::string> head;
+    std::vector<std::map<std::string, std::string>> rows;
+    while (std::getline(in, line)) {
+        std::vector<std::string> cells;
+        std::stringstream ss(line);
+        for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+        if (head.empty()) {
+            head = cells;
+            continue;
+        }
+        std::map<std::string, std::string> row;
+        for (size_t i = 0; i < head.size() && i < cells.size(); ++i) row[head[i]] = cells[i];
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+double num(const std::map<std::string, std::string>& row, const std::string& key) {
+    auto it = row.find(key);
+    return it == row.end() ? std::nan("") : std::strtod(it->second.c_str(), nullptr);
+}
+
+class Suite : public testing::Test {
+  protected:
+    void SetUp() override {
+        if (!fs::is_regular_file(kData / (std::string(kSphere) + ".vdb")))
+            GTEST_SKIP() << "shared VDB folder " << kData << " (or " << kSphere
+                         << ".vdb in it) is absent: converge --suite tests skipped";
+    }
+    /// `nimbus converge --suite` on the fog sphere at 32x18 with small references.
+    /// `extra` replaces the options of the references' budget when it names one.
+    CliRun suite(const std::string& filter, const std::string& extra = "") {
+        const std::string budget =
+            extra.find("--suite-seconds") == std::string::npos ? " --suite-seconds 0" : "";
+        return runNimbus("converge --suite --suite-data " + kData.string() + " --suite-dir " +
+                         dir.string() + " --suite-filter " + filter +
+                         " --suite-size 32x18 --suite-spp 16 --suite-max-depth 256" + budget + " " +
+                         extra);
+    }
+    TempDir dir{"suite"};
+};
+
+} // namespace
+
+TEST_F(Suite, TableCsvThicknessAndCache) {
+    const std::string filter =
+        std::string(kSphere) + "/thin/front," + kSphere + "/medium/side/a0.9";
+    CliRun r = suite(filter);
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    // the markdown table: its columns, one row per case, worst first, the summary
+    for (const char* col : {"| scene", "grid", "thickness", "tau", "sun", "albedo", "rel. RMSE",
+                            "mean ratio", "ref. noise", "ref. spp", "march s", "ref. s"})
+        EXPECT_TRUE(contains(r.output, col));
+    EXPECT_TRUE(contains(r.output, "worst: "));
+    EXPECT_TRUE(contains(r.output, "of 3 cases within 10.00%"));
+    EXPECT_TRUE(contains(r.output, "| thin (1)"));
+    EXPECT_TRUE(contains(r.output, "| medium (20)"));
+
+    const auto rows = readCsv(dir / "suite.csv");
+    ASSERT_EQ(rows.size(), 3u) << r.output;
+    double previous = 1e300;
+    for (const auto& row : rows) {
+        SCOPED_TRACE(row.at("case"));
+        EXPECT_EQ(row.at("scene"), kSphere);
+        EXPECT_EQ(row.at("grid"), "density");
+        // the density scale gives the target's mean optical depth (rounded to 4 digits)
+        const double target = num(row, "tau_target"), tau = num(row, "tau_achieved");
+        EXPECT_NEAR(tau / target, 1.0, 1e-3);
+        EXPECT_GT(num(row, "density_scale"), 0.0);
+        for (const char* k : {"relative_rmse", "relative_rmse_raw", "mean_ratio", "reference_noise",
+                              "march_seconds", "reference_seconds"}) {
+            EXPECT_TRUE(std::isfinite(num(row, k))) << k;
+            EXPECT_GE(num(row, k), 0.0) << k;
+        }
+        EXPECT_GT(num(row, "mean_ratio"), 0.0);
+        EXPECT_GT(num(row, "cloud_pixels"), 10.0);
+        EXPECT_EQ(num(row, "reference_spp"), 16.0);
+        EXPECT_GT(num(row, "reference_seconds_this_run"), 0.0);
+        EXPECT_LE(num(row, "relative_rmse"), previous); // worst first
+        previous = num(row, "relative_rmse");
+    }
+
+    // the thickness seen independently: the path tracer's own transmittance (alpha) of the
+    // thin case's reference gives a mean optical depth near 1 over the cloud's pixels
+    for (const char* albedo : {"a1", "a0.9"}) {
+        const auto img = nimbus::io::readExr(
+            (dir / (std::string(kSphere) + ".thin.front." + albedo + ".a.exr")).string());
+        const int a = img.channelIndex("A");
+        ASSERT_GE(a, 0);
+        double tauSum = 0.0;
+        int n = 0;
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                const double alpha = img.at(x, y, a);
+                if (alpha <= 0.01) continue;
+                tauSum += -std::log(std::max(1e-6, 1.0 - alpha));
+                ++n;
+            }
+        ASSERT_GT(n, 10);
+        EXPECT_GT(tauSum / n, 1.0 / 3.0) << albedo;
+        EXPECT_LT(tauSum / n, 3.0) << albedo;
+    }
+    // the march images are kept beside the references
+    EXPECT_TRUE(fs::exists(dir / (std::string(kSphere) + ".thin.front.a1.march.exr")));
+
+    // a second run reads every reference from the cache and renders none
+    CliRun again = suite(filter);
+    ASSERT_EQ(again.exitCode, 0) << again.output;
+    EXPECT_TRUE(contains(again.output, "reference cached 16 spp"));
+    EXPECT_FALSE(contains(again.output, "+16 spp"));
+    EXPECT_TRUE(contains(again.output, "0.0 s of it in this run"));
+    const auto rows2 = readCsv(dir / "suite.csv");
+    ASSERT_EQ(rows2.size(), 3u);
+    for (size_t i = 0; i < 3; ++i) {
+        EXPECT_EQ(num(rows2[i], "reference_seconds_this_run"), 0.0);
+        EXPECT_EQ(rows2[i].at("case"), rows[i].at("case"));
+        // the same reference and the same deterministic march: the same error
+        EXPECT_EQ(rows2[i].at("relative_rmse"), rows[i].at("relative_rmse"));
+    }
+
+    // a corrupted cache file is rendered again, never used; the other cases stay cached
+    const fs::path bad = dir / (std::string(kSphere) + ".thin.front.a1.a.exr");
+    {
+        std::ofstream f(bad, std::ios::binary | std::ios::trunc);
+        f << "this is not an EXR file";
+    }
+    CliRun fixed = suite(filter);
+    ASSERT_EQ(fixed.exitCode, 0) << fixed.output;
+    EXPECT_TRUE(contains(fixed.output, "thin/front/a1: tau 1 (density_scale"));
+    EXPECT_TRUE(contains(fixed.output, "unreadable"));
+    for (const auto& row : readCsv(dir / "suite.csv"))
+        EXPECT_EQ(num(row, "reference_seconds_this_run") > 0.0,
+                  row.at("case") == std::string(kSphere) + "/thin/front/a1")
+            << row.at("case");
+    EXPECT_NO_THROW(nimbus::io::readExr(bad.string())); // rewritten
+
+    // a reference of other settings is stale: rendered again, saying what differs
+    CliRun stale = suite(std::string(kSphere) + "/medium/side/a0.9", "--set medium.g=0.5");
+    ASSERT_EQ(stale.exitCode, 0) << stale.output;
+    EXPECT_TRUE(contains(stale.output, "stale: now \"medium.g = 0.5"));
+    EXPECT_TRUE(contains(stale.output, "+16 spp"));
+
+    // a larger sample budget refines the cached reference instead of starting again
+    CliRun more = suite(std::string(kSphere) + "/thin/front/a0.9",
+                        "--suite-seconds 1000 --suite-max-spp 48 --suite-noise 0.001");
+    ASSERT_EQ(more.exitCode, 0) << more.output;
+    EXPECT_TRUE(contains(more.output, "reference cached 16 spp, +32 spp"));
+    const auto rows3 = readCsv(dir / "suite.csv");
+    ASSERT_EQ(rows3.size(), 1u);
+    EXPECT_EQ(num(rows3[0], "reference_spp"), 48.0);
+}
+
+// needs no VDB file: every one of these is refused before anything is read
+TEST(SuiteOptions, BadOptionsAreErrors) {
+    TempDir dir("suite_options");
+    struct Bad {
+        std::string args, message;
+    };
+    const std::vector<Bad> bad = {
+        {"--suite-filter nothing_matches_this", "--suite-filter matches no case"},
+        {"--suite-filter x --suite-size 64", "--suite-size \"64\": expected WIDTHxHEIGHT"},
+        {"--suite-filter x --suite-size 0x36", "expected WIDTHxHEIGHT"},
+        {"--suite-filter x --ladder 1,2", "--ladder does not apply to --suite"},
+        {"--suite-filter x --suite-spp 1", "--suite-spp"},
+        {"--suite-data /nonexistent/folder", "--suite-data /nonexistent/folder: not a directory"},
+    };
+    for (const Bad& b : bad) {
+        CliRun r = runNimbus("converge --suite --suite-dir " + dir.string() + " " + b.args);
+        EXPECT_EQ(r.exitCode, 2) << b.args << "\n" << r.output;
+        EXPECT_TRUE(contains(r.output, b.message)) << b.args;
+    }
+    CliRun r = runNimbus("converge --suite-spp 64");
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_TRUE(contains(r.output, "a scene file is required (or --suite)"));
+}
+
+TEST_F(Suite, InterruptExits130) {
+    // a reference of about ten seconds in tiles of a fraction of a second (the renderer looks at
+    // the cancel flag between tiles)
+    const std::string cmd = std::string(NIMBUS_CLI_PATH) + " converge --suite --suite-data " +
+                            kData.string() + " --suite-dir " + dir.string() + " --suite-filter " +
+                            kSphere +
+                            "/thin/front/a1 --suite-size 32x18 --suite-spp 6000 --set "
+                            "render.tile_size=4";
+    pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        execl("/bin/sh", "sh", "-c", ("exec " + cmd + " >/dev/null 2>&1").c_str(), (char*)nullptr);
+        _exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    kill(pid, SIGINT);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    EXPECT_EQ(WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), 130);
+}
