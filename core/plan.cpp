@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/lighting/light_volume.h"
+#include "core/lighting/sky_volume.h"
 #include "core/tracking/volumes.h"
 
 namespace nimbus {
@@ -36,12 +38,26 @@ std::string FramePlan::explain() const {
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
-    o << "  sky ambient: "
+    char sky[200];
+    if (skyVolume)
+        std::snprintf(sky, sizeof sky,
+                      "single scattering over %d fixed directions (density integrals on the "
+                      "light-volume grid, voxel %g, %.1f MB)",
+                      skyDirections, lightVolumeCell, skyVolumeBytes / 1048576.0);
+    else
+        std::snprintf(sky, sizeof sky,
+                      "single scattering over %d directions drawn from the phase function per "
+                      "sample, a shadow march toward each",
+                      skyDirections);
+    o << "  sky light: "
       << (!ambient        ? std::string("no")
           : diffusion     ? std::string("in the diffusion grid")
-          : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
-                          : std::string("height occlusion"))
-      << "\n";
+          : skySingle     ? std::string(sky)
+          : columnVolumes ? std::string("ambient, column occlusion (volumes of the density up "
+                                        "and down)")
+                          : std::string("ambient, height occlusion"));
+    if (!skyNote.empty()) o << " (" << skyNote << ")";
+    o << "\n";
     o << "  volumes: " << volumes << ", instances: " << instances;
     if (instanced)
         o << " ("
@@ -91,7 +107,20 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         marching && oneVolume &&
         ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
          (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
-    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion &&
+    p.skySingle =
+        marching && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
+    if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
+    const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
+    // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
+    p.skyVolume = skyVolume && oneVolume;
+    if (skyVolume && !oneVolume)
+        p.skyNote = "render.sky_shadow = \"volume\" covers one untransformed volume; this scene "
+                    "has several or instances";
+    if (p.skyVolume) {
+        const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
+        p.skyVolumeBytes = double(res.x) * res.y * res.z * p.skyDirections * sizeof(float);
+    }
+    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion && !p.skySingle &&
                       s.render.skyOcclusion == SkyOcclusion::Column;
     // the diffusion's sun source needs the density integral toward the sun, and so does the
     // photons' skin profile (core/lighting/photons.h)

@@ -25,6 +25,14 @@ struct FramePlan {
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
+    /// march: the sky single-scattered over `skyDirections` directions
+    /// (core/lighting/sky_volume.h), their transmittance from shadow marches or (skyVolume) from
+    /// density integrals on the light-volume grid
+    bool skySingle = false;
+    bool skyVolume = false;
+    int skyDirections = 0;
+    double skyVolumeBytes = 0.0; ///< its memory: voxels x directions x 4 bytes
+    std::string skyNote;         ///< why the sky is not what the scene asked for, when it is not
     float lightVolumeCell = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries

@@ -17,6 +17,7 @@
 #include "core/lighting/diffusion.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/photons.h"
+#include "core/lighting/sky_volume.h"
 #include "core/media/medium.h"
 #include "core/media/mie.h"
 #include "core/media/sky.h"
@@ -195,7 +196,9 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         }
         std::vector<LightVolume> volumes;
         std::vector<float> rho;
-        const bool needRho = plan.densityGrid && any;
+        const bool skyVolume = plan.skyVolume && any;
+        // the sky volume shares the densities at the voxel centres when other volumes are built
+        const bool needRho = (plan.densityGrid || (skyVolume && !dirs.empty())) && any;
         if (needRho && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
         if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
@@ -211,6 +214,16 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         if (plan.columnVolumes && any) {
             sv.up = &volumes[next++];
             sv.down = &volumes[next++];
+        }
+        SkyVolume skv;
+        if (skyVolume) {
+            t0 = std::chrono::steady_clock::now();
+            skv = buildSkyVolume(field, plan.skyDirections, plan.lightVolumeCell, g,
+                                 rho.empty() ? nullptr : &rho);
+            sv.sky = &skv;
+            stats.skyVolumeSeconds = secondsSince(t0);
+            stats.skyVolumeBytes = skv.bytes();
+            stats.lightVolumeLookups += skv.densityLookups;
         }
         const Medium medium = Medium::fromDesc(s.medium);
         DiffusionVolume dv;

@@ -166,6 +166,12 @@ enum class InScatter { None, Olajos, Powder };
 enum class MultipleScattering { None, Grid, Photons };
 /// march: how much of the sky a point inside the medium sees (core/integrators/march.h).
 enum class SkyOcclusion { Height, Column };
+/// march without multiple scattering: the sky as an ambient term standing for every order of
+/// scattering, or the sky light scattered once (core/lighting/sky_volume.h).
+enum class SkyScattering { Ambient, Single };
+/// The single-scattered sky's transmittance toward its directions: a shadow march per direction
+/// and sample, or a precomputed volume per direction (core/lighting/sky_volume.h).
+enum class SkyShadow { March, Volume };
 enum class Integrator { March, PathTrace };
 enum class ShadowMethod { March, Volume };
 enum class Background { Sky, Transparent };
@@ -223,6 +229,14 @@ struct RenderDesc {
     /// weighting.
     SkyOcclusion skyOcclusion = SkyOcclusion::Height;
     float skyOpenness = 1.0f;
+    /// Without multiple scattering: the sky as an ambient term (skyOcclusion) or single-scattered
+    /// over skyDirections directions (core/lighting/sky_volume.h): what pathtrace computes with
+    /// maxDepth = 1. skyShadow: the transmittance toward each from a shadow march per sample (the
+    /// directions drawn from the phase function per sample) or from a volume per direction
+    /// (fixed ones).
+    SkyScattering skyScattering = SkyScattering::Ambient;
+    SkyShadow skyShadow = SkyShadow::March;
+    int skyDirections = 8;
     InScatter inScatter = InScatter::Olajos;
     float inScatterC = 2.0f;
     float inScatterStrength = 0.5f;
