@@ -138,7 +138,7 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         vs.wholeMajorant[i] = f.majorant(f.bounds());
         if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
         // each volume's grid in its own space; the plan's cell for `field`
-        const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds());
+        const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds(), plan.step);
         vs.grids[i] = buildMajorantGrid(f, cell);
         stats.majorantCells += vs.grids[i].cellCount();
         const double empty = vs.grids[i].emptyFraction();
@@ -151,7 +151,7 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         stats.majorantUsed = stats.majorantUsed || vs.useGrid[i];
     }
     if (vs.useCoarse) {
-        vs.coarse = buildCoarseMajorantGrid(vs, autoMajorantCell(s, vs.bounds));
+        vs.coarse = buildCoarseMajorantGrid(vs, autoMajorantCell(s, vs.bounds, plan.step));
         stats.majorantCells = vs.coarse.cellCount();
         emptyCells = vs.coarse.emptyFraction() * double(vs.coarse.cellCount());
         stats.majorantUsed = true;

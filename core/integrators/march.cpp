@@ -27,8 +27,8 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
       surfaces_(surfaces),
       skyIrradiance_(surfaces ? scene.sky : SkyDesc{SkyKind::None}, surfaces ? 65 : 2),
       camera_(scene.camera), medium_(Medium::fromDesc(scene.medium)),
-      primary_(scene.render.step, scene.render.stepGrowth),
-      shadow_(scene.render.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)) {
+      primary_(plan.step, scene.render.stepGrowth),
+      shadow_(plan.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)) {
     // similarity relation (van de Hulst): multiply scattered light sees the medium as isotropic
     // with sigma_s' = sigma_s (1 - g); diffusion decays by sqrt(3 sigma_a' / sigma_t') per
     // transport optical depth (the effective transport coefficient, Jensen et al. 2001)

@@ -61,9 +61,26 @@ void addRenderParams(std::vector<Param>& t) {
                                          (r.skyScattering == SkyScattering::Single &&
                                           r.skyShadow == SkyShadow::Volume);
                               }));
-    t.push_back(
-        ren.param("step", above(0), "Primary ray-march step (world units).", &RenderDesc::step)
-            .scalesWithStep());
+    auto hasVdb = [](const SceneFile& f) {
+        return f.scene.field.kind == FieldKind::Vdb || !f.scene.volumes.empty();
+    };
+    t.push_back(ren.param("step", atLeast(0),
+                          "Primary ray-march step (world units); 0 = chosen per frame: "
+                          "`step_voxels` x the finest voxel of the VDB grids the scene places, "
+                          "or 0.05 for procedural fields (`--explain` and the EXR's frame plan "
+                          "say which and why).",
+                          &RenderDesc::step)
+                    .scalesWithStep());
+    t.push_back(ren.param("step_voxels", above(0),
+                          "Primary step of VDB volumes when `step` is 0, in voxels of the finest "
+                          "placed grid (OpenVDB's vdb_render: 1). Measured on three VDB files: "
+                          "the step error is below 1% of the image from 1 voxel on.",
+                          &RenderDesc::stepVoxels)
+                    .scalesWithStep()
+                    .usedWhen("render.step = 0 and the scene has a VDB volume",
+                              [hasVdb](const SceneFile& f) {
+                                  return f.scene.render.step == 0.0f && hasVdb(f);
+                              }));
     t.push_back(ren.param("step_growth", atLeast(0),
                           "Distance-adaptive steps: step = max(step, step_growth * distance).",
                           &RenderDesc::stepGrowth)
@@ -91,9 +108,21 @@ void addRenderParams(std::vector<Param>& t) {
     t.push_back(ren.param("epsilon", closedOpen(0, 1),
                           "Stop marching when the transmittance falls below this.",
                           &RenderDesc::epsilon));
-    t.push_back(ren.param("shadow_step", above(0), "First shadow-ray step (world units).",
+    t.push_back(ren.param("shadow_step", atLeast(0),
+                          "First shadow-ray step (world units); 0 = chosen per frame like `step`, "
+                          "from `shadow_step_voxels` (0.05 for procedural fields).",
                           &RenderDesc::shadowStep)
                     .scalesWithStep());
+    t.push_back(ren.param("shadow_step_voxels", above(0),
+                          "First shadow step of VDB volumes when `shadow_step` is 0, in voxels of "
+                          "the finest placed grid (OpenVDB's vdb_render: 3; measured on three VDB "
+                          "files, 3 had 1.8-3.2x the error of 1 for about 20% less time).",
+                          &RenderDesc::shadowStepVoxels)
+                    .scalesWithStep()
+                    .usedWhen("render.shadow_step = 0 and the scene has a VDB volume",
+                              [hasVdb](const SceneFile& f) {
+                                  return f.scene.render.shadowStep == 0.0f && hasVdb(f);
+                              }));
     t.push_back(ren.param("shadow_growth", atLeast(0),
                           "Shadow steps grow geometrically by this factor.",
                           &RenderDesc::shadowGrowth));
