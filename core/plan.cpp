@@ -5,23 +5,84 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/fields/grid.h"
+#include "core/lighting/light_volume.h"
+#include "core/lighting/sky_volume.h"
 #include "core/tracking/volumes.h"
 
 namespace nimbus {
 
-float autoMajorantCell(const SceneDesc& s, const Box& b) {
+float autoMajorantCell(const SceneDesc& s, const Box& b, float step) {
     if (s.render.majorantCell > 0.0f) return s.render.majorantCell;
     // about four primary steps per cell, at most 256 cells along any axis
     const vec3 e = b.extent();
     const float longest = std::max(e.x, std::max(e.y, e.z));
-    return std::max(4.0f * s.render.step, longest / 256.0f);
+    return std::max(4.0f * step, longest / 256.0f);
 }
+
+float finestVoxel(const SceneDesc& s, const FrameBindings& bindings) {
+    float finest = 0.0f;
+    auto consider = [&](float voxel) {
+        if (voxel > 0.0f && (finest == 0.0f || voxel < finest)) finest = voxel;
+    };
+    const int volumes = 1 + int(s.volumes.size());
+    for (int v = 0; v < volumes; ++v) {
+        const FieldDesc& f = v == 0 ? s.field : s.volumes[size_t(v) - 1].field;
+        if (f.kind != FieldKind::Vdb || !isPlaced(s, v)) continue;
+        const float voxel = minComponent(gridVoxelSize(bindings.grid(v)));
+        if (s.instances.empty()) consider(voxel);
+        for (const InstanceDesc& in : s.instances)
+            if (in.volume == v) consider(voxel * minComponent(glm::abs(in.scale)));
+    }
+    return finest;
+}
+
+namespace {
+
+/// The primary and shadow steps of a frame and why (render.step / render.shadow_step when set).
+void chooseSteps(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
+    const RenderDesc& r = s.render;
+    bool vdb = s.field.kind == FieldKind::Vdb && isPlaced(s, 0);
+    for (size_t i = 0; i < s.volumes.size(); ++i) vdb = vdb || isPlaced(s, int(i) + 1);
+    const float voxel = finestVoxel(s, bindings);
+    char buf[320];
+    auto one = [&](float given, float perVoxel, const char* key, const char* voxelKey,
+                   float& out) -> std::string {
+        if (given > 0.0f) {
+            out = given;
+            std::snprintf(buf, sizeof buf, "%g (%s)", out, key);
+        } else if (voxel > 0.0f) {
+            out = perVoxel * voxel;
+            std::snprintf(buf, sizeof buf, "%g (%s %g x the finest voxel %g)", out, voxelKey,
+                          perVoxel, voxel);
+        } else if (vdb) {
+            out = kDefaultStep;
+            std::snprintf(buf, sizeof buf,
+                          "%g x the finest voxel (%s; the grids are read when rendering, not "
+                          "for --explain)",
+                          perVoxel, voxelKey);
+        } else {
+            out = kDefaultStep;
+            std::snprintf(buf, sizeof buf, "%g (%s = 0: the default of procedural fields)", out,
+                          key);
+        }
+        return buf;
+    };
+    const std::string primary =
+        one(r.step, r.stepVoxels, "render.step", "render.step_voxels", p.step);
+    const std::string shadow = one(r.shadowStep, r.shadowStepVoxels, "render.shadow_step",
+                                   "render.shadow_step_voxels", p.shadowStep);
+    p.stepDecision = "primary " + primary + ", shadow " + shadow;
+}
+
+} // namespace
 
 std::string FramePlan::explain() const {
     std::ostringstream o;
     o << "frame " << frame << " (t = " << time << " s)\n";
     o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
       << noiseDecision << ")\n";
+    o << "  march steps: " << stepDecision << "\n";
     o << "  empty-space skipping: "
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
       << "\n";
@@ -41,14 +102,28 @@ std::string FramePlan::explain() const {
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
-    o << "  sky ambient: "
+    char sky[200];
+    if (skyVolume)
+        std::snprintf(sky, sizeof sky,
+                      "single scattering over %d fixed directions (density integrals on the "
+                      "light-volume grid, voxel %g, %.1f MB)",
+                      skyDirections, lightVolumeCell, skyVolumeBytes / 1048576.0);
+    else
+        std::snprintf(sky, sizeof sky,
+                      "single scattering over %d directions drawn from the phase function per "
+                      "sample, a shadow march toward each",
+                      skyDirections);
+    o << "  sky light: "
       << (!ambient        ? std::string("no")
           : pathtrace     ? std::string(skyNee ? "next-event estimation and phase sampling (MIS)"
                                                : "phase-sampled rays")
           : diffusion     ? std::string("in the diffusion grid")
-          : columnVolumes ? std::string("column occlusion (volumes of the density up and down)")
-                          : std::string("height occlusion"))
-      << "\n";
+          : skySingle     ? std::string(sky)
+          : columnVolumes ? std::string("ambient, column occlusion (volumes of the density up "
+                                        "and down)")
+                          : std::string("ambient, height occlusion"));
+    if (!skyNote.empty()) o << " (" << skyNote << ")";
+    o << "\n";
     o << "  volumes: " << volumes << ", instances: " << instances;
     if (instanced)
         o << " ("
@@ -79,7 +154,8 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     Box bounds = s.field.homogeneous.box;
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
     if (s.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
-    p.majorantCell = autoMajorantCell(s, bounds);
+    chooseSteps(s, bindings, p);
+    p.majorantCell = autoMajorantCell(s, bounds, p.step);
     p.volumes = 1 + int(s.volumes.size());
     p.instances = s.instances.empty() ? 1 : int(s.instances.size());
     p.instanced = isInstanced(s);
@@ -99,7 +175,20 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         marching && oneVolume &&
         ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
          (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
-    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion &&
+    p.skySingle =
+        marching && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
+    if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
+    const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
+    // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
+    p.skyVolume = skyVolume && oneVolume;
+    if (skyVolume && !oneVolume)
+        p.skyNote = "render.sky_shadow = \"volume\" covers one untransformed volume; this scene "
+                    "has several or instances";
+    if (p.skyVolume) {
+        const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
+        p.skyVolumeBytes = double(res.x) * res.y * res.z * p.skyDirections * sizeof(float);
+    }
+    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion && !p.skySingle &&
                       s.render.skyOcclusion == SkyOcclusion::Column;
     // the diffusion's sun source needs the density integral toward the sun, and so does the
     // photons' skin profile (core/lighting/photons.h)
@@ -122,7 +211,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // bounds; about a tenth of the samples survive the cheap envelope test, and each of those
     // costs a shadow march of ~12 more.
     const vec3 e = bounds.extent();
-    const double stepsPerRay = std::min(4096.0, double(glm::length(e)) / s.render.step);
+    const double stepsPerRay = std::min(4096.0, double(glm::length(e)) / p.step);
     const double directEvals = double(s.camera.width) * s.camera.height * stepsPerRay * 0.1 *
                                (1.0 + (p.shadows ? 12.0 : 0.0));
     char buf[256];

@@ -11,6 +11,10 @@
 
 namespace nimbus {
 
+/// The primary and shadow step of procedural fields when render.step / render.shadow_step are 0
+/// (world units; the default scene's kilometres: 50 m).
+constexpr float kDefaultStep = 0.05f;
+
 /// What one frame needs. Everything not named here is never built.
 struct FramePlan {
     int frame = 1;
@@ -26,7 +30,20 @@ struct FramePlan {
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
+    /// march: the sky single-scattered over `skyDirections` directions
+    /// (core/lighting/sky_volume.h), their transmittance from shadow marches or (skyVolume) from
+    /// density integrals on the light-volume grid
+    bool skySingle = false;
+    bool skyVolume = false;
+    int skyDirections = 0;
+    double skyVolumeBytes = 0.0; ///< its memory: voxels x directions x 4 bytes
+    std::string skyNote;         ///< why the sky is not what the scene asked for, when it is not
     float lightVolumeCell = 0.0f;
+    /// march: the primary and first shadow steps (world units), render.step and
+    /// render.shadow_step or, where those are 0, chosen here (see stepDecision)
+    float step = kDefaultStep;
+    float shadowStep = kDefaultStep;
+    std::string stepDecision;  ///< what the steps are and why
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries
     int instances = 1;         ///< placements (1: `field` untransformed)
@@ -53,7 +70,11 @@ FramePlan planFrame(const SceneDesc& scene, int frame, const FrameBindings& bind
 FramePlan planFrame(const SceneDesc& scene, int frame, const AovSet& aovs = {});
 
 /// The majorant cell for a volume with the given bounds: render.majorant_cell when set, else
-/// about four primary steps per cell and at most 256 cells along any axis.
-float autoMajorantCell(const SceneDesc& s, const Box& bounds);
+/// about four primary steps (`step`, the plan's) per cell and at most 256 cells along any axis.
+float autoMajorantCell(const SceneDesc& s, const Box& bounds, float step);
+
+/// The smallest world voxel of the VDB grids the scene places and that are bound (a grid's
+/// voxel times the smallest scale of the instances placing it); 0 when there is none.
+float finestVoxel(const SceneDesc& s, const FrameBindings& bindings);
 
 } // namespace nimbus

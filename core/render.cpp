@@ -17,6 +17,7 @@
 #include "core/lighting/diffusion.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/photons.h"
+#include "core/lighting/sky_volume.h"
 #include "core/media/medium.h"
 #include "core/media/mie.h"
 #include "core/media/sky.h"
@@ -138,7 +139,7 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         vs.wholeMajorant[i] = f.majorant(f.bounds());
         if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
         // each volume's grid in its own space; the plan's cell for `field`
-        const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds());
+        const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds(), plan.step);
         vs.grids[i] = buildMajorantGrid(f, cell);
         stats.majorantCells += vs.grids[i].cellCount();
         const double empty = vs.grids[i].emptyFraction();
@@ -151,7 +152,7 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         stats.majorantUsed = stats.majorantUsed || vs.useGrid[i];
     }
     if (vs.useCoarse) {
-        vs.coarse = buildCoarseMajorantGrid(vs, autoMajorantCell(s, vs.bounds));
+        vs.coarse = buildCoarseMajorantGrid(vs, autoMajorantCell(s, vs.bounds, plan.step));
         stats.majorantCells = vs.coarse.cellCount();
         emptyCells = vs.coarse.emptyFraction() * double(vs.coarse.cellCount());
         stats.majorantUsed = true;
@@ -196,7 +197,9 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         }
         std::vector<LightVolume> volumes;
         std::vector<float> rho;
-        const bool needRho = plan.densityGrid && any;
+        const bool skyVolume = plan.skyVolume && any;
+        // the sky volume shares the densities at the voxel centres when other volumes are built
+        const bool needRho = (plan.densityGrid || (skyVolume && !dirs.empty())) && any;
         if (needRho && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
         if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
@@ -212,6 +215,16 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         if (plan.columnVolumes && any) {
             sv.up = &volumes[next++];
             sv.down = &volumes[next++];
+        }
+        SkyVolume skv;
+        if (skyVolume) {
+            t0 = std::chrono::steady_clock::now();
+            skv = buildSkyVolume(field, plan.skyDirections, plan.lightVolumeCell, g,
+                                 rho.empty() ? nullptr : &rho);
+            sv.sky = &skv;
+            stats.skyVolumeSeconds = secondsSince(t0);
+            stats.skyVolumeBytes = skv.bytes();
+            stats.lightVolumeLookups += skv.densityLookups;
         }
         const Medium medium = Medium::fromDesc(s.medium);
         DiffusionVolume dv;

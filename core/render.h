@@ -41,6 +41,8 @@ struct RenderStats {
     int diffusionIterations = 0;
     double photonSeconds = 0.0;      ///< march: tracing the photons of the sun
     std::uint64_t photonLookups = 0; ///< density lookups spent on them
+    double skyVolumeSeconds = 0.0;   ///< march: the single-scattered sky's density integrals
+    std::size_t skyVolumeBytes = 0;
     double integrateSeconds = 0.0;
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }
 };

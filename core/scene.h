@@ -166,6 +166,12 @@ enum class InScatter { None, Olajos, Powder };
 enum class MultipleScattering { None, Grid, Photons };
 /// march: how much of the sky a point inside the medium sees (core/integrators/march.h).
 enum class SkyOcclusion { Height, Column };
+/// march without multiple scattering: the sky as an ambient term standing for every order of
+/// scattering, or the sky light scattered once (core/lighting/sky_volume.h).
+enum class SkyScattering { Ambient, Single };
+/// The single-scattered sky's transmittance toward its directions: a shadow march per direction
+/// and sample, or a precomputed volume per direction (core/lighting/sky_volume.h).
+enum class SkyShadow { March, Volume };
 enum class Integrator { March, PathTrace };
 enum class ShadowMethod { March, Volume };
 enum class Background { Sky, Transparent };
@@ -177,7 +183,9 @@ struct RenderDesc {
     int spp = 16;       ///< pathtrace: samples per pixel
     int maxDepth = 256; ///< pathtrace: scattering events per path at most (1 = single scattering)
     int rrDepth = 3;    ///< pathtrace: Russian roulette from this depth on
-    float step = 0.05f; ///< primary step length (world units)
+    /// primary step length (world units); 0 = chosen by the plan: stepVoxels x the voxel size
+    /// of the VDB volumes, kDefaultStep for procedural fields (core/plan.h)
+    float step = 0.0f;
     float stepGrowth = 0.0f; ///< distance-adaptive: step = max(step, stepGrowth * distance)
     bool jitter = true;
     /// march: camera rays per pixel, stratified over the filter's width and weighted by it;
@@ -186,7 +194,13 @@ struct RenderDesc {
     PixelFilter filter = PixelFilter::Box; ///< how samples are weighted (march and pathtrace)
     float filterWidth = 1.0f;              ///< filter width in pixels
     float epsilon = 0.01f;                 ///< stop when transmittance drops below this
-    float shadowStep = 0.05f;
+    /// first shadow-ray step (world units); 0 = chosen by the plan like `step`, from
+    /// shadowStepVoxels
+    float shadowStep = 0.0f;
+    /// step = 0 with VDB volumes: the step as a fraction of the smallest world voxel of the
+    /// placed grids (planFrame, core/plan.h)
+    float stepVoxels = 1.0f;
+    float shadowStepVoxels = 1.0f;             ///< the same for shadowStep = 0
     float shadowGrowth = 0.3f;                 ///< shadow steps grow geometrically by this factor
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
     float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
@@ -230,6 +244,14 @@ struct RenderDesc {
     /// weighting.
     SkyOcclusion skyOcclusion = SkyOcclusion::Height;
     float skyOpenness = 1.0f;
+    /// Without multiple scattering: the sky as an ambient term (skyOcclusion) or single-scattered
+    /// over skyDirections directions (core/lighting/sky_volume.h): what pathtrace computes with
+    /// maxDepth = 1. skyShadow: the transmittance toward each from a shadow march per sample (the
+    /// directions drawn from the phase function per sample) or from a volume per direction
+    /// (fixed ones).
+    SkyScattering skyScattering = SkyScattering::Ambient;
+    SkyShadow skyShadow = SkyShadow::March;
+    int skyDirections = 8;
     InScatter inScatter = InScatter::Olajos;
     float inScatterC = 2.0f;
     float inScatterStrength = 0.5f;

@@ -970,6 +970,25 @@ std::vector<KernelCase> makeCases() {
             return std::tuple(d.v3(0.0f, 2.0f, {1.0f}), d.f(0.0f, 1.0f, {0.0f, 1.0f}),
                               d.f(0.0f, 1.0f, {0.3f}));
         }));
+    c.push_back(kernelCase(
+        "fibonacciPoint", "fibonacciPoint(a0, a1, a2)",
+        [](int i, int n, vec2 o) { return fibonacciPoint(i, n, o); },
+        [](Draw& d) {
+            const int n = d.i(1, 256, {1, 8, 256});
+            return std::tuple(d.i(0, n - 1, {0}), n, vec2(unit(d), unit(d)));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-23f,
+                  .why = "fract() of sums in [0, 2) whose division GLSL need not round "
+                         "correctly: an ulp of the operands, 2^-23 absolute"}));
+    c.push_back(kernelCase(
+        "fibonacciDirection", "fibonacciDirection(a0, a1)",
+        [](int i, int n) { return fibonacciDirection(i, n); },
+        [](Draw& d) {
+            const int n = d.i(1, 256, {1, 2, 32, 256});
+            return std::tuple(d.i(0, n - 1, {0}), n);
+        },
+        unitScale));
     c.push_back(kernelBlock(
         "marchStep",
         "vec3 L = a5; vec3 T = a6; marchStep(a0, a1, a2, a3, a4, L, T);"

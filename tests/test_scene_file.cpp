@@ -400,7 +400,7 @@ TEST(SceneFileErrors, OutOfRange) {
 
     e = errorOf("[render]\n\n\nstep = -0.5\n");
     EXPECT_TRUE(startsWith(e, "test.toml:4:")) << e;
-    EXPECT_TRUE(contains(e, "render.step: expected a number > 0, found -0.5"));
+    EXPECT_TRUE(contains(e, "render.step: expected a number >= 0, found -0.5"));
 
     e = errorOf("[medium]\ng = 1\n");
     EXPECT_TRUE(contains(e, "medium.g: expected a number in (-1, 1), found 1")) << e;
@@ -420,7 +420,7 @@ TEST(SceneFileErrors, NonFiniteNumbers) {
     for (const char* v : {"inf", "nan", "-inf", "1e300"}) {
         std::string e = errorOf(std::string("[render]\nstep = ") + v + "\n");
         EXPECT_TRUE(startsWith(e, "test.toml:2:")) << e;
-        EXPECT_TRUE(contains(e, "render.step: expected a number > 0"));
+        EXPECT_TRUE(contains(e, "render.step: expected a number >= 0"));
     }
 }
 
@@ -463,7 +463,7 @@ TEST(SceneFileErrors, BadFieldKindDoesNotCascade) {
 }
 
 TEST(SceneFileErrors, AllProblemsAreReportedInFileOrder) {
-    std::string e = errorOf("[render]\nstep = 0\nfps = -1\n\n[camera]\nfov = 0\n");
+    std::string e = errorOf("[render]\nstep = -1\nfps = -1\n\n[camera]\nfov = 0\n");
     EXPECT_TRUE(startsWith(e, "test.toml:2:")) << e;
     EXPECT_TRUE(contains(e, "\ntest.toml:3:"));
     EXPECT_TRUE(contains(e, "\ntest.toml:6:"));
@@ -627,7 +627,7 @@ TEST(SceneFileOverrides, LaterOverrideWins) {
 TEST(SceneFileOverrides, AreValidated) {
     std::string e = errorOf("[render]\nstep = 0.1\n", {"render.step=-1"});
     EXPECT_TRUE(startsWith(e, "--set render.step=-1: ")) << e;
-    EXPECT_TRUE(contains(e, "render.step: expected a number > 0, found -1"));
+    EXPECT_TRUE(contains(e, "render.step: expected a number >= 0, found -1"));
 
     e = errorOf("", {"camera.fov=wide"});
     EXPECT_TRUE(startsWith(e, "--set camera.fov=wide: camera.fov")) << e;
@@ -789,9 +789,10 @@ TEST(SceneSettings, ValuesAreTheEffectiveOnes) {
     EXPECT_EQ(again.scene.render.step, f.scene.render.step);
 }
 
-TEST(SceneSteps, ScaleExactlyTheThreeStepKeys) {
-    EXPECT_EQ(io::stepScheduleKeys(), (std::vector<std::string>{"render.step", "render.step_growth",
-                                                                "render.shadow_step"}));
+TEST(SceneSteps, ScaleExactlyTheStepKeys) {
+    EXPECT_EQ(io::stepScheduleKeys(),
+              (std::vector<std::string>{"render.step", "render.step_voxels", "render.step_growth",
+                                        "render.shadow_step", "render.shadow_step_voxels"}));
     SceneFile f =
         parseSceneText("[render]\nstep = 0.04\nstep_growth = 0.002\nshadow_step = 0.1\n", "steps");
     const auto before = io::sceneSettings(f);
@@ -801,8 +802,9 @@ TEST(SceneSteps, ScaleExactlyTheThreeStepKeys) {
     EXPECT_EQ(f.scene.render.shadowStep, float(double(0.1f) * 0.5));
     const auto after = io::sceneSettings(f);
     for (const auto& [key, value] : before) {
-        const bool step =
-            key == "render.step" || key == "render.step_growth" || key == "render.shadow_step";
+        const bool step = key == "render.step" || key == "render.step_voxels" ||
+                          key == "render.step_growth" || key == "render.shadow_step" ||
+                          key == "render.shadow_step_voxels";
         EXPECT_EQ(value != after.at(key), step) << key;
     }
 }

@@ -30,6 +30,20 @@ Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi) {
 
 } // namespace
 
+vec3 gridVoxelSize(const GridBinding& b) {
+    if (!b.grid) return vec3(0.0f);
+    const nanovdb::FloatGrid& g = *nanoGrid(b.grid);
+    const nanovdb::Vec3f o = g.indexToWorldF(nanovdb::Vec3f(0.0f));
+    vec3 size;
+    for (int a = 0; a < 3; ++a) {
+        nanovdb::Vec3f e(0.0f);
+        e[a] = 1.0f;
+        const nanovdb::Vec3f w = g.indexToWorldF(e) - o;
+        size[a] = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    }
+    return size;
+}
+
 GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b) {
     static std::atomic<std::uint64_t> serials{0};
     GridField f;

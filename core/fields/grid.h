@@ -24,6 +24,9 @@ struct GridField {
     void forEachDensityNode(void (*fn)(void*, const Box&, float), void* ctx) const;
 };
 
+/// World size of a voxel of the loaded grid `b` along each of its index axes (0 without a grid).
+vec3 gridVoxelSize(const GridBinding& b);
+
 /// A grid field of `v` over its loaded grid `b` (null grid: no density).
 GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b);
 

@@ -6,6 +6,7 @@
 
 #include "core/lighting/diffusion.h"
 #include "core/lighting/photons.h"
+#include "core/lighting/sky_volume.h"
 
 namespace nimbus {
 
@@ -26,8 +27,8 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
       surfaces_(surfaces),
       skyIrradiance_(surfaces ? scene.sky : SkyDesc{SkyKind::None}, surfaces ? 65 : 2),
       camera_(scene.camera), medium_(Medium::fromDesc(scene.medium)),
-      primary_(scene.render.step, scene.render.stepGrowth),
-      shadow_(scene.render.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)) {
+      primary_(plan.step, scene.render.stepGrowth),
+      shadow_(plan.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)) {
     // similarity relation (van de Hulst): multiply scattered light sees the medium as isotropic
     // with sigma_s' = sigma_s (1 - g); diffusion decays by sqrt(3 sigma_a' / sigma_t') per
     // transport optical depth (the effective transport coefficient, Jensen et al. 2001)
@@ -37,6 +38,32 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
         kappa_[c] = std::sqrt(3.0f * std::max(0.0f, 1.0f - albedo));
     }
     frameKey_ = pcg(std::uint32_t(plan.frame) ^ pcg(scene.render.seed));
+    if (plan.skySingle)
+        for (int k = 0; k < plan.skyDirections; ++k) {
+            skyDirs_.push_back(kern::fibonacciDirection(k, plan.skyDirections));
+            skyL_.push_back(skyRadiance(scene.sky, skyDirs_.back()) * scene.sky.ambient);
+        }
+}
+
+void MarchContext::skyWeights(vec3 d, vec3* W) const {
+    const int K = int(skyL_.size());
+    vec3 sum(0.0f);
+    for (int k = 0; k < K; ++k) {
+        const vec3 ph = medium_.phase.eval(glm::dot(d, skyDirs_[size_t(k)]));
+        W[k] = ph * skyL_[size_t(k)];
+        sum += ph;
+    }
+    const vec3 inv = vec3(1.0f) / glm::max(sum, vec3(1e-30f));
+    for (int k = 0; k < K; ++k) W[k] *= inv;
+}
+
+vec3 MarchContext::skySingleScatter(vec3 p, const vec3* W) const {
+    const int K = int(skyL_.size());
+    float tau[kMaxSkyDirections];
+    volumes_.sky->sample(p, tau);
+    vec3 S(0.0f);
+    for (int k = 0; k < K; ++k) S += W[k] * kern::beerLambert(medium_.sigma_t * tau[k]);
+    return S;
 }
 
 vec3 MarchContext::skyInScatter(vec3 p) const {
@@ -53,9 +80,40 @@ vec3 MarchContext::skyInScatter(vec3 p) const {
                                     s_.render.skyOpenness);
 }
 
+vec3 MarchContext::skySingleScatterMarched(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt,
+                                           RayVolumes& rv) const {
+    // K directions drawn from the phase function around d, stratified: a 2D Fibonacci lattice
+    // ((j + 1/2) / K, j / golden ratio) shifted by a random offset per sample (Cranley-Patterson
+    // rotation) drives the phase function's inverse CDF and the azimuth; each direction weighs
+    // eval / pdf (1 but for the Mie table) times the sky radiance times the transmittance of a
+    // shadow march. Unbiased; measured against fixed directions turned at random per sample,
+    // the phase sampling had 0.75x the noise on the default scene (docs/accuracy.md)
+    const float ox = kern::hashToUnit(rng = pcg(rng)), oy = kern::hashToUnit(rng = pcg(rng));
+    const int K = plan_.skyDirections;
+    vec3 S(0.0f);
+    for (int j = 0; j < K; ++j) {
+        const vec2 u = kern::fibonacciPoint(j, K, vec2(ox, oy));
+        // the lobe of two-lobe kinds (and the table's isotropic part) picked at random
+        const float lobe = kern::hashToUnit(pcg(rng ^ std::uint32_t(2 * j + 1)));
+        const PhaseSample ps = medium_.phase.sample(vec2(u.x, lobe));
+        if (!(ps.pdf > 0.0f)) continue;
+        const vec3 w = kern::phaseDirection(d, ps.cosTheta, u.y);
+        if (surfaces_ && surfaces_->occluded(Ray{p, w}, 1e-4f, std::numeric_limits<float>::max()))
+            continue;
+        const float tau = densityIntegral(p, w, pcg(rng ^ std::uint32_t(2 * j)), cnt, rv);
+        S += ps.weight * skyRadiance(s_.sky, w) * kern::beerLambert(medium_.sigma_t * tau);
+    }
+    return S * (s_.sky.ambient / float(K));
+}
+
 float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt,
                                        RayVolumes& rv) const {
-    const Ray ray{p, s_.sun.direction};
+    return densityIntegral(p, s_.sun.direction, rng, cnt, rv);
+}
+
+float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt,
+                                    RayVolumes& rv) const {
+    const Ray ray{p, w};
     const float jitter = s_.render.jitter ? kern::hashToUnit(pcg(rng)) : 0.5f;
     // stop once the sun is blocked for every channel (transmittance < 1e-5)
     const float tauStop = 11.5f / std::max(minComponent(medium_.sigma_t), 1e-12f);
@@ -115,6 +173,9 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
     const bool surface = surfaces_ && surfaces_->intersect(ray, 0.0f, tMax, hit);
     if (surface) tMax = hit.t;
 
+    // the single-scattered sky's weights, computed at the ray's first sample in the medium
+    bool skyWeighted = false;
+
     RayVolumes& rv = scratch.primary;
     if (rv.begin(vols_, ray, 0.0f, tMax)) {
         marchSegments(
@@ -157,6 +218,17 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         ms[c] = kern::p1Radiance(phi[c], grad[c], medium_.sigma_tr[c], rho,
                                                  medium_.g, r.msP1, -ray.d);
                     S += ms * kern::NB_INV_4PI;
+                } else if (volumes_.sky) {
+                    if (!skyWeighted) {
+                        scratch.skyWeights.resize(skyL_.size());
+                        skyWeights(ray.d, scratch.skyWeights.data());
+                        skyWeighted = true;
+                    }
+                    S += skySingleScatter(p, scratch.skyWeights.data());
+                } else if (plan_.skySingle) {
+                    S += skySingleScatterMarched(
+                        p, ray.d, pcg(pixelKey ^ std::uint32_t(n * 0x85ebca6bll) ^ 0x2545f491u),
+                        cnt, scratch.shadow);
                 } else if (plan_.ambient) {
                     S += skyInScatter(p);
                 }

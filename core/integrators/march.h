@@ -14,10 +14,12 @@
 /// least once from a diffusion solve per frame (core/lighting/diffusion.h; Stam 1995), which also
 /// carries all of the sky light: its P1 radiance (phi + 3 g F.w) / 4 pi is the in-scattered
 /// radiance. Without the grid, the sky enters as an ambient term, occluded by height (v1) or by the
-/// normalised openness of the vertical column (render.sky_occlusion = "column").
+/// normalised openness of the vertical column (render.sky_occlusion = "column"), or scattered
+/// once (render.sky_scattering = "single": core/lighting/sky_volume.h).
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "core/accel.h"
 #include "core/camera.h"
@@ -34,6 +36,7 @@ namespace nimbus {
 
 struct DiffusionVolume; // core/lighting/diffusion.h
 struct PhotonVolume;    // core/lighting/photons.h
+struct SkyVolume;       // core/lighting/sky_volume.h
 
 /// What march's multiple-scattering and sky terms read (null when unused): the density
 /// integrals straight up and straight down (the vertical column above and below a sample) and
@@ -43,6 +46,7 @@ struct ScatterVolumes {
     const LightVolume* down = nullptr;
     const DiffusionVolume* diffusion = nullptr; ///< sun and sky multiple scattering
     const PhotonVolume* photons = nullptr;      ///< the sun's multiple scattering (photons)
+    const SkyVolume* sky = nullptr;             ///< the sky scattered once
 };
 
 /// Everything a pixel needs, precomputed once per frame.
@@ -55,6 +59,7 @@ class MarchContext {
     /// from pixel to pixel (no allocation per ray).
     struct Scratch {
         RayVolumes primary, shadow;
+        std::vector<vec3> skyWeights; ///< the single-scattered sky's W_k of the current ray
     };
 
     MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
@@ -71,6 +76,10 @@ class MarchContext {
     Sample traceRay(const Ray& ray, std::uint32_t key, float jitter, RayCounters& cnt,
                     Scratch& scratch) const;
 
+    /// Density integral along the ray from p toward direction w (shadow march), stopped once
+    /// the transmittance is below 1e-5 in every channel.
+    float densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt,
+                          RayVolumes& rv) const;
     /// Density integral along the ray from p toward the sun (shadow march).
     float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
     /// Density integral toward the sun from p: light volume or shadow march; infinite when a
@@ -81,6 +90,15 @@ class MarchContext {
                          RayVolumes& rv) const;
     /// In-scattered sky radiance at p (isotropic) by the render.sky_occlusion model.
     vec3 skyInScatter(vec3 p) const;
+    /// The weights W_k(d) of the single-scattered sky for a ray of direction d (sky_volume.h):
+    /// the sky radiance toward each direction times the phase function, normalised per channel.
+    void skyWeights(vec3 d, vec3* W) const;
+    /// The single-scattered sky at p for the weights of its ray (fixed directions, volume).
+    vec3 skySingleScatter(vec3 p, const vec3* W) const;
+    /// The single-scattered sky at p seen along direction d, a shadow march toward each of the
+    /// directions turned by a random rotation drawn from `rng`.
+    vec3 skySingleScatterMarched(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt,
+                                 RayVolumes& rv) const;
 
   private:
     const SceneDesc& s_;
@@ -93,8 +111,10 @@ class MarchContext {
     Camera camera_;
     Medium medium_;
     StepSchedule primary_, shadow_;
-    SkyMeans sky_; ///< mean sky radiance over the sphere and hemispheres, x ambient
-    vec3 kappa_;   ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))
+    SkyMeans sky_;              ///< mean sky radiance over the sphere and hemispheres, x ambient
+    std::vector<vec3> skyDirs_; ///< single-scattered sky: the directions (fibonacciDirection)
+    std::vector<vec3> skyL_;    ///< the sky radiance toward each of them, x ambient
+    vec3 kappa_; ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))
     std::uint32_t frameKey_;
 };
 

@@ -109,3 +109,23 @@ NB_FN void marchStep(vec3 S, vec3 sigmaS, vec3 sigmaT, float rho, float dt, INOU
                      INOUT(vec3) T) {
     integrateStep(S * (sigmaS * rho), sigmaT * rho, dt, L, T);
 }
+
+// --- single-scattered sky light (core/lighting/sky_volume.h) ----------------------------------
+
+// Point i of n of a 2D Fibonacci lattice ((i + 1/2) / n, i / golden ratio) in the unit square,
+// shifted by `offset` modulo 1 (a Cranley-Patterson rotation: each point uniform, the set
+// stratified).
+NB_FN vec2 fibonacciPoint(int i, int n, vec2 offset) {
+    return vec2(fract((float(i) + 0.5f) / float(n) + offset.x),
+                fract(float(i) * 0.618033989f + offset.y));
+}
+
+// Direction i of n spread evenly over the sphere (a Fibonacci lattice; Gonzalez 2010): equal
+// areas in height y = 1 - (2 i + 1) / n, turning by the golden angle from one to the next (the
+// angle taken as 2 pi fract(i (2 - phi)), so cos and sin see arguments in [0, 2 pi) only).
+NB_FN vec3 fibonacciDirection(int i, int n) {
+    float y = 1.0f - (2.0f * float(i) + 1.0f) / float(n);
+    float r = sqrt(max(0.0f, 1.0f - y * y));
+    float a = 6.28318530718f * fract(float(i) * 0.381966011f);
+    return vec3(r * cos(a), y, r * sin(a));
+}

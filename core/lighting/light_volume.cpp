@@ -22,8 +22,11 @@ inline float rimFactor(float u, int n) {
     return 1.0f;
 }
 
+} // namespace
+
 /// Propagates the density integral toward sunDir slice by slice (see the header).
-void propagate(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
+void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
+    lv.tau.assign(size_t(lv.res.x) * lv.res.y * lv.res.z, 0.0f);
     // dominant axis of the sun direction; slices ordered from the sun side
     int a = 0;
     for (int k = 1; k < 3; ++k)
@@ -87,8 +90,6 @@ void propagate(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
     }
 }
 
-} // namespace
-
 float LightVolume::sample(vec3 p) const {
     return sampleVoxelCentres(tau, bounds.lo, res, voxel, p);
 }
@@ -117,22 +118,31 @@ std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3
     return rho;
 }
 
+ivec3 lightVolumeResolution(const Box& bounds, float cell) {
+    const vec3 ext = bounds.extent();
+    ivec3 res;
+    for (int a = 0; a < 3; ++a) res[a] = std::max(2, int(std::ceil(ext[a] / cell)));
+    return res;
+}
+
+LightVolume lightVolumeGrid(const Field& field, float cell) {
+    LightVolume lv;
+    lv.bounds = field.bounds();
+    lv.res = lightVolumeResolution(lv.bounds, cell);
+    lv.voxel = lv.bounds.extent() / vec3(lv.res);
+    return lv;
+}
+
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid,
                                            std::vector<float>* rhoOut) {
-    LightVolume lv;
-    lv.bounds = field.bounds();
-    const vec3 ext = lv.bounds.extent();
-    for (int a = 0; a < 3; ++a) lv.res[a] = std::max(2, int(std::ceil(ext[a] / cell)));
-    lv.voxel = ext / vec3(lv.res);
-    const size_t n = size_t(lv.res.x) * lv.res.y * lv.res.z;
-    lv.tau.assign(n, 0.0f);
+    LightVolume lv = lightVolumeGrid(field, cell);
     std::vector<float> rho = densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups);
 
     std::vector<LightVolume> out;
     for (const vec3& d : dirs) {
         out.push_back(lv);
-        propagate(out.back(), rho, d);
+        propagateDensityIntegral(out.back(), rho, d);
         if (out.size() > 1) out.back().densityLookups = 0; // counted once, on the first
     }
     if (rhoOut) *rhoOut = std::move(rho);

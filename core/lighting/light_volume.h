@@ -37,6 +37,17 @@ struct LightVolume {
 std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3 res,
                                     const MajorantGrid* grid, std::size_t& lookups);
 
+/// Voxels per axis of a light volume over `bounds` with voxels of about `cell`: at least 2.
+ivec3 lightVolumeResolution(const Box& bounds, float cell);
+
+/// The voxel grid the light volumes of `field` use for voxels of about `cell` world units: the
+/// field's bounds, at least 2 voxels per axis; `tau` left empty.
+LightVolume lightVolumeGrid(const Field& field, float cell);
+
+/// Fills lv.tau with the density integral toward `direction` from the densities `rho` at its
+/// voxel centres (the slice-by-slice propagation described above).
+void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, vec3 direction);
+
 /// Builds the volume over field.bounds() with voxels of about `cell` world units. Cells the
 /// majorant grid (if given) proves empty are not evaluated. TBB-parallel within each slice.
 LightVolume buildLightVolume(const Field& field, vec3 sunDirection, float cell,

@@ -78,13 +78,15 @@ struct Row {
 };
 
 std::string nimbusSettings(const RenderDesc& r, double voxel) {
+    // steps of 0 are the plan's: step_voxels x the voxel (core/plan.h; one grid here)
+    const double step = r.step > 0.0f ? r.step : r.stepVoxels * voxel;
+    const double shadow = r.shadowStep > 0.0f ? r.shadowStep : r.shadowStepVoxels * voxel;
     char buf[200];
     if (r.shadow == ShadowMethod::Volume)
-        std::snprintf(buf, sizeof buf, "step %.4g (%.3g vx), light volume", r.step, r.step / voxel);
+        std::snprintf(buf, sizeof buf, "step %.4g (%.3g vx), light volume", step, step / voxel);
     else
         std::snprintf(buf, sizeof buf, "step %.4g (%.3g vx), shadow %.4g (%.3g vx) +%g%%/step",
-                      r.step, r.step / voxel, r.shadowStep, r.shadowStep / voxel,
-                      100.0 * r.shadowGrowth);
+                      step, step / voxel, shadow, shadow / voxel, 100.0 * r.shadowGrowth);
     std::string s = buf;
     if (r.stepGrowth > 0.0f) s += ", step growth " + std::to_string(r.stepGrowth);
     return s;

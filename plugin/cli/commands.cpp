@@ -238,6 +238,10 @@ int runRender(const RenderOptions& o) {
             if (st.photonSeconds > 0.0)
                 std::snprintf(grids + std::strlen(grids), sizeof grids - std::strlen(grids),
                               ", photons %.2f s", st.photonSeconds);
+            if (st.skyVolumeSeconds > 0.0)
+                std::snprintf(grids + std::strlen(grids), sizeof grids - std::strlen(grids),
+                              ", sky volume %.2f s (%.0f MB)", st.skyVolumeSeconds,
+                              double(st.skyVolumeBytes) / 1048576.0);
             std::fprintf(
                 stderr,
                 "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s%s, march %.2f s), "

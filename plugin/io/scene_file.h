@@ -95,12 +95,15 @@ std::vector<SceneParamInfo> sceneFileParameters();
 /// give "volume[i].key" and "mesh[i].key"; instances (also those of [[scatter]]) are left out.
 std::map<std::string, std::string> sceneSettings(const SceneFile& f);
 
-/// The keys of the march step schedule ("render.step", "render.step_growth",
-/// "render.shadow_step"): the rows tagged as scaling with the step.
+/// The keys of the march step schedule ("render.step", "render.step_voxels",
+/// "render.step_growth", "render.shadow_step", "render.shadow_step_voxels"): the rows tagged as
+/// scaling with the step.
 std::vector<std::string> stepScheduleKeys();
 
 /// Multiplies every key of the step schedule (stepScheduleKeys()) of @p s by @p f, rounding to
-/// float as a scene file would (render.shadow_growth is a ratio and is kept).
+/// float as a scene file would (render.shadow_growth is a ratio and is kept). A step of 0 (the
+/// plan's choice) stays 0 where the scene places a VDB volume (render.step_voxels and
+/// render.shadow_step_voxels scale instead) and becomes kDefaultStep x f elsewhere.
 void scaleSteps(SceneDesc& s, double f);
 
 /// A parameter that `nimbus calibrate` fits, from the parameter table.

@@ -3,6 +3,8 @@
 ///        scene (EXR metadata), the step schedule and the knobs of `nimbus calibrate`.
 #include <utility>
 
+#include "core/plan.h"
+#include "core/tracking/volumes.h"
 #include "plugin/io/scene/table.h"
 
 namespace nimbus::io {
@@ -55,6 +57,14 @@ std::vector<std::string> stepScheduleKeys() {
 }
 
 void scaleSteps(SceneDesc& s, double f) {
+    // a step of 0 is the plan's: from the voxel (step_voxels, scaled below) where the scene
+    // places a VDB volume, else the procedural default, made explicit here so that it scales
+    bool vdb = s.field.kind == FieldKind::Vdb && isPlaced(s, 0);
+    for (size_t i = 0; i < s.volumes.size(); ++i) vdb = vdb || isPlaced(s, int(i) + 1);
+    if (!vdb) {
+        if (s.render.step == 0.0f) s.render.step = kDefaultStep;
+        if (s.render.shadowStep == 0.0f) s.render.shadowStep = kDefaultStep;
+    }
     withStaging(s, [f](Staging& st) {
         for (const Param& p : registry()) {
             if (!p.stepSchedule) continue;

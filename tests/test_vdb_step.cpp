@@ -1,0 +1,171 @@
+// The march steps of VDB volumes: with render.step (and render.shadow_step) left at 0 the plan
+// takes render.step_voxels (render.shadow_step_voxels) times the finest voxel of the placed
+// grids; an explicit step wins; procedural fields keep their 0.05; --explain says which and why.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "core/fields/grid.h"
+#include "core/image_error.h"
+#include "core/plan.h"
+#include "plugin/host/session.h"
+#include "plugin/io/scene_file.h"
+#include "test_util.h"
+
+using namespace nimbus;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kData = NIMBUS_SHARED_VDB_DIR;
+
+/// OpenVDB's smoke plume (voxel 0.476) seen from the front, 48x27; `render` is the [render]
+/// section's extra lines.
+std::string smokeScene(const std::string& render = "") {
+    return "[camera]\nposition = [0.0, 15.0, -90.0]\nlook_at = [0.0, 15.0, 0.0]\nfov = 40.0\n"
+           "width = 48\nheight = 27\n"
+           "[sun]\nelevation = 30.0\nazimuth = 60.0\nintensity = 3.0\n"
+           "[medium]\nsigma_s = 1.0\ng = 0.6\n"
+           "[field]\nkind = \"vdb\"\npath = \"" +
+           (kData / "openvdb_smoke1.vdb").string() +
+           "\"\n"
+           "[render]\nmultiple_scattering = \"none\"\ninscatter = \"none\"\nthreads = 2\n"
+           "background = \"transparent\"\n" +
+           render;
+}
+
+/// Loads `text`, binds frame 1 and returns its plan.
+FramePlan boundPlan(host::Session& s, const std::string& text,
+                    const std::vector<std::string>& overrides = {}) {
+    const host::Status st = s.loadString(text, "step.toml", overrides);
+    EXPECT_TRUE(st.ok()) << st.message;
+    const host::Status b = s.bind(1);
+    EXPECT_TRUE(b.ok()) << b.message;
+    return s.plan(1);
+}
+
+/// A float as TOML text that reads back to the same float.
+std::string exact(float x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", x);
+    return buf;
+}
+
+} // namespace
+
+#define REQUIRE_DATA()                                                                             \
+    if (!fs::is_directory(kData))                                                                  \
+    GTEST_SKIP() << "shared VDB folder " << kData << " is absent: VDB step tests skipped"
+
+TEST(VdbStep, UnsetStepsComeFromTheVoxel) {
+    REQUIRE_DATA();
+    host::Session s;
+    const FramePlan p = boundPlan(s, smokeScene());
+    const float voxel = minComponent(gridVoxelSize(s.bindings().grid(0)));
+    EXPECT_NEAR(voxel, 0.476f, 0.001f);
+    const RenderDesc defaults;
+    EXPECT_EQ(p.step, defaults.stepVoxels * voxel);
+    EXPECT_EQ(p.shadowStep, defaults.shadowStepVoxels * voxel);
+    EXPECT_NE(p.stepDecision.find("render.step_voxels"), std::string::npos) << p.stepDecision;
+    EXPECT_NE(p.explain().find("finest voxel"), std::string::npos) << p.explain();
+    // step_voxels scales it
+    host::Session t;
+    const FramePlan q = boundPlan(t, smokeScene("step_voxels = 2\nshadow_step_voxels = 4\n"));
+    EXPECT_EQ(q.step, 2.0f * voxel);
+    EXPECT_EQ(q.shadowStep, 4.0f * voxel);
+}
+
+TEST(VdbStep, AnExplicitStepWins) {
+    REQUIRE_DATA();
+    host::Session s;
+    const FramePlan p = boundPlan(s, smokeScene("step = 0.05\n"));
+    EXPECT_EQ(p.step, 0.05f);
+    EXPECT_EQ(p.shadowStep,
+              RenderDesc{}.shadowStepVoxels * minComponent(gridVoxelSize(s.bindings().grid(0))));
+    EXPECT_NE(p.stepDecision.find("0.05 (render.step)"), std::string::npos) << p.stepDecision;
+    // and an override too
+    host::Session t;
+    const FramePlan q = boundPlan(t, smokeScene(), {"render.shadow_step=0.3"});
+    EXPECT_EQ(q.shadowStep, 0.3f);
+}
+
+TEST(VdbStep, RendersWithTheVoxelStep) {
+    // the frame rendered with steps left to the plan is the frame rendered with those steps
+    // given explicitly, and differs from the old default of 0.05
+    REQUIRE_DATA();
+    host::Session a;
+    const FramePlan p = boundPlan(a, smokeScene());
+    Framebuffer fa, fb, fc;
+    RenderStats sa, sb, sc;
+    ASSERT_TRUE(a.render(1, fa, sa).ok());
+    host::Session b;
+    boundPlan(
+        b, smokeScene("step = " + exact(p.step) + "\nshadow_step = " + exact(p.shadowStep) + "\n"));
+    // the text form of the steps must read back to the same floats
+    ASSERT_EQ(b.scene().render.step, p.step);
+    ASSERT_EQ(b.scene().render.shadowStep, p.shadowStep);
+    ASSERT_TRUE(b.render(1, fb, sb).ok());
+    EXPECT_EQ(fa.rgba, fb.rgba);
+    EXPECT_EQ(sa.lookups(), sb.lookups());
+    host::Session c;
+    boundPlan(c, smokeScene("step = 0.05\nshadow_step = 0.05\n"));
+    ASSERT_TRUE(c.render(1, fc, sc).ok());
+    // about 10x the lookups at a tenth of a voxel, and the image within 1% of it
+    EXPECT_GT(sc.lookups(), 5 * sa.lookups());
+    EXPECT_LT(imageError(fa, fc).relative(), 0.02);
+}
+
+TEST(VdbStep, ProceduralFieldsKeepTheirDefault) {
+    SceneDesc s; // the procedural cumulus, render.step and shadow_step 0
+    const FramePlan p = planFrame(s, 1);
+    EXPECT_EQ(p.step, kDefaultStep);
+    EXPECT_EQ(p.shadowStep, kDefaultStep);
+    EXPECT_NE(p.stepDecision.find("procedural"), std::string::npos) << p.stepDecision;
+    // scaled as converge scales them: the default made explicit
+    io::scaleSteps(s, 0.5);
+    EXPECT_EQ(s.render.step, float(double(kDefaultStep) * 0.5));
+    EXPECT_EQ(planFrame(s, 1).step, s.render.step);
+}
+
+TEST(VdbStep, ScalingLeavesTheVoxelRuleInPlace) {
+    REQUIRE_DATA();
+    host::Session s;
+    boundPlan(s, smokeScene());
+    SceneDesc scaled = s.scene();
+    io::scaleSteps(scaled, 0.25);
+    EXPECT_EQ(scaled.render.step, 0.0f);
+    EXPECT_EQ(scaled.render.stepVoxels, float(double(RenderDesc{}.stepVoxels) * 0.25));
+    const FramePlan p = planFrame(scaled, 1, s.bindings());
+    EXPECT_EQ(p.step, scaled.render.stepVoxels * minComponent(gridVoxelSize(s.bindings().grid(0))));
+}
+
+TEST(VdbStep, InstanceScaleShrinksTheVoxel) {
+    REQUIRE_DATA();
+    host::Session s;
+    const FramePlan p = boundPlan(
+        s, smokeScene() + "[[instance]]\nvolume = \"field\"\nscale = [0.5, 0.5, 0.5]\n"
+                          "[[instance]]\nvolume = \"field\"\ntranslate = [40.0, 0.0, 0.0]\n");
+    const float voxel = minComponent(gridVoxelSize(s.bindings().grid(0)));
+    EXPECT_EQ(finestVoxel(s.scene(), s.bindings()), 0.5f * voxel);
+    EXPECT_EQ(p.step, RenderDesc{}.stepVoxels * 0.5f * voxel);
+}
+
+TEST(VdbStep, ExplainSaysTheRuleWithoutReadingGrids) {
+    REQUIRE_DATA();
+    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbstep_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    const fs::path scene = dir / "step.toml";
+    {
+        std::ofstream f(scene);
+        f << smokeScene();
+    }
+    const CliRun r = runNimbus("render " + scene.string() + " --explain");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("march steps: primary 1 x the finest voxel (render.step_voxels"),
+              std::string::npos)
+        << r.output;
+    fs::remove_all(dir);
+}
