@@ -49,6 +49,7 @@ struct Measured {
     double seconds = 0.0;
     RenderStats stats;
     Framebuffer fb;
+    float step = 0.0f, shadowStep = 0.0f; ///< march's steps as the plan chose them
 };
 
 /// The scene with its whole step schedule scaled by f: render.step, render.step_growth and

@@ -48,6 +48,8 @@ SceneDesc withSteps(const SceneDesc& base, double f) {
 bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m) {
     Renderer r(s);
     const FramePlan plan = r.plan(frame, b);
+    m.step = plan.step;
+    m.shadowStep = plan.shadowStep;
     RenderCallbacks cb;
     cb.cancel = &gCancel;
     if (plan.bakeNoise) r.fieldFor(plan, b);
@@ -332,12 +334,12 @@ int runConverge(const ConvergeOptions& o) {
         std::snprintf(
             line, sizeof line,
             "| %-9s | %-16s | %-8.4g | %-8s | %-11.1f | %-10.3f | %-9.3g | %-9s | %-9s |\n",
-            r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : rd.step,
+            r.rung->integrator.c_str(), r.rung->label.c_str(), pt ? 0.0 : r.m.step,
             pt ? std::to_string(rd.spp).c_str() : "-", perRay, r.m.seconds, r.err,
             percent(r.rel).c_str(), percent(rel).c_str());
         table << line;
-        csv << r.rung->integrator << "," << r.rung->label << "," << (pt ? 0.0 : rd.step) << ","
-            << (pt ? 0.0 : rd.shadowStep) << "," << (pt ? 0 : rd.octaves) << ","
+        csv << r.rung->integrator << "," << r.rung->label << "," << (pt ? 0.0 : r.m.step) << ","
+            << (pt ? 0.0 : r.m.shadowStep) << "," << (pt ? 0 : rd.octaves) << ","
             << (pt                                  ? "-"
                 : rd.shadow == ShadowMethod::Volume ? "volume"
                                                     : "march")
