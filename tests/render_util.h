@@ -37,6 +37,17 @@ inline nimbus::Framebuffer renderScene(const nimbus::SceneDesc& s,
     return renderScene(s, nimbus::FrameBindings{}, statsOut, aovs, frame);
 }
 
+/// Renders `s` on one thread and on two with tiles of `tileSize` pixels and expects the same
+/// image: every pixel's random stream is keyed by the pixel, not the thread.
+inline void expectSameImageOnOneAndTwoThreads(nimbus::SceneDesc s, int tileSize = 8) {
+    s.render.threads = 1;
+    const nimbus::Framebuffer a = renderScene(s);
+    s.render.threads = 2;
+    s.render.tileSize = tileSize;
+    const nimbus::Framebuffer b = renderScene(s);
+    EXPECT_EQ(a.rgba, b.rgba);
+}
+
 /// Relative RMSE of `a` against `ref` over the cloud's pixels (core/image_error.h: the one
 /// error definition of Nimbus).
 inline double relativeRmse(const nimbus::Framebuffer& a, const nimbus::Framebuffer& ref) {

@@ -4,14 +4,11 @@
 #include "test_util.h"
 
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <thread>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "plugin/io/image_output.h"
@@ -165,20 +162,10 @@ TEST(Cli, InterruptedRenderLeavesNoFile) {
     fs::path d = tempDir("interrupt");
     // slow on purpose: a very fine step at a larger size
     writeFile(d / "slow.toml", tinyScene(d));
-    std::string cmd = std::string(NIMBUS_CLI_PATH) + " render " + (d / "slow.toml").string() +
-                      " --set render.step=0.002 --set render.shadow_step=0.005 --set "
-                      "camera.width=320 --set camera.height=180 --progress none";
-    pid_t pid = fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-        execl("/bin/sh", "sh", "-c", ("exec " + cmd + " >/dev/null 2>&1").c_str(), (char*)nullptr);
-        _exit(127);
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-    kill(pid, SIGINT);
-    int st = 0;
-    waitpid(pid, &st, 0);
-    const int code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    const int code = interruptNimbus("render " + (d / "slow.toml").string() +
+                                     " --set render.step=0.002 --set render.shadow_step=0.005 "
+                                     "--set camera.width=320 --set camera.height=180 --progress "
+                                     "none");
     EXPECT_EQ(code, 130);
     EXPECT_FALSE(fs::exists(d / "tiny.0001.exr"));
     EXPECT_FALSE(fs::exists(d / "tiny.0001.png"));

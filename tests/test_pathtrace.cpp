@@ -187,10 +187,5 @@ TEST(PathTrace, DeterministicAcrossThreadCounts) {
     SceneDesc s = boxScene();
     s.sky.kind = SkyKind::Uniform;
     s.render.spp = 16;
-    s.render.threads = 1;
-    Framebuffer a = renderScene(s);
-    s.render.threads = 2;
-    s.render.tileSize = 4;
-    Framebuffer b = renderScene(s);
-    EXPECT_EQ(a.rgba, b.rgba);
+    expectSameImageOnOneAndTwoThreads(s, 4);
 }

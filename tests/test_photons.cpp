@@ -118,13 +118,7 @@ TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
 }
 
 TEST(Photons, DeterministicAcrossThreadCounts) {
-    SceneDesc s = smallCumulus();
-    s.render.threads = 1;
-    const Framebuffer a = renderScene(s);
-    s.render.threads = 2;
-    s.render.tileSize = 8;
-    const Framebuffer b = renderScene(s);
-    EXPECT_EQ(a.rgba, b.rgba);
+    expectSameImageOnOneAndTwoThreads(smallCumulus());
 }
 
 TEST(Photons, PlanNamesThemAndLeavesOutWhatIsNotNeeded) {

@@ -6,17 +6,12 @@
 #include "test_util.h"
 
 #include <cmath>
-#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
-
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include "plugin/io/image_output.h"
 
@@ -210,20 +205,9 @@ TEST(SuiteOptions, BadOptionsAreErrors) {
 TEST_F(Suite, InterruptExits130) {
     // a reference of about ten seconds in tiles of a fraction of a second (the renderer looks at
     // the cancel flag between tiles)
-    const std::string cmd = std::string(NIMBUS_CLI_PATH) + " converge --suite --suite-data " +
-                            kData.string() + " --suite-dir " + dir.string() + " --suite-filter " +
-                            kSphere +
-                            "/thin/front/a1 --suite-size 32x18 --suite-spp 6000 --set "
-                            "render.tile_size=4";
-    pid_t pid = fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-        execl("/bin/sh", "sh", "-c", ("exec " + cmd + " >/dev/null 2>&1").c_str(), (char*)nullptr);
-        _exit(127);
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-    kill(pid, SIGINT);
-    int st = 0;
-    waitpid(pid, &st, 0);
-    EXPECT_EQ(WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), 130);
+    EXPECT_EQ(interruptNimbus("converge --suite --suite-data " + kData.string() + " --suite-dir " +
+                              dir.string() + " --suite-filter " + kSphere +
+                              "/thin/front/a1 --suite-size 32x18 --suite-spp 6000 --set "
+                              "render.tile_size=4"),
+              130);
 }

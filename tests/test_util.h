@@ -4,10 +4,13 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <system_error>
+#include <thread>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -39,6 +42,24 @@ inline CliRun runNimbus(const std::string& args, const std::string& env = "") {
     const int st = pclose(p);
     r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
     return r;
+}
+
+/// Runs `nimbus args` (output discarded), sends it SIGINT after `ms` milliseconds and returns its
+/// exit code (128 + the signal when a signal ended it).
+inline int interruptNimbus(const std::string& args, int ms = 1500) {
+    const std::string cmd =
+        "exec " + std::string(NIMBUS_CLI_PATH) + " " + args + " >/dev/null 2>&1";
+    const pid_t pid = fork();
+    if (pid < 0) return -1;
+    if (pid == 0) {
+        execl("/bin/sh", "sh", "-c", cmd.c_str(), (char*)nullptr);
+        _exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    kill(pid, SIGINT);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
 }
 
 /// A fresh folder under the system temp folder, created on construction and removed with all it

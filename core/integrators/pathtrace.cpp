@@ -41,8 +41,6 @@ PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const Vo
       medium_(Medium::fromDesc(scene.medium)), sunDepth_(sunDepth),
       sigmaTMin_(std::min(medium_.sigma_t.x, std::min(medium_.sigma_t.y, medium_.sigma_t.z))) {
     frameKey_ = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(scene.render.seed ^ 0x5bd1e995u));
-    // the roulette reads volume 0 in world space: only for one untransformed volume
-    if (sunDepth_ && !(volumes.single() && volumes.fields.size() == 1)) sunDepth_ = nullptr;
 }
 
 float PathContext::sunShadowProbability(vec3 p) const {

@@ -35,8 +35,9 @@ class PathContext {
         RayVolumes rv;
     };
 
-    /// `sunDepth`: the density integral toward the sun over volume 0 (the plan's shadow
-    /// roulette; null: every sun shadow ray is traced).
+    /// `sunDepth`: the density integral toward the sun over volume 0, in world space (the
+    /// plan's shadow roulette, which it names for one untransformed volume only; null: every
+    /// sun shadow ray is traced).
     PathContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                 const SurfaceQuery* surfaces = nullptr, const LightVolume* sunDepth = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt, Scratch& scratch) const;
