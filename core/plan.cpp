@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/fields/gardner.h"
 #include "core/fields/grid.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/sky_volume.h"
@@ -154,6 +155,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     Box bounds = s.field.homogeneous.box;
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
     if (s.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
+    if (s.field.kind == FieldKind::Gardner) bounds = gardnerBounds(s.field.gardner);
     chooseSteps(s, bindings, p);
     p.majorantCell = autoMajorantCell(s, bounds, p.step);
     p.volumes = 1 + int(s.volumes.size());
@@ -201,7 +203,9 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.densityGrid = p.diffusion || p.photons;
 
     if (s.field.kind != FieldKind::Cumulus) {
-        p.noiseDecision = "not a procedural field";
+        p.noiseDecision = s.field.kind == FieldKind::Gardner
+                              ? "Gardner's sine sums, evaluated directly"
+                              : "not a procedural field";
         return p;
     }
     const CumulusDesc& c = s.field.cumulus;

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -69,7 +70,7 @@ struct MediumDesc {
     std::shared_ptr<const MieTable> mieTable;
 };
 
-enum class FieldKind { Homogeneous, Cumulus, Vdb };
+enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner };
 enum class NoiseEval { Auto, Direct, Baked };
 
 /// A box of constant density (tests, fog layers).
@@ -118,11 +119,59 @@ struct VdbFieldDesc {
     float density = 1.0f;         ///< multiplies the grid values
 };
 
+/// Gardner's sine-sum texture (core/kernels/gardner.glsl, GardnerTexture).
+struct GardnerTextureDesc {
+    float frequency = 0.2f;    ///< cycles per world unit of the first term
+    int terms = 5;             ///< number of terms n (frequencies f, 2f, ..., 2^(n-1) f)
+    float k = 1.0f;            ///< the texture's maximum
+    float t0 = 0.5f;           ///< T0, added to each term (>= 0)
+    float phase = 1.57079633f; ///< amplitude of the phase shifts (Gardner: pi/2)
+    vec3 offset{0.0f};         ///< added to the world point before the sums
+};
+
+/// The shape parameters of a Gardner ellipsoid (core/kernels/gardner.glsl, GardnerEllipsoid).
+struct GardnerShapeDesc {
+    float t1 = 0.0f;      ///< T1: texture threshold at the centre
+    float t2 = 0.22f;     ///< T2: texture threshold at the surface (>= T1)
+    float d = 0.08f;      ///< D: ramp width from transparent to opaque (> 0)
+    float density = 1.0f; ///< density of an opaque point
+    GardnerTextureDesc texture;
+};
+
+/// One ellipsoid of a Gardner cloud; unset values take the cloud's (GardnerDesc::defaults).
+struct GardnerEllipsoidDesc {
+    vec3 center{0.0f};
+    vec3 radii{1.0f};
+    vec3 rotate{0.0f}; ///< degrees about x, then y, then z (R = Rz Ry Rx)
+    std::optional<float> t1, t2, d, density, frequency, k, t0, phase;
+    std::optional<int> terms;
+};
+
+/// A cumulus built from ellipsoids the way Gardner and Elinas & Stuerzlinger do: a few large
+/// flattened ellipsoids for the body on a flat base, smaller ones heaped on top and sides.
+struct GardnerScatterDesc {
+    bool enabled = false;
+    int count = 30;    ///< number of ellipsoids
+    float size = 3.0f; ///< horizontal radius of the body ellipsoids
+    std::uint32_t seed = 1;
+    vec3 center{0.0f, 2.0f, 0.0f};  ///< centre of the cloud's flat base
+    vec3 extent{14.0f, 7.0f, 9.0f}; ///< width, height and depth the cloud fills
+};
+
+/// A cloud of Gardner's textured ellipsoids (core/fields/gardner.h): the listed ellipsoids
+/// and/or the scattered cumulus; overlapping ellipsoids take the larger density.
+struct GardnerDesc {
+    GardnerShapeDesc defaults;
+    std::vector<GardnerEllipsoidDesc> ellipsoids;
+    GardnerScatterDesc scatter;
+};
+
 struct FieldDesc {
     FieldKind kind = FieldKind::Cumulus;
     VdbFieldDesc vdb;
     HomogeneousDesc homogeneous;
     CumulusDesc cumulus;
+    GardnerDesc gardner;
 };
 
 /// A further VDB volume beside `field` (scene file `[[volume]]`), referred to by name.

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/fields/gardner.h"
 #include "core/kernels/enum_mirrors.h"
 #include "core/kernels/kernels.h"
 #include "core/kernels/source.h"
@@ -117,6 +118,41 @@ template <> struct GlslType<PhaseParams> {
         w[0] = std::bit_cast<std::uint32_t>(p.kind);
         const float v[] = {p.g, p.g2, p.blend, p.alpha, p.diameter};
         for (int i = 0; i < 5; ++i) w[1 + i] = std::bit_cast<std::uint32_t>(v[i]);
+    }
+};
+
+template <> struct GlslType<GardnerTexture> {
+    static_assert(sizeof(GardnerTexture) == 8 * 4, "GardnerTexture changed: update its GlslType");
+    static std::string type() { return "GardnerTexture"; }
+    static std::vector<Field> fields() {
+        return {{".frequency", Word::Float}, {".terms", Word::Int},     {".k", Word::Float},
+                {".t0", Word::Float},        {".phase", Word::Float},   {".offset.x", Word::Float},
+                {".offset.y", Word::Float},  {".offset.z", Word::Float}};
+    }
+    static void put(const GardnerTexture& t, std::uint32_t* w) {
+        w[0] = std::bit_cast<std::uint32_t>(t.frequency);
+        w[1] = std::bit_cast<std::uint32_t>(t.terms);
+        const float v[] = {t.k, t.t0, t.phase, t.offset.x, t.offset.y, t.offset.z};
+        for (int i = 0; i < 6; ++i) w[2 + i] = std::bit_cast<std::uint32_t>(v[i]);
+    }
+};
+
+template <> struct GlslType<GardnerEllipsoid> {
+    static_assert(sizeof(GardnerEllipsoid) == 16 * 4,
+                  "GardnerEllipsoid changed: update its GlslType");
+    static std::string type() { return "GardnerEllipsoid"; }
+    static std::vector<Field> fields() {
+        std::vector<Field> f;
+        for (const char* v : {".center", ".axisX", ".axisY", ".axisZ"})
+            for (const char* c : {".x", ".y", ".z"}) f.push_back({std::string(v) + c, Word::Float});
+        for (const char* n : {".t1", ".t2", ".d", ".density"}) f.push_back({n, Word::Float});
+        return f;
+    }
+    static void put(const GardnerEllipsoid& e, std::uint32_t* w) {
+        const float v[] = {e.center.x, e.center.y, e.center.z, e.axisX.x, e.axisX.y, e.axisX.z,
+                           e.axisY.x,  e.axisY.y,  e.axisY.z,  e.axisZ.x, e.axisZ.y, e.axisZ.z,
+                           e.t1,       e.t2,       e.d,        e.density};
+        for (int i = 0; i < 16; ++i) w[i] = std::bit_cast<std::uint32_t>(v[i]);
     }
 };
 
@@ -227,6 +263,36 @@ static_assert(std::size(kPhaseKinds) == 6, "one draw per PhaseKind");
 
 PhaseParams anyPhase(Draw& d) {
     return kPhaseKinds[d.i(0, 5)].draw(d);
+}
+
+/// A Gardner texture in the scene file's ranges (frequencies of world-sized clouds).
+GardnerTexture gardnerTex(Draw& d) {
+    GardnerTexture t{};
+    t.frequency = d.f(0.05f, 0.5f, {0.2f});
+    t.terms = d.i(1, 6, {1, 5});
+    t.k = d.f(0.1f, 2.0f, {1.0f});
+    t.t0 = d.f(0.0f, 2.0f, {0.0f, 0.5f});
+    t.phase = d.f(-3.0f, 3.0f, {0.0f, 1.5707964f});
+    t.offset = d.v3(-50.0f, 50.0f, {0.0f});
+    return t;
+}
+/// A rotated Gardner ellipsoid (its kernel form as the field builds it).
+GardnerEllipsoid gardnerEll(Draw& d) {
+    GardnerEllipsoidSpec e;
+    e.center = d.v3(-10.0f, 10.0f, {0.0f});
+    e.radii = d.v3(0.2f, 6.0f, {1.0f});
+    e.rotate = d.v3(-180.0f, 180.0f, {0.0f, 90.0f});
+    e.shape.t1 = d.f(-0.2f, 0.5f, {0.0f});
+    e.shape.t2 = e.shape.t1 + d.f(0.0f, 0.5f, {0.0f});
+    e.shape.d = d.f(0.01f, 1.0f, {0.15f});
+    e.shape.density = d.f(0.0f, 2.0f, {1.0f});
+    return gardnerKernelEllipsoid(e);
+}
+/// A point near an ellipsoid (inside, on the edge or outside).
+vec3 gardnerPoint(Draw& d, const GardnerEllipsoid& e) {
+    const vec3 q = d.v3(-1.3f, 1.3f, {0.0f});
+    const glm::mat3 L(e.axisX, e.axisY, e.axisZ); // rows of local-from-world, as columns
+    return e.center + glm::inverse(glm::transpose(L)) * q;
 }
 
 // ------------------------------------------------------------------ llvmpipe's error model
@@ -1040,6 +1106,131 @@ std::vector<KernelCase> makeCases() {
             const int n = d.i(1, 64, {1, 2, 4, 16});
             return std::tuple(d.i(0, n - 1), n, unit(d), unit(d), d.f(0.5f, 8.0f, {1.0f}));
         }));
+
+    // gardner.glsl: Gardner's textured ellipsoids. sin() of arguments up to F_6 x ~ 6000 rad
+    const Tolerance gardnerSin{
+        .ulps = 4,
+        .abs = 0x1p-16f,
+        .why = "sums of sin() of arguments up to ~6000 rad (F_i x), whose GLSL and glibc range "
+               "reductions differ: 2^-16 absolute on sums of order 1-10 (measured worst 4.8e-6)"};
+    c.push_back(kernelCase(
+        "gardnerSum", "gardnerSum(a0, a1, a2)",
+        [](GardnerTexture t, float x, float y) { return gardnerSum(t, x, y); },
+        [](Draw& d) {
+            return std::tuple(gardnerTex(d), d.f(-60.0f, 60.0f, {0.0f}),
+                              d.f(-60.0f, 60.0f, {0.0f}));
+        },
+        gardnerSin));
+    c.push_back(kernelCase(
+        "gardnerSumMax", "gardnerSumMax(a0)", [](GardnerTexture t) { return gardnerSumMax(t); },
+        [](Draw& d) { return std::tuple(gardnerTex(d)); }));
+    c.push_back(kernelCase(
+        "gardnerTexture", "gardnerTexture(a0, a1)",
+        [](GardnerTexture t, vec3 p) { return gardnerTexture(t, p); },
+        [](Draw& d) { return std::tuple(gardnerTex(d), d.v3(-20.0f, 20.0f, {0.0f})); },
+        gardnerSin));
+    c.push_back(kernelCase(
+        "gardnerFalloff", "gardnerFalloff(a0)", [](vec3 q) { return gardnerFalloff(q); },
+        [](Draw& d) {
+            return std::tuple(d.v3(-1.3f, 1.3f, {0.0f, 1.0f}));
+        },
+        unitScale));
+    c.push_back(kernelCase(
+        "gardnerTransparency", "gardnerTransparency(a0, a1, a2, a3, a4)",
+        [](float I, float g, float t1, float t2, float dd) {
+            return gardnerTransparency(I, g, t1, t2, dd);
+        },
+        [](Draw& d) {
+            const float t1 = d.f(-0.2f, 0.5f, {0.0f});
+            return std::tuple(d.f(-1.0f, 1.0f, {0.0f, 1.0f}), d.f(-0.3f, 1.0f, {0.0f, 1.0f}), t1,
+                              t1 + d.f(0.0f, 0.5f, {0.0f}), d.f(0.01f, 1.0f, {0.15f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-20f,
+                  .why = "1 - x / D with D >= 0.01 cancelling toward 0 (Mesa may reassociate "
+                         "the numerator): 2^-20 absolute"}));
+    c.push_back(kernelCase(
+        "gardnerLocal", "gardnerLocal(a0, a1)",
+        [](GardnerEllipsoid e, vec3 p) { return gardnerLocal(e, p); },
+        [](Draw& d) {
+            const GardnerEllipsoid e = gardnerEll(d);
+            return std::tuple(e, gardnerPoint(d, e));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-20f,
+                  .why = "dot products of order 1 that cancel toward 0: 2^-20 absolute"}));
+    c.push_back(kernelCase(
+        "gardnerEllipsoidDensity", "gardnerEllipsoidDensity(a0, a1, a2)",
+        [](GardnerEllipsoid e, float I, vec3 p) { return gardnerEllipsoidDensity(e, I, p); },
+        [](Draw& d) {
+            const GardnerEllipsoid e = gardnerEll(d);
+            return std::tuple(e, d.f(-1.0f, 1.0f, {0.0f, 1.0f}), gardnerPoint(d, e));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-12f,
+                  .why = "gardnerLocal's 2^-20 through the falloff's slope (T2 - T1) / D <= 50 "
+                         "and the density <= 2: 2^-12 absolute (measured worst 1.6e-6)"}));
+    c.push_back(kernelCase(
+        "gardnerSinSlack", "gardnerSinSlack(a0)", [](float m) { return gardnerSinSlack(m); },
+        [](Draw& d) { return std::tuple(d.f(0.0f, 1e4f, {0.0f})); }));
+    auto sinInterval = [](Draw& d) {
+        const float a = d.f(-6000.0f, 6000.0f, {0.0f, 1.5707964f, -1.5707964f});
+        return std::tuple(a, a + d.f(0.0f, 7.0f, {0.0f, 6.2831853f}));
+    };
+    c.push_back(kernelCase(
+        "gardnerSinMax", "gardnerSinMax(a0, a1)",
+        [](float a, float b) { return gardnerSinMax(a, b); }, sinInterval, gardnerSin));
+    c.push_back(kernelCase(
+        "gardnerSinMin", "gardnerSinMin(a0, a1)",
+        [](float a, float b) { return gardnerSinMin(a, b); }, sinInterval, gardnerSin));
+    c.push_back(kernelCase(
+        "gardnerSumRange", "gardnerSumRange(a0, a1, a2)",
+        [](GardnerTexture t, float x0, float x1) { return gardnerSumRange(t, x0, x1); },
+        [](Draw& d) {
+            const float x0 = d.f(-60.0f, 60.0f, {0.0f});
+            return std::tuple(gardnerTex(d), x0, x0 + d.f(0.0f, 5.0f, {0.0f}));
+        },
+        gardnerSin));
+    c.push_back(kernelCase(
+        "gardnerIntervalProduct", "gardnerIntervalProduct(a0, a1)",
+        [](vec2 u, vec2 v) { return gardnerIntervalProduct(u, v); },
+        [](Draw& d) {
+            const float a = d.f(-2.0f, 2.0f, {0.0f}), b = d.f(-2.0f, 2.0f, {0.0f});
+            return std::tuple(vec2(a, a + d.f(0.0f, 2.0f)), vec2(b, b + d.f(0.0f, 2.0f)));
+        }));
+    c.push_back(kernelCase(
+        "gardnerTextureBound", "gardnerTextureBound(a0, a1, a2)",
+        [](GardnerTexture t, vec3 lo, vec3 hi) { return gardnerTextureBound(t, lo, hi); },
+        [](Draw& d) {
+            const vec3 lo = d.v3(-20.0f, 20.0f, {0.0f});
+            return std::tuple(gardnerTex(d), lo, lo + d.v3(0.0f, 3.0f, {0.0f}));
+        },
+        gardnerSin));
+    c.push_back(kernelCase(
+        "gardnerR2Min", "gardnerR2Min(a0, a1, a2)",
+        [](GardnerEllipsoid e, vec3 lo, vec3 hi) { return gardnerR2Min(e, lo, hi); },
+        [](Draw& d) {
+            const GardnerEllipsoid e = gardnerEll(d);
+            const vec3 lo = gardnerPoint(d, e);
+            return std::tuple(e, lo, lo + d.v3(0.0f, 3.0f, {0.0f}));
+        },
+        Tolerance{.ulps = 8,
+                  .abs = 0x1p-18f,
+                  .why = "squares of dot products that cancel toward 0: 2^-18 absolute"}));
+    c.push_back(kernelCase(
+        "gardnerEllipsoidBound", "gardnerEllipsoidBound(a0, a1, a2, a3)",
+        [](GardnerEllipsoid e, float I, vec3 lo, vec3 hi) {
+            return gardnerEllipsoidBound(e, I, lo, hi);
+        },
+        [](Draw& d) {
+            const GardnerEllipsoid e = gardnerEll(d);
+            const vec3 lo = gardnerPoint(d, e);
+            return std::tuple(e, d.f(-1.0f, 1.0f, {1.0f}), lo, lo + d.v3(0.0f, 3.0f, {0.0f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-10f,
+                  .why = "gardnerR2Min's 2^-18 through the slope (T2 - T1) / D <= 50 and the "
+                         "density <= 2: 2^-10 absolute (measured worst 1.8e-6)"}));
 
     return c;
 }

@@ -28,6 +28,12 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
         f.box = grid.bounds;
         f.data = makeGridField(desc.vdb, grid);
         break;
+    case FieldKind::Gardner: {
+        GardnerField g{makeGardnerCloud(gardnerEllipsoids(desc.gardner))};
+        f.box = g.cloud->bounds;
+        f.data = std::move(g);
+        break;
+    }
     }
     return f;
 }
@@ -49,6 +55,8 @@ float Field::density(vec3 p) const {
         return as<CumulusField>().density(p);
     case FieldKind::Vdb:
         return as<GridField>().density(p);
+    case FieldKind::Gardner:
+        return as<GardnerField>().density(p);
     }
     return 0.0f;
 }
@@ -63,6 +71,8 @@ float Field::majorant(const Box& b) const {
         return as<CumulusField>().majorant(c);
     case FieldKind::Vdb:
         return as<GridField>().majorant(c);
+    case FieldKind::Gardner:
+        return as<GardnerField>().majorant(c);
     }
     return 0.0f;
 }

@@ -3,15 +3,16 @@
 ///
 /// A Field is a tagged union of small per-kind structs (core/fields/<kind>.h) with one switch
 /// per verb (no virtual dispatch): a homogeneous box, the procedural cumulus layer of Olajos
-/// 2016, ch. 2, and a NanoVDB grid. A Field is the state of one frame: the wind offsets for that
-/// frame's time are folded in when it is made. Adding a kind = one file in core/fields, one
-/// alternative in Field::Kinds and one case per verb in field.cpp.
+/// 2016, ch. 2, a NanoVDB grid and Gardner's textured ellipsoids. A Field is the state of one
+/// frame: the wind offsets for that frame's time are folded in when it is made. Adding a kind = one
+/// file in core/fields, one alternative in Field::Kinds and one case per verb in field.cpp.
 #pragma once
 
 #include <memory>
 #include <variant>
 
 #include "core/fields/cumulus.h"
+#include "core/fields/gardner.h"
 #include "core/fields/grid.h"
 #include "core/fields/homogeneous.h"
 #include "core/scene.h"
@@ -20,7 +21,7 @@ namespace nimbus {
 
 struct Field {
     /// Alternatives in FieldKind order.
-    using Kinds = std::variant<HomogeneousField, CumulusField, GridField>;
+    using Kinds = std::variant<HomogeneousField, CumulusField, GridField, GardnerField>;
 
     FieldKind kind = FieldKind::Homogeneous;
     Box box; ///< bounds(): no density outside

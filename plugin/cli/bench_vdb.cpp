@@ -119,7 +119,9 @@ int runBenchVdb(const BenchVdbOptions& o) {
                      "VDB grids only; use a scene with [field] kind = \"vdb\", e.g. "
                      "examples/scenes/smoke1.toml\n",
                      f.path.c_str(),
-                     f.scene.field.kind == FieldKind::Cumulus ? "cumulus" : "homogeneous");
+                     f.scene.field.kind == FieldKind::Cumulus   ? "cumulus"
+                     : f.scene.field.kind == FieldKind::Gardner ? "gardner"
+                                                                : "homogeneous");
         return kExitBadInput;
     }
     if (!f.scene.sun.enabled || !(maxComponent(f.scene.sun.irradiance) > 0.0f)) {
