@@ -43,6 +43,7 @@ SceneFile parseSceneText(const std::string& text, const std::string& sourceName,
     Problems pr;
     validate(root, s, cx, pr);
     validateArrays(root, s, cx, pr);
+    validateFieldSubTables(root, s, cx, pr);
     if (!pr.empty()) pr.raise();
     resolveArrays(s, pr);
     if (!pr.empty()) pr.raise();

@@ -10,7 +10,8 @@ void addFieldParams(std::vector<Param>& t) {
                                  [](Staging& s) -> FieldDesc& { return s.file.scene.field; }};
     t.push_back(fld.param("kind", kFieldKinds,
                           "Density field: a procedural cumulus layer (Olajos 2016), a box of "
-                          "constant density, or a grid from a VDB file. The other keys of [field] "
+                          "constant density, a grid from a VDB file, or a cloud of Gardner's "
+                          "textured ellipsoids (Gardner 1985). The other keys of [field] "
                           "depend on it.",
                           &FieldDesc::kind));
 }

@@ -513,6 +513,13 @@ void validate(const toml::table& root, Staging& s, const Context& cx, Problems& 
                 else
                     otherKind = p.kind;
             }
+            for (const FieldSubTable& t : fieldSubTables()) { // read by validateFieldSubTables
+                if (sec != "field" || t.key != key) continue;
+                if (!kind || t.kind == *kind)
+                    known = true;
+                else
+                    otherKind = t.kind;
+            }
             if (known) continue;
             if (otherKind && !fieldKindKnown) continue; // the bad kind is reported already
             std::string name = sec + "." + key;
@@ -563,6 +570,63 @@ void validateArrays(const toml::table& root, Staging& s, const Context& cx, Prob
                 Param named = *p;
                 named.section = a.name + "[" + std::to_string(i) + "]";
                 if (std::optional<Value> v = read(named, node, cx, pr)) p->set(s, *v);
+            }
+        }
+    }
+}
+
+/// Reads the tables inside [field] that belong to its kind ([[field.ellipsoid]], ...).
+void validateFieldSubTables(const toml::table& root, Staging& s, const Context& cx, Problems& pr) {
+    const toml::table* field = root["field"].as_table();
+    if (!field) return;
+    for (const FieldSubTable& t : fieldSubTables()) {
+        if (t.kind != s.file.scene.field.kind) continue; // other kinds: reported by validate()
+        const toml::node* n = field->get(t.key);
+        if (!n) continue;
+        const std::string name = "field." + t.key;
+        std::vector<const toml::table*> tables;
+        if (t.array) {
+            const toml::array* arr = n->as_array();
+            if (!arr || !arr->is_array_of_tables()) {
+                pr.add(cx.at(*n),
+                       name + ": expected [[" + name + "]] tables, found " + describe(*n));
+                continue;
+            }
+            for (size_t i = 0; i < arr->size(); ++i) tables.push_back(arr->get(i)->as_table());
+        } else {
+            if (!n->is_table()) {
+                pr.add(cx.at(*n),
+                       name + ": expected a table ([" + name + "]), found " + describe(*n));
+                continue;
+            }
+            tables.push_back(n->as_table());
+        }
+        std::vector<std::string> keys;
+        for (const Param& p : fieldSubRegistry())
+            if (p.section == name) keys.push_back(p.key);
+        for (size_t i = 0; i < tables.size(); ++i) {
+            const toml::table& tbl = *tables[i];
+            t.grow(s, cx.at(tbl));
+            s.element = i;
+            const std::string label = t.array ? name + "[" + std::to_string(i) + "]" : name;
+            for (auto&& [k, node] : tbl) {
+                const std::string key(k.str());
+                const Param* p = nullptr;
+                for (const Param& q : fieldSubRegistry())
+                    if (q.section == name && q.key == key) p = &q;
+                if (!p) {
+                    pr.add(cx.atKey(k, node),
+                           "unknown key " + quote(label + "." + key) + suggestion(key, keys) +
+                               "; " + (t.array ? "[[" + name + "]]" : "[" + name + "]") +
+                               " accepts " + join(keys, ", "));
+                    continue;
+                }
+                Param named = *p;
+                named.section = label;
+                if (std::optional<Value> v = read(named, node, cx, pr)) {
+                    p->set(s, *v);
+                    s.given[named.full()] = cx.at(node);
+                }
             }
         }
     }

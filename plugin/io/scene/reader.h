@@ -54,6 +54,8 @@ void applyOverride(toml::table& root, const std::string& label, const std::strin
 void validate(const toml::table& root, Staging& s, const Context& cx, Problems& pr);
 /// Reads the [[array]] tables of @p root.
 void validateArrays(const toml::table& root, Staging& s, const Context& cx, Problems& pr);
+/// Reads the tables inside [field] that belong to its kind ([[field.ellipsoid]], ...).
+void validateFieldSubTables(const toml::table& root, Staging& s, const Context& cx, Problems& pr);
 /// Required keys, names, scatter expansion and the default placements.
 void resolveArrays(Staging& s, Problems& pr);
 /// Keys given although their value is ignored (e.g. medium.g with an isotropic phase).

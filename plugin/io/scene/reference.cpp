@@ -99,6 +99,27 @@ void tableOf(std::ostringstream& md, const std::string& section, std::optional<F
     md << "\n";
 }
 
+/// A table inside [field] ([[field.ellipsoid]], [field.scatter]) with its rows.
+void subTableOf(std::ostringstream& md, const FieldSubTable& t) {
+    const std::string name = "field." + t.key;
+    md << "#### " << (t.array ? "[[" + name + "]]" : "[" + name + "]") << "\n\n"
+       << t.doc << (t.array ? " Any number of tables." : "") << "\n\n"
+       << "| Key | Type | Default | Allowed | Description |\n"
+       << "|---|---|---|---|---|\n";
+    for (const Param& p : fieldSubRegistry()) {
+        if (p.section != name) continue;
+        Staging st;
+        t.grow(st, Where{});
+        st.element = 0;
+        const std::optional<Value> v = p.get(st);
+        const std::string def = v ? toToml(p, *v) : "";
+        md << "| `" << p.key << "` | " << cell(typeName(p.type)) << " | "
+           << (def.empty() ? "unset" : cell(code(def))) << " | " << cell(code(allowedOf(p)))
+           << " | " << cell(p.doc) << " |\n";
+    }
+    md << "\n";
+}
+
 } // namespace
 
 } // namespace nimbus::io::scene
@@ -151,6 +172,8 @@ std::string sceneFileReference() {
         for (const auto& [name, kind] : kFieldKinds) {
             md << "### [field] with kind = \"" << name << "\"\n\n";
             tableOf(md, sec, kind, true);
+            for (const FieldSubTable& t : fieldSubTables())
+                if (t.kind == kind) subTableOf(md, t);
         }
         md << "Keys of the other kind are errors.\n\n";
     }

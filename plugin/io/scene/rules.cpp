@@ -113,6 +113,48 @@ const std::vector<Rule>& rules() {
                         "cell and only the neighbouring cells are searched); lower the radius or "
                         "raise the spacing");
          }},
+        {"field",
+         "Gardner: the cloud needs at least one `[[field.ellipsoid]]` table or a "
+         "`[field.scatter]` table.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const GardnerDesc& g = s.file.scene.field.gardner;
+             if (s.file.scene.field.kind != FieldKind::Gardner) return;
+             if (!g.ellipsoids.empty() || g.scatter.enabled) return;
+             pr.add(locate(s, cx, {"field.kind"}),
+                    "field.kind = \"gardner\" needs ellipsoids: add [[field.ellipsoid]] tables "
+                    "(center, radii) or a [field.scatter] table (count, size, seed, extent)");
+         }},
+        {"field",
+         "Gardner: `t2` may not be below `t1`, in [field] and in every `[[field.ellipsoid]]` "
+         "(its own values, or those of [field] where it leaves them out).",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const GardnerDesc& g = s.file.scene.field.gardner;
+             if (s.file.scene.field.kind != FieldKind::Gardner) return;
+             auto problem = [](float t1, float t2) {
+                 return "t2 " + formatFloat(t2) + " is below t1 " + formatFloat(t1) +
+                        "; expected t2 >= t1 (the surface threshold at least the centre's)";
+             };
+             const GardnerShapeDesc& d = g.defaults;
+             if (d.t2 < d.t1)
+                 pr.add(locate(s, cx, {"field.t2", "field.t1"}), "field: " + problem(d.t1, d.t2));
+             for (size_t i = 0; i < g.ellipsoids.size(); ++i) {
+                 const GardnerEllipsoidDesc& e = g.ellipsoids[i];
+                 if (!e.t1 && !e.t2) continue; // both from [field]: checked above
+                 const float t1 = e.t1.value_or(d.t1), t2 = e.t2.value_or(d.t2);
+                 if (t2 >= t1) continue;
+                 const std::string label = "field.ellipsoid[" + std::to_string(i) + "]";
+                 Where w = i < s.ellipsoidWhere.size() ? s.ellipsoidWhere[i] : Where{};
+                 for (const char* k : {".t2", ".t1"}) {
+                     auto it = s.given.find(label + k);
+                     if (it != s.given.end()) {
+                         w = it->second;
+                         break;
+                     }
+                 }
+                 pr.add(w, label + ": " + problem(t1, t2) +
+                               (e.t1 && e.t2 ? "" : " (the other from [field])"));
+             }
+         }},
         {"render",
          "With `octaves` > 1, `octave_contribution` may not exceed `octave_extinction`: each "
          "octave would then add more light than the medium can scatter (Wrenninge 2015).",

@@ -139,6 +139,10 @@ struct Staging {
         float densityMin = 1.0f, densityMax = 1.0f;
     };
     std::vector<Scatter> scatters;
+
+    // tables inside [field] (fieldSubTables())
+    std::vector<Where> ellipsoidWhere;        ///< per [[field.ellipsoid]]
+    std::optional<Where> gardnerScatterWhere; ///< [field.scatter]
 };
 
 // --- rows
@@ -339,6 +343,7 @@ void addFieldParams(std::vector<Param>& t); ///< field.kind
 void addCumulusParams(std::vector<Param>& t);
 void addHomogeneousParams(std::vector<Param>& t);
 void addVdbParams(std::vector<Param>& t);
+void addGardnerParams(std::vector<Param>& t);
 void addGroundParams(std::vector<Param>& t);
 void addRenderParams(std::vector<Param>& t);
 void addOutputParams(std::vector<Param>& t);
@@ -356,6 +361,20 @@ struct ArraySection {
 
 const std::vector<ArraySection>& arraySections();
 const std::vector<Param>& arrayRegistry();
+
+/// A table (`[field.scatter]`) or an array of tables (`[[field.ellipsoid]]`) inside [field]
+/// that belongs to one field kind. Its rows (fieldSubRegistry(), section "field.<key>") reach
+/// element Staging::element of an array.
+struct FieldSubTable {
+    FieldKind kind;
+    std::string key; ///< "ellipsoid": [[field.ellipsoid]] (array) or [field.ellipsoid]
+    bool array = false;
+    std::string doc;
+    std::function<void(Staging&, Where)> grow; ///< array: appends an element; table: enables it
+};
+
+const std::vector<FieldSubTable>& fieldSubTables();
+const std::vector<Param>& fieldSubRegistry();
 
 std::vector<std::string> sectionNames();
 /// Keys of @p section that apply to field kind @p kind (all keys outside [field]).
