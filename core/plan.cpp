@@ -204,7 +204,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
 
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision = s.field.kind == FieldKind::Gardner
-                              ? "Gardner's sine sums, evaluated directly"
+                              ? "Gardner's sine sums: nothing to bake"
                               : "not a procedural field";
         return p;
     }
