@@ -7,6 +7,8 @@
 #   tests/fuzz/run.sh                        # every harness, 60 s each
 #   tests/fuzz/run.sh --seconds 30 scene obj # some harnesses
 #   tests/fuzz/run.sh --runs 1000000 frames  # a number of executions instead of a time
+#   tests/fuzz/run.sh --ci                   # CI: a fixed seed and a fixed number of executions
+#                                            # per harness (reproducible, a few minutes in all)
 #
 # Corpora grow in build-fuzz/corpus/<harness>/, seeded from tests/fuzz/seeds/<harness>/ (and for
 # the scene parser examples/scenes, for the VDB reader the small files of ../shared/data/vdb when
@@ -15,12 +17,16 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 seconds=60
 runs=""
+seed=""
+ci=0
 harnesses=()
 while [ $# -gt 0 ]; do
     case "$1" in
     --seconds) seconds="$2"; shift 2 ;;
     --runs) runs="$2"; shift 2 ;;
-    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    --seed) seed="$2"; shift 2 ;;
+    --ci) ci=1; seed=1; shift ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
     -*) echo "run.sh: unknown option $1" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
     esac
@@ -54,6 +60,16 @@ for h in "${harnesses[@]}"; do
     esac
     limit=(-max_total_time="$seconds")
     [ -n "$runs" ] && limit=(-runs="$runs")
+    if [ "$ci" = 1 ]; then
+        # executions per harness: about 20 s each on one core of the 2-core CI machine
+        case "$h" in
+        scene|obj) limit=(-runs=40000) ;;
+        frames) limit=(-runs=15000) ;;
+        vdb) limit=(-runs=2000) ;;
+        vdb_isolated) limit=(-runs=60) ;;
+        esac
+    fi
+    [ -n "$seed" ] && limit+=(-seed="$seed")
     echo "== fuzz_$h (${limit[*]}, corpus $corpus)"
     log="$build/fuzz_$h.log"
     if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
