@@ -648,6 +648,16 @@ std::vector<KernelCase> makeCases() {
 
     // phase.glsl: the parameter constructors
     c.push_back(kernelCase(
+        "makePhaseParams", "makePhaseParams(a0, a1, a2, a3, a4, a5)",
+        [](int kind, float g, float g2, float w, float a, float dia) {
+            return makePhaseParams(kind, g, g2, w, a, dia);
+        },
+        [](Draw& d) {
+            return std::tuple(d.i(0, 5), asymmetry(d), asymmetry(d), unit(d), draineAlpha(d),
+                              d.f(5.0f, 50.0f));
+        },
+        exact));
+    c.push_back(kernelCase(
         "phaseParamsIsotropic", "phaseParamsIsotropic()", [] { return phaseParamsIsotropic(); },
         [](Draw&) { return std::tuple<>(); }, exact, NoAllowance{}, 64));
     c.push_back(kernelCase(

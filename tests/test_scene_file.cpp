@@ -664,6 +664,12 @@ TEST(SceneFileOverrides, Syntax) {
 
     e = errorOf("", {"render.step=1\n[camera]"});
     EXPECT_TRUE(contains(e, "single line")) << e;
+
+    // Bytes that are not UTF-8 are not even a string (found by fuzzing: the toml++ exception
+    // escaped the parser; tests/fuzz/regressions/scene).
+    e = errorOf("", {"render.step=0.0h\x91l\x0e"});
+    EXPECT_TRUE(startsWith(e, "--set render.step=0.0h")) << e;
+    EXPECT_TRUE(contains(e, "invalid value")) << e;
 }
 
 TEST(SceneFileOverrides, TriggerRulesAgainstTheFile) {

@@ -688,6 +688,36 @@ TEST_F(VdbCorrupt, GiantClaimedSizesAndCountsAreErrorsNotOutOfMemoryKills) {
     EXPECT_GT(crashed, 0);
 }
 
+// OpenVDB reads a typed metadata value with its type's size, ignoring the size stored before
+// it: a type name changed by a bit flip then misaligns every later read (found by fuzzing, see
+// tests/fuzz/regressions/vdb: the next "string" claimed 1.8 GB). The structure scan refuses a
+// stored size that disagrees with the type before OpenVDB reads anything.
+TEST_F(VdbCorrupt, MetadataWhoseSizeDisagreesWithItsTypeIsRefusedBeforeOpenVdbReadsIt) {
+    const std::string p = write("smoke.vdb", {smokeSpec()});
+    std::vector<char> bytes = bytesOf(p);
+    const std::string name = "file_mem_bytes";
+    auto at = std::search(bytes.begin(), bytes.end(), name.begin(), name.end());
+    ASSERT_NE(at, bytes.end()) << "the writer no longer stores file_mem_bytes";
+    const std::string type = "int64";
+    auto t = std::search(at, bytes.end(), type.begin(), type.end());
+    ASSERT_EQ(t - at, std::ptrdiff_t(name.size() + 4)) << "expected name, type length, type";
+    std::memcpy(&*t, "int32", 5);
+    const std::string c = path("meta.vdb");
+    writeBytesTo(c, bytes);
+    for (bool isolate : {false, true}) {
+        try {
+            loadVdbGrid({.path = c, .isolate = isolate});
+            ADD_FAILURE() << "loaded a file whose metadata is misaligned (isolate " << isolate
+                          << ")";
+        } catch (const VdbError& e) {
+            EXPECT_TRUE(contains(e.what(), c + ": ")) << e.what();
+            EXPECT_TRUE(contains(e.what(), "corrupted file: metadata \"file_mem_bytes\" of type "
+                                           "int32 claims 8 bytes, its type takes 4"))
+                << e.what();
+        }
+    }
+}
+
 TEST_F(VdbCorrupt, ACorruptedChunkSizeIsReportedWhetherOpenVdbCrashesOrRefusesIt) {
     // A negative size means "raw bytes follow": OpenVDB 10 reads 8 GB into a 2 KB leaf buffer
     // (up to the end of the file): a heap overflow. What it does next is undefined: it mostly

@@ -51,20 +51,34 @@ struct PhaseParams {
     float diameter;
 };
 
+// Built field by field: a struct constructor call would need C++20 parenthesised aggregate
+// initialisation, which clang 14 (the fuzzing compiler) lacks.
+NB_FN PhaseParams makePhaseParams(int kind, float g, float g2, float blend, float alpha,
+                                  float diameter) {
+    PhaseParams p;
+    p.kind = kind;
+    p.g = g;
+    p.g2 = g2;
+    p.blend = blend;
+    p.alpha = alpha;
+    p.diameter = diameter;
+    return p;
+}
+
 NB_FN PhaseParams phaseParamsIsotropic() {
-    return PhaseParams(PHASE_ISOTROPIC, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);
+    return makePhaseParams(PHASE_ISOTROPIC, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);
 }
 
 NB_FN PhaseParams phaseParamsHG(float g) {
-    return PhaseParams(PHASE_HG, g, 0.0f, 0.0f, 0.0f, 0.0f);
+    return makePhaseParams(PHASE_HG, g, 0.0f, 0.0f, 0.0f, 0.0f);
 }
 
 NB_FN PhaseParams phaseParamsDualHG(float g1, float g2, float blend) {
-    return PhaseParams(PHASE_DUAL_HG, g1, g2, blend, 0.0f, 0.0f);
+    return makePhaseParams(PHASE_DUAL_HG, g1, g2, blend, 0.0f, 0.0f);
 }
 
 NB_FN PhaseParams phaseParamsDraine(float g, float alpha) {
-    return PhaseParams(PHASE_DRAINE, g, 0.0f, 0.0f, alpha, 0.0f);
+    return makePhaseParams(PHASE_DRAINE, g, 0.0f, 0.0f, alpha, 0.0f);
 }
 
 // Jendersie & d'Eon 2023, fit for droplet diameters 5-50 um (d in micrometres, clamped):
@@ -76,13 +90,13 @@ NB_FN PhaseParams phaseParamsMieApprox(float diameter) {
     float gD = exp(-2.20679f / (d + 3.91029f) - 0.428934f);
     float alpha = exp(3.62489f - 8.29288f / (d + 5.52825f));
     float w = exp(-0.599085f / (d - 0.641583f) - 0.665888f);
-    return PhaseParams(PHASE_MIE_APPROX, gHG, gD, w, alpha, d);
+    return makePhaseParams(PHASE_MIE_APPROX, gHG, gD, w, alpha, d);
 }
 
 // The phase function of a multiple-scattering octave (Wrenninge 2015): every asymmetry
 // parameter scaled by `eccentricity` (alpha and blend kept).
 NB_FN PhaseParams phaseOctave(IN(PhaseParams) p, float eccentricity) {
-    return PhaseParams(p.kind, p.g * eccentricity, p.g2 * eccentricity, p.blend, p.alpha,
+    return makePhaseParams(p.kind, p.g * eccentricity, p.g2 * eccentricity, p.blend, p.alpha,
                        p.diameter);
 }
 
@@ -241,11 +255,11 @@ NB_FN vec3 phaseSampleDirection(IN(PhaseParams) p, vec3 wi, vec3 u) {
 
 // Kind-and-g form kept for existing callers (isotropic and HG only).
 NB_FN float phaseEval(int kind, float g, float cosTheta) {
-    return phaseEval(PhaseParams(kind, g, 0.0f, 0.0f, 0.0f, 0.0f), cosTheta);
+    return phaseEval(makePhaseParams(kind, g, 0.0f, 0.0f, 0.0f, 0.0f), cosTheta);
 }
 
 NB_FN float phasePdf(int kind, float g, float cosTheta) { return phaseEval(kind, g, cosTheta); }
 
 NB_FN float phaseSampleCos(int kind, float g, float u) {
-    return phaseSample(PhaseParams(kind, g, 0.0f, 0.0f, 0.0f, 0.0f), vec2(u, 0.0f));
+    return phaseSample(makePhaseParams(kind, g, 0.0f, 0.0f, 0.0f, 0.0f), vec2(u, 0.0f));
 }

@@ -4,6 +4,7 @@
 /// The files core/kernels/*.glsl are written once in a common subset of GLSL 4.30 and C++20
 /// (see DESIGN.md, "The GLSL port"). In C++ they are included inside namespace nimbus::kern
 /// after this prelude; in GLSL they follow prelude.glsl. Rules: float literals carry `f`, no
+/// struct constructor calls (C++20 parenthesised aggregate init: clang 14 lacks it), no
 /// swizzles, no array constructors, no recursion, parameters passed by IN/OUT/INOUT.
 #pragma once
 

@@ -18,6 +18,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -61,6 +62,34 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
         }
     }
     return row[b.size()];
+}
+
+/// The byte size of OpenVDB's fixed-size metadata types (openvdb/Metadata.h, Types.h); 0 for
+/// strings and types it does not know (read with the stored size).
+std::uint32_t fixedMetadataSize(const std::string& type) {
+    static const std::pair<const char*, std::uint32_t> sizes[] = {
+        {"bool", 1},   {"int32", 4},  {"int64", 8},  {"float", 4},  {"double", 8}, {"vec2i", 8},
+        {"vec2s", 8},  {"vec2d", 16}, {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16},
+        {"vec4s", 16}, {"vec4d", 32}, {"mat4s", 64}, {"mat4d", 128}};
+    for (const auto& [name, size] : sizes)
+        if (type == name) return size;
+    return 0;
+}
+
+/// @p s with bytes outside printable ASCII as \xNN, at most 64 characters (names read from a
+/// damaged file go into messages).
+std::string printable(const std::string& s) {
+    std::string out;
+    for (unsigned char c : s.substr(0, 64)) {
+        if (c >= 32 && c < 127) {
+            out += char(c);
+        } else {
+            char buf[8];
+            std::snprintf(buf, sizeof buf, "\\x%02x", c);
+            out += buf;
+        }
+    }
+    return s.size() > 64 ? out + "..." : out;
 }
 
 /// Reads the structure of a VDB file (header, metadata, grid descriptors, a grid's metadata
@@ -115,6 +144,15 @@ class StructureReader {
             const std::string name = str("a metadata name", 1u << 16);
             const std::string type = str("a metadata type", 256);
             const std::uint32_t bytes = pod<std::uint32_t>("a metadata size");
+            // OpenVDB reads a typed value with the size of its type, not the stored size: a
+            // mismatch would misalign every later read (a fuzzed int32 -> int64 type name made
+            // it allocate 1.8 GB for the next "string").
+            const std::uint32_t expected = fixedMetadataSize(type);
+            if (expected != 0 && bytes != expected) {
+                corrupted("metadata \"" + printable(name) + "\" of type " + printable(type) +
+                          " claims " + std::to_string(bytes) + " bytes, its type takes " +
+                          std::to_string(expected));
+            }
             if (!wanted.empty() && name == wanted && type == "string" && bytes <= 4096) {
                 if (bytes > remaining()) truncated("a metadata value", bytes);
                 value.resize(bytes);

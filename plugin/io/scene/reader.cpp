@@ -442,7 +442,12 @@ void applyOverride(toml::table& root, const std::string& label, const std::strin
             fail(
                 "invalid TOML value " + value + ": " + std::string(e.description()) +
                 (value[0] == '[' || value[0] == '{' ? " (strings inside arrays need quotes)" : ""));
-        parsed = toml::parse(key + " = " + quote(value), label);
+        try {
+            parsed = toml::parse(key + " = " + quote(value), label);
+        } catch (const toml::parse_error& e2) {
+            // Not even a string: bytes that are not UTF-8, or control characters.
+            fail("invalid value " + quote(value) + ": " + std::string(e2.description()));
+        }
     }
     merge(root, parsed);
 }

@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer harnesses (clang, AddressSanitizer + UBSan; build-fuzz/) and runs each
+# for a bounded time or number of executions. A crash, leak, sanitizer report or timeout makes
+# this script fail; libFuzzer leaves the input as build-fuzz/artifacts/<harness>/crash-* (fix the
+# bug, then keep the input in tests/fuzz/regressions/<harness>/, which ctest replays).
+#
+#   tests/fuzz/run.sh                        # every harness, 60 s each
+#   tests/fuzz/run.sh --seconds 30 scene obj # some harnesses
+#   tests/fuzz/run.sh --runs 1000000 frames  # a number of executions instead of a time
+#   tests/fuzz/run.sh --ci                   # CI: a fixed seed and a fixed number of executions
+#                                            # per harness (reproducible, a few minutes in all)
+#
+# Corpora grow in build-fuzz/corpus/<harness>/, seeded from tests/fuzz/seeds/<harness>/ (and for
+# the scene parser examples/scenes, for the VDB reader the small files of ../shared/data/vdb when
+# that folder exists: they are copied into the build folder, never into the repository).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+seconds=60
+runs=""
+seed=""
+ci=0
+harnesses=()
+while [ $# -gt 0 ]; do
+    case "$1" in
+    --seconds) seconds="$2"; shift 2 ;;
+    --runs) runs="$2"; shift 2 ;;
+    --seed) seed="$2"; shift 2 ;;
+    --ci) ci=1; seed=1; shift ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+    -*) echo "run.sh: unknown option $1" >&2; exit 2 ;;
+    *) harnesses+=("$1"); shift ;;
+    esac
+done
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(scene frames obj vdb vdb_isolated)
+
+command -v clang++ >/dev/null || { echo "run.sh: clang++ not found (apt install clang libclang-rt-14-dev)" >&2; exit 2; }
+build="$root/build-fuzz"
+CXX=clang++ CC=clang cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DNIMBUS_FUZZ=ON -DNIMBUS_BUILD_TESTS=OFF -DNIMBUS_BUILD_BENCH=OFF >/dev/null
+cmake --build "$build" -j"$(nproc)" --target $(printf 'fuzz_%s ' "${harnesses[@]}")
+
+shared="$root/../shared/data/vdb"
+status=0
+for h in "${harnesses[@]}"; do
+    corpus="$build/corpus/$h"
+    artifacts="$build/artifacts/$h/"
+    mkdir -p "$corpus" "$artifacts"
+    cp -n "$root/tests/fuzz/seeds/$h"/* "$corpus"/ 2>/dev/null || true
+    [ -d "$root/tests/fuzz/regressions/$h" ] && cp -n "$root/tests/fuzz/regressions/$h"/* "$corpus"/ 2>/dev/null || true
+    maxlen=4096
+    case "$h" in
+    scene) cp -n "$root"/examples/scenes/*.toml "$corpus"/ ;;
+    vdb|vdb_isolated)
+        maxlen=200000
+        if [ -d "$shared" ]; then
+            find "$shared" -name '*.vdb' -size -150k -exec cp -n {} "$corpus"/ \;
+        else
+            echo "run.sh: $shared absent: the VDB corpus starts from tests/fuzz/seeds only"
+        fi ;;
+    esac
+    limit=(-max_total_time="$seconds")
+    [ -n "$runs" ] && limit=(-runs="$runs")
+    if [ "$ci" = 1 ]; then
+        # executions per harness: about 20 s each on one core of the 2-core CI machine
+        case "$h" in
+        scene|obj) limit=(-runs=40000) ;;
+        frames) limit=(-runs=15000) ;;
+        vdb) limit=(-runs=2000) ;;
+        vdb_isolated) limit=(-runs=60) ;;
+        esac
+    fi
+    [ -n "$seed" ] && limit+=(-seed="$seed")
+    echo "== fuzz_$h (${limit[*]}, corpus $corpus)"
+    log="$build/fuzz_$h.log"
+    if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+        "$build/tests/fuzz/fuzz_$h" "${limit[@]}" -max_len="$maxlen" -timeout=20 \
+        -rss_limit_mb=3072 -artifact_prefix="$artifacts" -print_final_stats=1 \
+        "$corpus" >"$log" 2>&1; then
+        echo "fuzz_$h FAILED: see $log and $artifacts"
+        tail -40 "$log"
+        status=1
+    fi
+    grep -E '^#[0-9]+\s+DONE|stat::number_of_executed_units|stat::peak_rss_mb' "$log" || tail -3 "$log"
+done
+exit $status
