@@ -14,6 +14,7 @@
 
 #include "core/accel.h"
 #include "core/geometry.h"
+#include "core/sdf/sdf.h"
 
 namespace nimbus {
 
@@ -70,7 +71,7 @@ struct MediumDesc {
     std::shared_ptr<const MieTable> mieTable;
 };
 
-enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner };
+enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner, Sdf };
 enum class NoiseEval { Auto, Direct, Baked };
 
 /// A box of constant density (tests, fog layers).
@@ -166,12 +167,22 @@ struct GardnerDesc {
     GardnerScatterDesc scatter;
 };
 
+/// A cloud sculpted from signed distance functions (Thomann 2020, ch. 3-4): density =
+/// density * sdfDensityFromDistance(d, falloff), d the tree's (displaced) distance, see
+/// core/fields/sdf_field.h.
+struct SdfFieldDesc {
+    SdfNodeDesc root;      ///< the tree (scene file: [[field.node]] tables)
+    float density = 1.0f;  ///< density deeper inside than `falloff`
+    float falloff = 0.25f; ///< width of the soft edge inside the surface (world units)
+};
+
 struct FieldDesc {
     FieldKind kind = FieldKind::Cumulus;
     VdbFieldDesc vdb;
     HomogeneousDesc homogeneous;
     CumulusDesc cumulus;
     GardnerDesc gardner;
+    SdfFieldDesc sdf;
 };
 
 /// A further VDB volume beside `field` (scene file `[[volume]]`), referred to by name.
@@ -254,6 +265,7 @@ struct RenderDesc {
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
     float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
     bool skipEmpty = true;        ///< use the majorant grid to skip empty space
+    bool sdfTrace = true; ///< SDF clouds: skip by sphere tracing the distance bound (else the grid)
     /// Instanced volumes: per-instance majorant grids found through the instance boxes
     /// (hierarchical), or one coarse world grid over all instances (false; for comparison).
     bool hierarchicalSkip = true;

@@ -34,6 +34,9 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
         f.data = std::move(g);
         break;
     }
+    case FieldKind::Sdf:
+        f.data = makeSdfCloudField(desc.sdf, f.box);
+        break;
     }
     return f;
 }
@@ -57,6 +60,8 @@ float Field::density(vec3 p) const {
         return as<GridField>().density(p);
     case FieldKind::Gardner:
         return as<GardnerField>().density(p);
+    case FieldKind::Sdf:
+        return as<SdfCloudField>().density(p);
     }
     return 0.0f;
 }
@@ -73,6 +78,8 @@ float Field::majorant(const Box& b) const {
         return as<GridField>().majorant(c);
     case FieldKind::Gardner:
         return as<GardnerField>().majorant(c);
+    case FieldKind::Sdf:
+        return as<SdfCloudField>().majorant(c);
     }
     return 0.0f;
 }

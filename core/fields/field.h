@@ -15,13 +15,15 @@
 #include "core/fields/gardner.h"
 #include "core/fields/grid.h"
 #include "core/fields/homogeneous.h"
+#include "core/fields/sdf_cloud.h"
 #include "core/scene.h"
 
 namespace nimbus {
 
 struct Field {
     /// Alternatives in FieldKind order.
-    using Kinds = std::variant<HomogeneousField, CumulusField, GridField, GardnerField>;
+    using Kinds =
+        std::variant<HomogeneousField, CumulusField, GridField, GardnerField, SdfCloudField>;
 
     FieldKind kind = FieldKind::Homogeneous;
     Box box; ///< bounds(): no density outside

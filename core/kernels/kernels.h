@@ -18,4 +18,5 @@ namespace nimbus::kern {
 #include "core/kernels/lighting.glsl"
 #include "core/kernels/pixel.glsl"
 #include "core/kernels/gardner.glsl"
+#include "core/kernels/sdf.glsl"
 } // namespace nimbus::kern

@@ -11,7 +11,8 @@ namespace nimbus::io::scene {
 const WordTable<FieldKind> kFieldKinds = {{"cumulus", FieldKind::Cumulus},
                                           {"homogeneous", FieldKind::Homogeneous},
                                           {"vdb", FieldKind::Vdb},
-                                          {"gardner", FieldKind::Gardner}};
+                                          {"gardner", FieldKind::Gardner},
+                                          {"sdf", FieldKind::Sdf}};
 
 std::string fieldKindName(FieldKind k) {
     for (const auto& [name, e] : kFieldKinds)
@@ -41,6 +42,7 @@ const std::vector<Param>& registry() {
         addHomogeneousParams(t);
         addVdbParams(t);
         addGardnerParams(t);
+        addSdfFieldParams(t);
         addGroundParams(t);
         addRenderParams(t);
         addOutputParams(t);

@@ -10,9 +10,10 @@ void addFieldParams(std::vector<Param>& t) {
                                  [](Staging& s) -> FieldDesc& { return s.file.scene.field; }};
     t.push_back(fld.param("kind", kFieldKinds,
                           "Density field: a procedural cumulus layer (Olajos 2016), a box of "
-                          "constant density, a grid from a VDB file, or a cloud of Gardner's "
-                          "textured ellipsoids (Gardner 1985). The other keys of [field] "
-                          "depend on it.",
+                          "constant density, a grid from a VDB file, a cloud of Gardner's "
+                          "textured ellipsoids (Gardner 1985), or a cloud sculpted from signed "
+                          "distance functions (the [[field.node]] tables). The other keys of "
+                          "[field] depend on it.",
                           &FieldDesc::kind));
 }
 

@@ -143,6 +143,14 @@ struct Staging {
     // tables inside [field] (fieldSubTables())
     std::vector<Where> ellipsoidWhere;        ///< per [[field.ellipsoid]]
     std::optional<Where> gardnerScatterWhere; ///< [field.scatter]
+    /// SDF node tables being read (params_sdf.cpp), one per table of the array.
+    struct SdfNodeRow {
+        SdfNodeDesc desc;
+        std::string name, parent;
+        Where where;                        ///< the table
+        std::map<std::string, Where> given; ///< key -> location of its value
+    };
+    std::vector<SdfNodeRow> sdfNodes;
 };
 
 // --- rows
@@ -344,6 +352,7 @@ void addCumulusParams(std::vector<Param>& t);
 void addHomogeneousParams(std::vector<Param>& t);
 void addVdbParams(std::vector<Param>& t);
 void addGardnerParams(std::vector<Param>& t);
+void addSdfFieldParams(std::vector<Param>& t); ///< [field] kind = "sdf" (params_sdf.cpp)
 void addGroundParams(std::vector<Param>& t);
 void addRenderParams(std::vector<Param>& t);
 void addOutputParams(std::vector<Param>& t);
