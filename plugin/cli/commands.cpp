@@ -2,9 +2,11 @@
 
 #include <atomic>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +14,8 @@
 #include <optional>
 #include <sstream>
 
+#include <semaphore.h>
+#include <thread>
 #include <unistd.h>
 
 #include "core/tracking/majorant.h"
@@ -33,19 +37,48 @@ std::atomic<bool> gCancel{false};
 
 namespace {
 
+/// Posted by the first signal (sem_post is async-signal-safe); the watchdog waits on it.
+sem_t gSignalled;
+
 extern "C" void onSignal(int sig) {
-    // first signal: stop rendering after the tiles in flight and remove partial outputs;
-    // a second one: leave at once
+    // first signal: stop rendering (the renderer polls gCancel inside its loops, core/cancel.h)
+    // and remove partial outputs; a second one: leave at once
+    const int savedErrno = errno;
     io::removeInFlightTempFiles();
     if (gCancel.exchange(true)) {
         std::signal(sig, SIG_DFL);
         std::raise(sig);
     }
+    sem_post(&gSignalled);
+    errno = savedErrno;
+}
+
+/// The last resort behind the cooperative stop: once a signal came, the process has
+/// kCancelGraceSeconds to end by itself (it takes milliseconds: docs/stability.md); if it has
+/// not, whatever it is stuck in (a library call that never polls gCancel), the temp files are
+/// removed and it exits 130 with a message saying so.
+void watchdog() {
+    while (sem_wait(&gSignalled) != 0) {
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(kCancelGraceSeconds));
+    io::removeInFlightTempFiles();
+    std::fprintf(stderr,
+                 "nimbus: interrupted; the work in flight did not stop within %.1f s of the "
+                 "signal, exiting without it\n",
+                 kCancelGraceSeconds);
+    std::fflush(stderr);
+    _exit(kExitInterrupted);
 }
 
 } // namespace
 
 void installSignalHandlers() {
+    static bool installed = false;
+    if (!installed) {
+        installed = true;
+        sem_init(&gSignalled, 0, 0);
+        std::thread(watchdog).detach();
+    }
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
     std::signal(SIGHUP, onSignal);
@@ -192,11 +225,23 @@ int runRender(const RenderOptions& o) {
         Framebuffer fb;
         RenderStats st;
         FramePlan plan;
+        for (const std::string& w : ls.plan(frame).warnings) {
+            progress.finishLine();
+            std::fprintf(stderr, "nimbus: warning: frame %d: %s\n", frame, w.c_str());
+        }
         progress.update(int(k), frame, 0.0);
         const auto t0 = std::chrono::steady_clock::now();
+        // NIMBUS_TEST_FAULT (tests/test_stability.cpp): an exception out of a render worker
+        const char* fault = std::getenv("NIMBUS_TEST_FAULT");
+        const std::string testFault = fault ? fault : "";
         const host::Status result = ls.render(
             frame, fb, st,
-            [&](int done, int total) { progress.update(int(k), frame, double(done) / total); },
+            [&](int done, int total) {
+                if (testFault == "worker") throw 42;
+                if (testFault == "bad-alloc") throw std::bad_alloc();
+                if (testFault == "std") throw std::runtime_error("test fault in a worker");
+                progress.update(int(k), frame, double(done) / total);
+            },
             &gCancel, &plan);
         const double seconds = secondsSince(t0);
         if (!result.ok() || gCancel) {

@@ -1,0 +1,210 @@
+/// @file test_stability.cpp
+/// @brief Stiff and hostile cases through the real `nimbus` command (docs/stability.md): a
+/// render stops on SIGTERM/SIGINT whatever the scene (cancellation polled inside tiles, exit
+/// 130, nothing left behind), an exception never escapes main, grids past their limit are
+/// refused with the key, the cells and the limit, and --explain warns of absurd steps.
+///
+/// The kill timeout below is a hang detector, not a speed assertion: the measured latencies
+/// from signal to exit are recorded as test properties (--gtest_output=xml) and in the docs.
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kScene = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/cumulus.toml";
+/// A small frame of the default scene with the noise evaluated directly (no bake to wait for).
+const std::string kSmall = " --frames 1 --set camera.width=64 --set camera.height=36 "
+                           "--set field.evaluation='\"direct\"'";
+
+/// No light grids (the default scene's diffusion grid takes seconds with direct noise): the
+/// frame goes straight to its tiles, where the signal is meant to arrive.
+const std::string kNoGrids = " --set render.multiple_scattering='\"none\"' --progress plain ";
+
+struct SignalledRun {
+    int exitCode = -1;
+    bool hung = false;    ///< still running kHangSeconds after the signal (then SIGKILLed)
+    double latency = 0.0; ///< seconds from the signal to the exit
+    std::string stderrText;
+};
+
+constexpr double kHangSeconds = 20.0;
+
+/// Runs `nimbus args` with stderr to a file, waits until stderr shows `marker` (the render has
+/// started; at most kHangSeconds), then `ms` milliseconds more, sends `sig` and waits for the
+/// exit (SIGKILL after kHangSeconds: a hang detector).
+SignalledRun signalNimbus(const std::string& args, const std::string& marker, int sig, int ms,
+                          const fs::path& errFile) {
+    SignalledRun r;
+    const std::string cmd =
+        "exec " + std::string(NIMBUS_CLI_PATH) + " " + args + " >/dev/null 2>" + errFile.string();
+    const pid_t pid = fork();
+    if (pid < 0) return r;
+    if (pid == 0) {
+        execl("/bin/sh", "sh", "-c", cmd.c_str(), (char*)nullptr);
+        _exit(127);
+    }
+    auto readErr = [&] {
+        std::ifstream in(errFile);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    };
+    for (int i = 0; i < int(kHangSeconds * 100) && readErr().find(marker) == std::string::npos; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    const auto t0 = std::chrono::steady_clock::now();
+    kill(pid, sig);
+    int st = 0;
+    for (;;) {
+        const pid_t w = waitpid(pid, &st, WNOHANG);
+        r.latency = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (w == pid) break;
+        if (r.latency > kHangSeconds) {
+            r.hung = true;
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    r.stderrText = readErr();
+    return r;
+}
+
+/// Every entry of `dir` (hidden ones included) but the file `except`.
+std::vector<std::string> leftovers(const fs::path& dir, const fs::path& except) {
+    std::vector<std::string> out;
+    for (const auto& e : fs::directory_iterator(dir))
+        if (e.path() != except) out.push_back(e.path().filename().string());
+    return out;
+}
+
+struct StiffCase {
+    const char* name;
+    const char* settings;
+    int signal;
+};
+
+class StiffScene : public testing::TestWithParam<StiffCase> {};
+
+} // namespace
+
+// A frame whose tiles would run for hours stops within a second of the signal, by the
+// renderer's own polling (not the watchdog), exits 130 and leaves no file behind. The signal
+// comes 1.5 s after the frame's start ("0%" of the plain progress): inside the stiff tiles.
+TEST_P(StiffScene, StopsOnSignalAndLeavesNothing) {
+    const StiffCase& c = GetParam();
+    TempDir d("stiff");
+    const fs::path err = d / "stderr.txt";
+    const SignalledRun r = signalNimbus("render " + kScene + kSmall + " --progress plain " +
+                                            c.settings + " -o " + (d / "out.####.exr").string(),
+                                        "0% (frame 1)", c.signal, 1500, err);
+    RecordProperty("latency_ms", int(r.latency * 1000.0));
+    EXPECT_FALSE(r.hung) << "still running " << kHangSeconds << " s after the signal";
+    EXPECT_EQ(r.exitCode, 130) << r.stderrText;
+    EXPECT_TRUE(contains(r.stderrText, "interrupted during frame 1"));
+    // the cooperative stop, not the watchdog's last resort
+    EXPECT_EQ(r.stderrText.find("did not stop"), std::string::npos) << r.stderrText;
+    EXPECT_TRUE(leftovers(d, err).empty()) << leftovers(d, err).front();
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Stability, StiffScene,
+    testing::Values(
+        // 8.5e10 steps per camera ray
+        StiffCase{"step1e9", "--set render.step=1e-9 --set render.step_growth=0", SIGTERM},
+        StiffCase{"step1e9_sigint", "--set render.step=1e-9 --set render.step_growth=0", SIGINT},
+        // ~1e12 tentative collisions per path (delta tracking in a medium scaled by 1e12)
+        StiffCase{"pathtrace_dense",
+                  "--set render.integrator='\"pathtrace\"' --set medium.density_scale=1e12",
+                  SIGTERM},
+        // the documented maximum samples per pixel
+        StiffCase{"pathtrace_max_spp",
+                  "--set render.integrator='\"pathtrace\"' --set render.spp=1048576", SIGTERM},
+        // march with the documented maximum pixel samples and a fine step
+        StiffCase{"march_max_pixel_samples",
+                  "--set render.pixel_samples=4096 --set render.step=0.001", SIGTERM},
+        // a tiny shadow step with growth off: every sample's shadow march is long
+        StiffCase{"shadow_step1e9", "--set render.shadow_step=1e-9 --set render.shadow_growth=0",
+                  SIGTERM}),
+    [](const testing::TestParamInfo<StiffCase>& i) { return std::string(i.param.name); });
+
+// An exception from a render worker that is not a std::exception (TBB carries it to the main
+// thread): a message and exit 1, not abort's 134.
+TEST(Stability, ForeignExceptionFromAWorkerIsAnInternalError) {
+    TempDir d("fault");
+    const CliRun r = runNimbus("render " + kScene + kSmall + " -o " + (d / "f.####.exr").string(),
+                               "NIMBUS_TEST_FAULT=worker");
+    EXPECT_EQ(r.exitCode, 1) << r.output;
+    EXPECT_TRUE(contains(r.output, "internal error"));
+    EXPECT_TRUE(fs::is_empty(d.path()));
+}
+
+// A std::bad_alloc from a worker: out of memory, exit 4.
+TEST(Stability, BadAllocFromAWorkerIsOutOfMemory) {
+    TempDir d("fault");
+    const CliRun r = runNimbus("render " + kScene + kSmall + " -o " + (d / "f.####.exr").string(),
+                               "NIMBUS_TEST_FAULT=bad-alloc");
+    EXPECT_EQ(r.exitCode, 4) << r.output;
+    EXPECT_TRUE(contains(r.output, "out of memory"));
+}
+
+// An exception on a thread that cannot pass it on reaches std::terminate: the last-resort
+// handler prints what it was and exits 1 instead of aborting (134).
+TEST(Stability, ExceptionReachingTerminateIsAnInternalError) {
+    TempDir d("fault");
+    const CliRun r = runNimbus("render " + kScene + kSmall + " -o " + (d / "f.####.exr").string(),
+                               "NIMBUS_TEST_FAULT=thread");
+    EXPECT_EQ(r.exitCode, 1) << r.output;
+    EXPECT_TRUE(contains(r.output, "internal error: unhandled (test fault on a thread"));
+}
+
+// Grids past kMaxGridCells are refused before anything is allocated, naming the key, the cells
+// the setting would need and the limit (they ran out of memory or threw length_error before).
+TEST(Stability, GridsPastTheLimitAreRefused) {
+    TempDir d("limit");
+    const std::string out = " -o " + (d / "f.####.exr").string();
+    CliRun r =
+        runNimbus("render " + kScene + kSmall +
+                  " --set render.shadow='\"volume\"' --set render.light_volume_cell=0.01" + out);
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "render.light_volume_cell = 0.01 needs 1.44e+10 cells "
+                                   "(6001 x 400 x 6001)"));
+    EXPECT_TRUE(contains(r.output, "the limit is 134217728"));
+    r = runNimbus("render " + kScene + kSmall + " --set render.majorant_cell=1e-9" + out);
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "render.majorant_cell = 1e-09 needs"));
+    EXPECT_TRUE(contains(r.output, "the limit is 134217728"));
+    EXPECT_TRUE(fs::is_empty(d.path()));
+}
+
+// --explain warns of a step that implies an absurd number of steps per ray, and shows a refusal.
+TEST(Stability, ExplainWarnsOfAbsurdStepsAndShowsRefusals) {
+    CliRun r = runNimbus("render " + kScene + kSmall +
+                         " --set render.step=1e-9 --set render.step_growth=0 --explain");
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_TRUE(contains(r.output, "warning: a march step of 1e-09"));
+    EXPECT_TRUE(contains(r.output, "steps per camera ray"));
+    r = runNimbus("render " + kScene + kSmall + " --explain");
+    EXPECT_EQ(r.output.find("warning: a march step"), std::string::npos) << r.output;
+    r = runNimbus("render " + kScene + kSmall + " --set render.majorant_cell=0.001 --explain");
+    EXPECT_TRUE(contains(r.output, "refused: render.majorant_cell = 0.001 needs"));
+}
