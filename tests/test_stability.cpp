@@ -22,6 +22,7 @@
 
 #include <gtest/gtest.h>
 
+#include "plugin/io/color.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -211,4 +212,68 @@ TEST(Stability, ExplainWarnsOfAbsurdStepsAndShowsRefusals) {
     EXPECT_EQ(r.output.find("warning: a march step"), std::string::npos) << r.output;
     r = runNimbus("render " + kScene + kSmall + " --set render.majorant_cell=0.001 --explain");
     EXPECT_TRUE(contains(r.output, "refused: render.majorant_cell = 0.001 needs"));
+}
+
+// An empty --frames or -o is an error, not a silent fall-back to the scene's values.
+TEST(Stability, EmptyFramesOrOutputIsAnError) {
+    CliRun r = runNimbus("render " + kScene + " --frames '' --explain");
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "--frames is empty"));
+    r = runNimbus("render " + kScene + " -o '' --explain");
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "--output is empty"));
+}
+
+namespace {
+
+/// The built-in OCIO config with `edit` applied (from -> to), written to dir/name.
+std::string writeConfig(const fs::path& dir, const std::string& name, const std::string& from,
+                        const std::string& to) {
+    std::string text = nimbus::io::ColorSystem::builtinConfigText();
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+    const fs::path p = dir / name;
+    std::ofstream(p) << text;
+    return p.string();
+}
+
+const char* kLutSpace = R"(  - !<ColorSpace>
+    name: lutspace
+    family: Scene-linear
+    isdata: false
+    encoding: scene-linear
+    to_scene_reference: !<FileTransform> {src: missing_lut.spi1d, interpolation: linear}
+
+  - !<ColorSpace>
+    name: raw)";
+
+} // namespace
+
+// $OCIO without a scene_linear role: bad input naming the role (it said "unknown colour space ''").
+TEST(Stability, OcioConfigWithoutSceneLinearRoleIsBadInput) {
+    TempDir d("ocio");
+    const std::string cfg = writeConfig(d, "norole.ocio", "  scene_linear: ACEScg\n", "");
+    const CliRun r = runNimbus("render " + kScene + kSmall + " --explain", "OCIO=" + cfg);
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "has no scene_linear role"));
+}
+
+// A colour space whose transform needs a missing LUT file: bad input at load (exit 2), for the
+// scene's colours and for the output (that one was an I/O error, 3, after the first render).
+TEST(Stability, ColourSpaceWithAMissingLutIsBadInput) {
+    TempDir d("ocio");
+    const std::string cfg =
+        writeConfig(d, "lut.ocio", "  - !<ColorSpace>\n    name: raw", kLutSpace);
+    const std::string out = " -o " + (d / "f.####.exr").string();
+    CliRun r =
+        runNimbus("render " + kScene + kSmall + " --set output.color_space='\"lutspace\"'" + out,
+                  "OCIO=" + cfg);
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "missing_lut.spi1d"));
+    r = runNimbus("render " + kScene + kSmall + " --set color_space='\"lutspace\"'" + out,
+                  "OCIO=" + cfg);
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "missing_lut.spi1d"));
+    EXPECT_FALSE(fs::exists(d / "f.0001.exr"));
 }

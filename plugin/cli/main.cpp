@@ -442,6 +442,13 @@ int mainImpl(int argc, char** argv) {
         return rc == 0 ? 0 : cli::kExitBadInput;
     }
 
+    // an empty value given on purpose is a mistake, not a request for the scene's value
+    for (auto [cmd, opt] : {std::pair{render, "--frames"}, std::pair{render, "--output"},
+                            std::pair{bake, "--frames"}, std::pair{bake, "--output"}})
+        if (*cmd && cmd->count(opt) && cmd->get_option(opt)->as<std::string>().empty()) {
+            std::fprintf(stderr, "nimbus: error: %s: %s is empty\n", cmd->get_name().c_str(), opt);
+            return cli::kExitBadInput;
+        }
     if (*render) return run(cli::Command::Render, &ro);
     if (*converge) {
         if (co.suite) {
