@@ -22,7 +22,9 @@
 
 #include <gtest/gtest.h>
 
+#include "plugin/io/atomic_file.h"
 #include "plugin/io/color.h"
+#include "plugin/io/image_output.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -276,4 +278,66 @@ TEST(Stability, ColourSpaceWithAMissingLutIsBadInput) {
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "missing_lut.spi1d"));
     EXPECT_FALSE(fs::exists(d / "f.0001.exr"));
+}
+
+namespace {
+
+/// A pid that no process has: a child that has exited and been reaped.
+pid_t deadPid() {
+    const pid_t pid = fork();
+    if (pid == 0) _exit(0);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    return pid;
+}
+
+} // namespace
+
+// A SIGKILLed frame leaves a hidden temp file (not ending in .exr); the next run of that frame,
+// with or without --resume, removes it; temp files of running processes stay.
+TEST(Stability, StaleTempFilesOfDeadProcessesAreRemoved) {
+    TempDir d("stale");
+    const std::string final = (d / "f.0001.exr").string();
+    std::string temp = nimbus::io::makeTempPath(final);
+    const std::string me = "-" + std::to_string(getpid()) + "-";
+    const std::string alive = temp;
+    temp.replace(temp.find(me), me.size(), "-" + std::to_string(deadPid()) + "-");
+    std::ofstream(temp) << "half a frame";
+    std::string live = alive;
+    live.replace(live.find(me), me.size(), "-1-"); // init: always running
+    std::ofstream(live) << "another process's frame";
+    EXPECT_NE(fs::path(temp).extension(), ".exr");
+    for (const char* resume : {"", " --resume"}) {
+        std::ofstream(temp) << "half a frame";
+        const CliRun r =
+            runNimbus("render " + kScene + kSmall + resume + " -o " + (d / "f.####.exr").string());
+        EXPECT_EQ(r.exitCode, 0) << r.output;
+        EXPECT_TRUE(contains(r.output, "removed 1 temp file(s) of interrupted runs"));
+        EXPECT_FALSE(fs::exists(temp)) << resume;
+        EXPECT_TRUE(fs::exists(live)) << resume;
+    }
+}
+
+// A legal 250-byte output name works: the temp name stays within NAME_MAX.
+TEST(Stability, LongOutputNameWorks) {
+    TempDir d("long");
+    const std::string name = std::string(246, 'x') + ".exr";
+    const CliRun r = runNimbus("render " + kScene + kSmall + " -q -o " + (d / name).string());
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_TRUE(fs::exists(d / name));
+}
+
+// --resume renders a valid frame of another resolution again, and says why.
+TEST(Stability, ResumeRendersAFrameOfAnotherResolutionAgain) {
+    TempDir d("resume");
+    const std::string out = " -o " + (d / "f.####.exr").string();
+    CliRun r = runNimbus("render " + kScene + kSmall + " -q" + out);
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    r = runNimbus("render " + kScene + kSmall + " --resume" + out);
+    EXPECT_TRUE(contains(r.output, "exists, skipped (--resume)"));
+    r = runNimbus("render " + kScene + kSmall +
+                  " --set camera.width=32 --set camera.height=18 --resume" + out);
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_TRUE(contains(r.output, "exists but it is 64x36, not 32x18: rendering it again"));
+    EXPECT_EQ(nimbus::io::readExr((d / "f.0001.exr").string()).width, 32);
 }

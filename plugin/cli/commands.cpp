@@ -161,13 +161,30 @@ bool framesToRender(const std::string& cliSpec, const std::string& sceneSpec,
     return true;
 }
 
-bool validOutputExists(const std::string& path) {
+/// Whether `path` holds a complete Nimbus frame of the scene's resolution; when a file is there
+/// but will be rendered again, `why` says why.
+bool validOutputExists(const std::string& path, int width, int height, std::string& why) {
+    why.clear();
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) return false;
+    if (!std::filesystem::exists(path, ec)) return false;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        why = "it is not a regular file";
+        return false;
+    }
     try {
         io::ExrImage img = io::readExr(path);
-        return img.attributes.count("nimbus/frame") && img.width > 0;
-    } catch (const std::exception&) {
+        if (!img.attributes.count("nimbus/frame")) {
+            why = "it is not a Nimbus frame (no nimbus/frame attribute)";
+            return false;
+        }
+        if (img.width != width || img.height != height) {
+            why = "it is " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                  ", not " + std::to_string(width) + "x" + std::to_string(height);
+            return false;
+        }
+        return true;
+    } catch (const std::exception& e) {
+        why = std::string("it cannot be read (") + e.what() + ")";
         return false;
     }
 }
@@ -200,6 +217,18 @@ int runRender(const RenderOptions& o) {
     }
 
     installSignalHandlers();
+    {
+        // temp files a SIGKILLed run of these frames left (with or without --resume)
+        std::vector<std::string> outs;
+        for (int frame : frames) {
+            outs.push_back(ls.outputPath(frame));
+            if (!f.output.preview.empty())
+                outs.push_back(io::expandFramePattern(f.output.preview, frame));
+        }
+        const std::size_t stale = io::removeStaleTempFiles(outs);
+        if (stale && !o.quiet)
+            std::fprintf(stderr, "removed %zu temp file(s) of interrupted runs\n", stale);
+    }
     const ProgressMode mode = o.quiet                 ? ProgressMode::None
                               : o.progress == "bar"   ? ProgressMode::Bar
                               : o.progress == "plain" ? ProgressMode::Plain
@@ -211,12 +240,18 @@ int runRender(const RenderOptions& o) {
     for (size_t k = 0; k < frames.size(); ++k) {
         const int frame = frames[k];
         const std::string out = ls.outputPath(frame);
-        if (o.resume && validOutputExists(out)) {
+        std::string why;
+        if (o.resume && validOutputExists(out, f.scene.camera.width, f.scene.camera.height, why)) {
             progress.finishLine();
             if (!o.quiet)
                 std::fprintf(stderr, "frame %d: %s exists, skipped (--resume)\n", frame,
                              out.c_str());
             continue;
+        }
+        if (o.resume && !why.empty() && !o.quiet) {
+            progress.finishLine();
+            std::fprintf(stderr, "frame %d: %s exists but %s: rendering it again (--resume)\n",
+                         frame, out.c_str(), why.c_str());
         }
         // the grids of the frame (a VDB field: only the named grid of that frame's file)
         const host::Status bound = ls.bind(frame);

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 
 namespace nimbus::io {
@@ -41,7 +42,9 @@ size_t sanitize(float* v, size_t n) {
 
 void writeWithOiio(const std::string& tempPath, const std::string& finalPath,
                    const OIIO::ImageSpec& spec, OIIO::TypeDesc format, const void* pixels) {
-    auto out = OIIO::ImageOutput::create(tempPath);
+    // the format from the final name (the temp name does not end in the extension)
+    const std::string ext = std::filesystem::path(finalPath).extension().string();
+    auto out = OIIO::ImageOutput::create(ext.empty() ? finalPath : ext.substr(1));
     if (!out) throw std::runtime_error("cannot write '" + finalPath + "': " + OIIO::geterror());
     if (!out->open(tempPath, spec))
         throw std::runtime_error("cannot write '" + finalPath + "': " + out->geterror());
