@@ -341,3 +341,15 @@ TEST(Stability, ResumeRendersAFrameOfAnotherResolutionAgain) {
     EXPECT_TRUE(contains(r.output, "exists but it is 64x36, not 32x18: rendering it again"));
     EXPECT_EQ(nimbus::io::readExr((d / "f.0001.exr").string()).width, 32);
 }
+
+// SIGTERM while a frame is being written: exit 130 (it was 3, an I/O error, when the handler
+// removed the temp file under the writer), and no file left.
+TEST(Stability, SignalDuringTheWriteIsAnInterruption) {
+    TempDir d("write");
+    const CliRun r =
+        runNimbus("render " + kScene + kSmall + " -q -o " + (d / "f.####.exr").string(),
+                  "NIMBUS_TEST_FAULT=signal-in-write");
+    EXPECT_EQ(r.exitCode, 130) << r.output;
+    EXPECT_TRUE(contains(r.output, "interrupted while writing frame 1"));
+    EXPECT_TRUE(fs::is_empty(d.path())) << leftovers(d, "").front();
+}

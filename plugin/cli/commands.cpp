@@ -297,6 +297,15 @@ int runRender(const RenderOptions& o) {
         const host::Status written = ls.writeFrame(frame, fb, md, st.nonFinite);
         if (!written.ok()) progress.finishLine();
         printWarnings(ls);
+        if (!written.ok() && gCancel) {
+            // the signal's handler removed the temp file under the writer: an interruption,
+            // not an I/O error
+            io::removeInFlightTempFiles();
+            std::fprintf(stderr,
+                         "nimbus: interrupted while writing frame %d; no output written for it\n",
+                         frame);
+            return kExitInterrupted;
+        }
         if (int rc = report(written)) return rc;
         if (gCancel) {
             progress.finishLine();

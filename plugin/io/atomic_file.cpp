@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -188,6 +189,11 @@ void writeAtomically(const std::string& finalPath,
     const int slot = registerTemp(temp);
     try {
         writer(temp);
+        // tests/test_stability.cpp: a signal between writing and renaming (the handler removes
+        // the temp file, so the fsync below fails)
+        if (const char* f = std::getenv("NIMBUS_TEST_FAULT");
+            f && std::string(f) == "signal-in-write")
+            std::raise(SIGTERM);
         fsyncPath(temp, false);
         if (::rename(temp.c_str(), finalPath.c_str()) != 0) {
             const int err = errno;
