@@ -25,6 +25,7 @@
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/color.h"
 #include "plugin/io/image_output.h"
+#include "plugin/io/scene_file.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -352,4 +353,33 @@ TEST(Stability, SignalDuringTheWriteIsAnInterruption) {
     EXPECT_EQ(r.exitCode, 130) << r.output;
     EXPECT_TRUE(contains(r.output, "interrupted while writing frame 1"));
     EXPECT_TRUE(fs::is_empty(d.path())) << leftovers(d, "").front();
+}
+
+// Every documented inclusive end of a number's range is accepted (field.erosion's [0, 0.99]
+// refused 0.99: the value was rounded to float before the comparison, the end was not).
+TEST(Stability, InclusiveRangeEndsAreAccepted) {
+    std::ifstream in(kScene);
+    std::stringstream text;
+    text << in.rdbuf();
+    int checked = 0;
+    for (const nimbus::io::SceneParamInfo& p : nimbus::io::sceneFileParameters()) {
+        if (p.type != "number" || p.allowed.empty()) continue;
+        std::vector<std::string> ends;
+        const std::string& a = p.allowed;
+        if (a.rfind(">= ", 0) == 0 || a.rfind("<= ", 0) == 0) ends.push_back(a.substr(3));
+        if (a.front() == '[') ends.push_back(a.substr(1, a.find(',') - 1));
+        if (a.back() == ']') ends.push_back(a.substr(a.find(',') + 2, a.size() - a.find(',') - 3));
+        for (const std::string& e : ends) {
+            try {
+                nimbus::io::parseSceneText(text.str(), "cumulus.toml", {p.key + "=" + e});
+            } catch (const std::exception& ex) {
+                EXPECT_EQ(std::string(ex.what()).find(p.key + ": expected a number"),
+                          std::string::npos)
+                    << p.key << " = " << e << " (allowed " << a << "): " << ex.what();
+            }
+            ++checked;
+        }
+    }
+    RecordProperty("ends_checked", checked);
+    EXPECT_GT(checked, 20);
 }
