@@ -383,3 +383,17 @@ TEST(Stability, InclusiveRangeEndsAreAccepted) {
     RecordProperty("ends_checked", checked);
     EXPECT_GT(checked, 20);
 }
+
+// A huge value is not echoed whole into stderr (a 10 MB unknown key was, in full).
+TEST(Stability, HugeValuesAreNotEchoedWhole) {
+    TempDir d("huge");
+    std::ifstream in(kScene);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::ofstream(d / "b.toml") << text.str() << "\n" << std::string(10 << 20, 'x') << " = 1\n";
+    const CliRun r = runNimbus("render " + (d / "b.toml").string() + " --frames 1");
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_LT(r.output.size(), 20000u);
+    EXPECT_TRUE(contains(r.output.substr(0, 200), "unknown key"));
+    EXPECT_TRUE(contains(r.output, "bytes left out"));
+}

@@ -88,16 +88,23 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+std::string clipped(const std::string& m) {
+    constexpr std::size_t kMax = 8192, kHead = 6000, kTail = 1000;
+    if (m.size() <= kMax) return m;
+    return m.substr(0, kHead) + " [... " + std::to_string(m.size() - kHead - kTail) +
+           " bytes left out ...] " + m.substr(m.size() - kTail);
+}
+
 void printWarnings(host::Session& s) {
-    for (const auto& w : s.takeWarnings()) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
+    for (const auto& w : s.takeWarnings()) std::fprintf(stderr, "nimbus: %s\n", clipped(w).c_str());
 }
 
 int report(const host::Status& st) {
     if (st.ok()) return kExitOk;
     if (st.code == host::StatusCode::interrupted)
-        std::fprintf(stderr, "nimbus: %s\n", st.message.c_str());
+        std::fprintf(stderr, "nimbus: %s\n", clipped(st.message).c_str());
     else
-        std::fprintf(stderr, "nimbus: error: %s\n", st.message.c_str());
+        std::fprintf(stderr, "nimbus: error: %s\n", clipped(st.message).c_str());
     return host::exitCode(st.code);
 }
 
@@ -197,8 +204,8 @@ int runRender(const RenderOptions& o) {
     io::SceneFile& f = ls.file();
     if (!o.output.empty()) f.output.path = o.output;
     if (f.output.path.size() < 4 || f.output.path.substr(f.output.path.size() - 4) != ".exr") {
-        std::fprintf(stderr, "nimbus: error: output path \"%s\" must end in .exr\n",
-                     f.output.path.c_str());
+        std::fprintf(stderr, "nimbus: error: %s\n",
+                     clipped("output path \"" + f.output.path + "\" must end in .exr").c_str());
         return kExitBadInput;
     }
     std::vector<int> frames;

@@ -29,6 +29,10 @@ double secondsSince(std::chrono::steady_clock::time_point t0);
 /// A scene loaded by the session: file with overrides, colours resolved, geometry built.
 using LoadedScene = host::Session;
 
+/// A message cut to its first and last bytes when longer than 8 KB: a value echoed from a scene
+/// (a 50 MB string) must not flood a farm's log.
+std::string clipped(const std::string& message);
+
 /// Prints the warnings the session collected ("nimbus: <warning>").
 void printWarnings(host::Session& s);
 
