@@ -43,8 +43,9 @@ struct CancelPoll {
     }
 };
 
-/// Whether a segment walker (RayVolumes, the photons' scaled walk) has been cancelled: polled
-/// by marchSegments and sampleTmaj once per step; walkers without a poll never are.
+/// Whether a segment walker (RayVolumes, the photons' scaled walk) has been cancelled: asked
+/// by marchSegments and sampleTmaj every kEvery steps (a counter in a register; the walker
+/// reads the flag); walkers without a poll never are.
 template <class Segments> inline bool walkCancelled(Segments& s) {
     if constexpr (requires { s.cancelled(); })
         return s.cancelled();

@@ -26,8 +26,8 @@ inline size_t index(const ivec3& res, int x, int y, int z) {
 struct ScaledSegments {
     MajorantIterator& walk;
     float scale;
-    CancelPoll& poll; ///< polled once per flight by sampleTmaj (core/cancel.h)
-    bool cancelled() { return poll(); }
+    CancelPoll& poll; ///< read every CancelPoll::kEvery flights by sampleTmaj (core/cancel.h)
+    bool cancelled() { return poll.now(); }
     bool next(MajorantSegment& seg) {
         if (!walk.next(seg)) return false;
         seg.sigma_maj *= scale;

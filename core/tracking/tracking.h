@@ -6,6 +6,8 @@
 /// photons: a deposit and an event).
 #pragma once
 
+#include <cstdint>
+
 #include "core/cancel.h"
 #include "core/kernels/kernels.h"
 #include "core/tracking/majorant.h"
@@ -17,15 +19,16 @@ namespace nimbus {
 /// kern::freeFlight, one random number per flight). Calls visit(t, seg, sigmaMaj) at every
 /// tentative collision; visit returns false to stop. Returns false when visit stopped, true
 /// when the segments ran out (the ray left the medium). A cancelled walker (core/cancel.h,
-/// polled once per flight) ends the walk as if the ray had left.
+/// asked every CancelPoll::kEvery flights) ends the walk as if the ray had left.
 template <class Segments, class Rng, class F>
 bool sampleTmaj(Segments& segments, float sigmaScale, Rng& rng, F&& visit) {
     MajorantSegment seg;
+    std::uint32_t polls = 0;
     while (segments.next(seg)) {
         const float sigmaMaj = seg.sigma_maj * sigmaScale;
         float t = seg.t0;
         for (;;) {
-            if (walkCancelled(segments)) return true;
+            if ((++polls & (CancelPoll::kEvery - 1)) == 0 && walkCancelled(segments)) return true;
             t = kern::freeFlight(t, sigmaMaj, rng.next());
             if (t >= seg.t1) break;
             if (!visit(t, seg, sigmaMaj)) return false;

@@ -84,8 +84,8 @@ class RayVolumes {
     bool nextSegment(MajorantSegment& seg);
     /// Iterator-style adapter for marchSegments()
     bool next(MajorantSegment& seg) { return nextSegment(seg); }
-    /// Polled once per step by marchSegments and sampleTmaj (core/cancel.h).
-    bool cancelled() { return poll_(); }
+    /// Asked every CancelPoll::kEvery steps by marchSegments and sampleTmaj (core/cancel.h).
+    bool cancelled() { return poll_.now(); }
 
   private:
     struct Span {
