@@ -143,7 +143,8 @@ int mainImpl(int argc, char** argv) {
         ->check(CLI::Range(0, 1024));
     render->add_flag("--explain", ro.explain, "Print the plan of each frame and exit");
     render->add_flag("--resume", ro.resume,
-                     "Skip frames whose output already exists as a complete Nimbus EXR");
+                     "Skip frames whose output already exists as a complete Nimbus EXR of the "
+                     "scene's resolution");
     render
         ->add_option("--progress", ro.progress,
                      "Progress display: auto (bar on a terminal, plain lines otherwise), bar, "
