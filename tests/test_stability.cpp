@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -396,4 +397,22 @@ TEST(Stability, HugeValuesAreNotEchoedWhole) {
     EXPECT_LT(r.output.size(), 20000u);
     EXPECT_TRUE(contains(r.output.substr(0, 200), "unknown key"));
     EXPECT_TRUE(contains(r.output, "bytes left out"));
+}
+
+// A directory, FIFO or device as a VDB path says what it is (it said "does not exist").
+TEST(Stability, VdbPathThatIsNotAFileSaysWhatItIs) {
+    TempDir d("vdbpath");
+    const std::string scene = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/smoke1.toml";
+    const std::string fifo = (d / "fifo").string();
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+    const std::pair<std::string, std::string> cases[] = {{d.string(), "is a directory"},
+                                                         {fifo, "is a FIFO"},
+                                                         {"/dev/null", "is a character device"}};
+    for (const auto& [path, what] : cases) {
+        const CliRun r = runNimbus("render " + scene + " --frames 1 -q --set field.path='\"" +
+                                   path + "\"' -o " + (d / "x.exr").string());
+        EXPECT_EQ(r.exitCode, 2) << r.output;
+        EXPECT_TRUE(contains(r.output, what));
+        EXPECT_EQ(r.output.find("does not exist"), std::string::npos) << r.output;
+    }
 }
