@@ -10,6 +10,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -415,4 +416,22 @@ TEST(Stability, VdbPathThatIsNotAFileSaysWhatItIs) {
         EXPECT_TRUE(contains(r.output, what));
         EXPECT_EQ(r.output.find("does not exist"), std::string::npos) << r.output;
     }
+}
+
+// A full disk says so (OpenEXR's "Failed to write pixel data" alone did not): a 300 KB tmpfs,
+// mounted when the test may (root); skipped otherwise.
+TEST(Stability, FullDiskSaysNoSpaceLeft) {
+    TempDir d("full");
+    const fs::path mnt = d / "mnt";
+    fs::create_directories(mnt);
+    if (std::system(("mount -t tmpfs -o size=300k tmpfs " + mnt.string() + " 2>/dev/null").c_str()))
+        GTEST_SKIP() << "cannot mount a tmpfs here";
+    const CliRun r = runNimbus("render " + kScene + kSmall +
+                               " --set camera.width=320 --set camera.height=180 -q -o " +
+                               (mnt / "f.####.exr").string());
+    const std::vector<std::string> left = leftovers(mnt, "");
+    std::system(("umount " + mnt.string()).c_str());
+    EXPECT_EQ(r.exitCode, 3) << r.output;
+    EXPECT_TRUE(contains(r.output, "No space left on device"));
+    EXPECT_TRUE(left.empty()) << left.front();
 }
