@@ -77,11 +77,93 @@ void chooseSteps(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p
     p.stepDecision = "primary " + primary + ", shadow " + shadow;
 }
 
+/// Cells of a grid over `b` with cells of about `cell` (doubles: no int overflow).
+double gridCells(const Box& b, float cell, double res[3]) {
+    const vec3 e = b.extent();
+    double n = 1.0;
+    for (int a = 0; a < 3; ++a) {
+        res[a] = std::max(1.0, std::ceil(double(e[a]) / double(cell)));
+        n *= res[a];
+    }
+    return n;
+}
+
+/// Steps along a ray of length `len` on the schedule (step, growth) (step_schedule.h).
+double stepsPerRay(double len, double step, double growth) {
+    if (!(step > 0.0)) return 0.0;
+    if (growth <= 0.0) return len / step;
+    const double tg = std::ceil(1.0 / growth) * step;
+    if (len <= tg) return len / step;
+    return tg / step + std::log(len / tg) / std::log1p(growth);
+}
+
+/// The plan's refusals (grids past kMaxGridCells) and warnings (absurd steps per ray) for the
+/// field's bounds `b`.
+void checkBounds(const SceneDesc& s, const Box& b, FramePlan& p) {
+    if (b.empty()) return;
+    char buf[512];
+    double res[3];
+    auto refuse = [&](const char* what, const std::string& key, float cell, double cells,
+                      double factor) {
+        std::snprintf(
+            buf, sizeof buf,
+            "%s = %g needs %.4g cells (%.0f x %.0f x %.0f%s) over the field's bounds; "
+            "the limit is %.0f (2^27): raise %s",
+            key.c_str(), double(cell), cells * factor, res[0], res[1], res[2],
+            factor > 1.0 ? (" x " + std::to_string(int(factor)) + " sky directions").c_str() : "",
+            kMaxGridCells, what);
+        if (p.refusal.empty()) p.refusal = buf;
+    };
+    if (p.skipEmpty && s.render.majorantCell > 0.0f) {
+        const double n = gridCells(b, p.majorantCell, res);
+        if (n > kMaxGridCells)
+            refuse("render.majorant_cell", "render.majorant_cell", p.majorantCell, n, 1.0);
+    }
+    const bool lightGrid = p.sunDepthVolume || p.columnVolumes || p.diffusion || p.photons ||
+                           p.skyVolume || p.densityGrid;
+    if (lightGrid) {
+        const double n = gridCells(b, p.lightVolumeCell, res);
+        const double dirs = p.skyVolume ? double(p.skyDirections) : 1.0;
+        const std::string key = s.render.lightVolumeCell > 0.0f
+                                    ? "render.light_volume_cell"
+                                    : "render.light_volume_cell = 0 takes the majorant cell; "
+                                      "render.majorant_cell";
+        if (n * dirs > kMaxGridCells)
+            refuse(s.render.lightVolumeCell > 0.0f ? "render.light_volume_cell"
+                                                   : "render.light_volume_cell or "
+                                                     "render.majorant_cell",
+                   key, p.lightVolumeCell, n, dirs);
+    }
+    if (!p.pathtrace) {
+        const double len = double(glm::length(b.extent()));
+        const double prim = stepsPerRay(len, p.step, s.render.stepGrowth);
+        const double shad = stepsPerRay(len, p.shadowStep, s.render.shadowGrowth);
+        if (prim > kWarnStepsPerRay) {
+            std::snprintf(buf, sizeof buf,
+                          "a march step of %g (render.step, render.step_growth %g) takes up to "
+                          "%.3g steps per camera ray across the field's %g units: expect a very "
+                          "slow frame",
+                          double(p.step), double(s.render.stepGrowth), prim, len);
+            p.warnings.push_back(buf);
+        }
+        if (p.shadows && shad > kWarnStepsPerRay) {
+            std::snprintf(buf, sizeof buf,
+                          "a shadow step of %g (render.shadow_step, render.shadow_growth %g) "
+                          "takes up to %.3g steps per shadow ray across the field's %g units: "
+                          "expect a very slow frame",
+                          double(p.shadowStep), double(s.render.shadowGrowth), shad, len);
+            p.warnings.push_back(buf);
+        }
+    }
+}
+
 } // namespace
 
 std::string FramePlan::explain() const {
     std::ostringstream o;
     o << "frame " << frame << " (t = " << time << " s)\n";
+    if (!refusal.empty()) o << "  refused: " << refusal << "\n";
+    for (const std::string& w : warnings) o << "  warning: " << w << "\n";
     o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
       << noiseDecision << ")\n";
     o << "  march steps: " << stepDecision << "\n";
@@ -205,6 +287,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
     p.densityGrid = p.diffusion || p.photons;
+    checkBounds(s, bounds, p);
 
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision = s.field.kind == FieldKind::Gardner

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/bindings.h"
 #include "core/image.h"
@@ -14,6 +15,13 @@ namespace nimbus {
 /// The primary and shadow step of procedural fields when render.step / render.shadow_step are 0
 /// (world units; the default scene's kilometres: 50 m).
 constexpr float kDefaultStep = 0.05f;
+
+/// The most cells a majorant grid or light-volume grid (times its directions, for the sky
+/// volume) may have: 2^27, 512 MB per float per cell. Past it the frame is refused.
+constexpr double kMaxGridCells = 134217728.0;
+
+/// Steps per ray past which the plan warns (march's primary or shadow step).
+constexpr double kWarnStepsPerRay = 1e6;
 
 /// What one frame needs. Everything not named here is never built.
 struct FramePlan {
@@ -62,6 +70,12 @@ struct FramePlan {
     bool skyNee = false;
     /// march: the densities at the light-volume grid's voxel centres (diffusion, photons)
     bool densityGrid = false;
+    /// Set when the frame cannot be rendered as configured (a grid past kMaxGridCells): the
+    /// message names the key, the cells it would need and the limit. The host refuses the frame.
+    std::string refusal;
+    /// Settings that will make the frame absurdly slow (a step implying millions of steps per
+    /// ray): printed by explain() and by the host before rendering.
+    std::vector<std::string> warnings;
     std::string explain() const;
 };
 

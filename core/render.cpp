@@ -91,8 +91,8 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
     return render(plan, FrameBindings{}, fb, stats, cb);
 }
 
-Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings,
-                         double* bakeSeconds) {
+Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, double* bakeSeconds,
+                         const std::atomic<bool>* cancel) {
     if (bakeSeconds) *bakeSeconds = 0.0;
     if (scene_.field.kind != FieldKind::Cumulus || !plan.bakeNoise)
         return makeField(scene_.field, plan.time, bindings.grid(0));
@@ -100,8 +100,15 @@ Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings,
         std::lock_guard<std::mutex> lock(bakeMutex_);
         if (!baseBake_) {
             auto t0 = std::chrono::steady_clock::now();
-            baseBake_ = bakeCumulusBase(scene_.field.cumulus);
-            detailBake_ = bakeCumulusDetail(scene_.field.cumulus);
+            baseBake_ = bakeCumulusBase(scene_.field.cumulus, cancel);
+            detailBake_ = bakeCumulusDetail(scene_.field.cumulus, cancel);
+            if (cancelRequested(cancel)) {
+                // incomplete tiles: this frame is abandoned, and no later frame may reuse them
+                const Field partial = makeField(scene_.field, plan.time, baseBake_, detailBake_);
+                baseBake_.reset();
+                detailBake_.reset();
+                return partial;
+            }
             if (bakeSeconds) *bakeSeconds = secondsSince(t0);
         }
     }
@@ -109,12 +116,14 @@ Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings,
 }
 
 VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindings,
-                               RenderStats& stats) {
+                               RenderStats& stats, const std::atomic<bool>* cancel) {
     const SceneDesc& s = scene_;
     VolumeSet vs;
+    vs.cancel = cancel;
     const bool fieldPlaced = isPlaced(s, 0);
     // a [field] no instance places is never built (no noise baked, no grid read)
-    vs.fields.push_back(fieldPlaced ? fieldFor(plan, bindings, &stats.bakeSeconds) : emptyField());
+    vs.fields.push_back(fieldPlaced ? fieldFor(plan, bindings, &stats.bakeSeconds, cancel)
+                                    : emptyField());
     for (size_t i = 0; i < s.volumes.size(); ++i)
         vs.fields.push_back(makeField(s.volumes[i].field, plan.time, bindings.grid(int(i) + 1)));
     const auto t0 = std::chrono::steady_clock::now();
@@ -143,7 +152,7 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
         // each volume's grid in its own space; the plan's cell for `field`
         const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds(), plan.step);
-        vs.grids[i] = buildMajorantGrid(f, cell);
+        vs.grids[i] = buildMajorantGrid(f, cell, 0.05f, cancel);
         stats.majorantCells += vs.grids[i].cellCount();
         const double empty = vs.grids[i].emptyFraction();
         emptyCells += empty * double(vs.grids[i].cellCount());
@@ -180,7 +189,13 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
     bool completed = true;
 
     arena.execute([&] {
-        VolumeSet vs = volumesFor(plan, bindings, stats);
+        VolumeSet vs = volumesFor(plan, bindings, stats, cb.cancel);
+        // a cancel stops each stage early (its result incomplete) and skips the later ones
+        auto cancelled = [&] { return cancelRequested(cb.cancel); };
+        if (cancelled()) {
+            completed = false;
+            return;
+        }
         auto t0 = std::chrono::steady_clock::now();
         // the light-volume grids (attenuation, column sky, diffusion) cover one untransformed
         // volume: the plan names them only then
@@ -206,8 +221,8 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         if (needRho && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
         if (!dirs.empty()) {
             t0 = std::chrono::steady_clock::now();
-            volumes =
-                buildLightVolumes(field, dirs, plan.lightVolumeCell, g, needRho ? &rho : nullptr);
+            volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
+                                        needRho ? &rho : nullptr, cb.cancel);
             stats.lightVolumeSeconds = secondsSince(t0);
             stats.lightVolumeLookups = volumes.front().densityLookups;
         }
@@ -223,7 +238,7 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         if (skyVolume) {
             t0 = std::chrono::steady_clock::now();
             skv = buildSkyVolume(field, plan.skyDirections, plan.lightVolumeCell, g,
-                                 rho.empty() ? nullptr : &rho);
+                                 rho.empty() ? nullptr : &rho, cb.cancel);
             sv.sky = &skv;
             stats.skyVolumeSeconds = secondsSince(t0);
             stats.skyVolumeBytes = skv.bytes();
@@ -231,11 +246,16 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         }
         const Medium medium = Medium::fromDesc(s.medium);
         DiffusionVolume dv;
+        if (cancelled()) {
+            completed = false;
+            return;
+        }
         if (diffusion) {
             t0 = std::chrono::steady_clock::now();
+            DiffusionParams dp = diffusionParams(s, plan, medium);
+            dp.cancel = cb.cancel;
             dv = solveDiffusion(volumes.front(), rho,
-                                towardVolume ? towardVolume->tau : std::vector<float>{},
-                                diffusionParams(s, plan, medium));
+                                towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
             sv.diffusion = &dv;
             stats.diffusionSeconds = secondsSince(t0);
             stats.diffusionIterations = dv.iterations;
@@ -261,6 +281,10 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             sv.photons = &pv;
             stats.photonSeconds = secondsSince(t0);
             stats.photonLookups = pv.lookups;
+        }
+        if (cancelled()) {
+            completed = false;
+            return;
         }
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         t0 = std::chrono::steady_clock::now();
@@ -297,13 +321,15 @@ bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, Render
         tbb::blocked_range<int>(0, tiles, 1),
         [&](const tbb::blocked_range<int>& r) {
             for (int tile = r.begin(); tile != r.end(); ++tile) {
-                if (cb.cancel && cb.cancel->load(std::memory_order_relaxed)) return;
+                if (cancelRequested(cb.cancel)) return;
                 const int x0 = (tile % tilesX) * ts, y0 = (tile / tilesX) * ts;
                 RayCounters cnt;
                 typename Context::Scratch& local = scratch.local();
-                for (int y = y0; y < std::min(y0 + ts, fb.height); ++y)
+                for (int y = y0; y < std::min(y0 + ts, fb.height); ++y) {
+                    if (cancelRequested(cb.cancel)) return; // a slow row: core/cancel.h
                     for (int x = x0; x < std::min(x0 + ts, fb.width); ++x)
                         ctx.renderPixel(x, y, fb, cnt, local);
+                }
                 rays += cnt.rays;
                 prim += cnt.primarySamples;
                 shad += cnt.shadowSamples;

@@ -50,7 +50,9 @@ struct RenderStats {
 struct RenderCallbacks {
     /// Called (from worker threads, serialised) after each finished tile.
     std::function<void(int tilesDone, int tilesTotal)> progress;
-    /// When set to true, remaining tiles are skipped and render() returns false.
+    /// When set to true, the frame stops within milliseconds and render() returns false: it is
+    /// polled between tiles and inside them (step loops, tracking walks, sample loops, grid
+    /// builds, diffusion iterations: core/cancel.h).
     const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -71,10 +73,12 @@ class Renderer {
                 const RenderCallbacks& cb = {});
     /// The field of a frame as the plan builds it (bakes noise on first use when planned).
     Field fieldFor(const FramePlan& plan, const FrameBindings& bindings,
-                   double* bakeSeconds = nullptr);
+                   double* bakeSeconds = nullptr, const std::atomic<bool>* cancel = nullptr);
     Field fieldFor(const FramePlan& plan, double* bakeSeconds = nullptr);
-    /// Every volume of the frame with majorant grids, instances and the instance query.
-    VolumeSet volumesFor(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats);
+    /// Every volume of the frame with majorant grids, instances and the instance query; ray
+    /// walks over it stop once `cancel` is set (core/cancel.h).
+    VolumeSet volumesFor(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats,
+                         const std::atomic<bool>* cancel = nullptr);
     VolumeSet volumesFor(const FramePlan& plan, RenderStats& stats);
 
   private:

@@ -301,7 +301,7 @@ TEST_F(PngPreview, UnknownViewThrowsAndWritesNothing) {
 
 using AtomicFile = IoTempDir;
 
-TEST_F(AtomicFile, TempFileIsHiddenInSameDirectoryWithRealExtensionAndRegistered) {
+TEST_F(AtomicFile, TempFileIsHiddenInSameDirectoryNotEndingInTheExtensionAndRegistered) {
     const std::string final = path("out/frame.0042.exr");
     std::string seenTemp;
     size_t inFlight = 0;
@@ -312,9 +312,10 @@ TEST_F(AtomicFile, TempFileIsHiddenInSameDirectoryWithRealExtensionAndRegistered
     });
     const fs::path t(seenTemp);
     EXPECT_EQ(t.parent_path(), fs::path(final).parent_path());
-    EXPECT_EQ(t.extension(), ".exr");
-    EXPECT_EQ(t.filename().string().rfind(".frame.0042.tmp." + std::to_string(getpid()) + ".", 0),
-              0u)
+    // hidden, not ending in .exr (find -name '*.exr' must not see it), naming the pid
+    EXPECT_NE(t.extension(), ".exr");
+    EXPECT_EQ(t.filename().string().rfind(".frame.0042.exr.tmp-", 0), 0u) << t;
+    EXPECT_NE(t.filename().string().find("-" + std::to_string(getpid()) + "-"), std::string::npos)
         << t;
     EXPECT_EQ(inFlight, 1u);
     EXPECT_EQ(inFlightTempFileCount(), 0u);
@@ -365,7 +366,7 @@ TEST_F(AtomicFile, WriterThatProducesNoFileIsAnError) {
         writeAtomically(final, [](const std::string&) {});
         ADD_FAILURE() << "no exception";
     } catch (const std::runtime_error& e) {
-        EXPECT_NE(std::string(e.what()).find(".nothing.tmp."), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(".nothing.exr.tmp-"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find(std::strerror(ENOENT)), std::string::npos) << e.what();
     }
     EXPECT_TRUE(listing().empty());

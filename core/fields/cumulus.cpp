@@ -83,13 +83,15 @@ kern::CumulusParams cumulusParams(const CumulusDesc& c, float time) {
 
 namespace {
 
-template <class F> std::shared_ptr<const NoiseVolume> bakeTile(int res, F&& noise) {
+template <class F>
+std::shared_ptr<const NoiseVolume> bakeTile(int res, const std::atomic<bool>* cancel, F&& noise) {
     auto vol = std::make_shared<NoiseVolume>();
     vol->res = res;
     vol->values.resize(size_t(res) * res * res);
     tbb::parallel_for(0, res, [&](int z) {
         for (int y = 0; y < res; ++y)
-            for (int x = 0; x < res; ++x)
+            for (int x = 0;
+                 x < res && !(x == 0 && cancel && cancel->load(std::memory_order_relaxed)); ++x)
                 vol->values[(size_t(z) * res + y) * res + x] =
                     noise(vec3(float(x), float(y), float(z)) / float(res));
     });
@@ -98,14 +100,18 @@ template <class F> std::shared_ptr<const NoiseVolume> bakeTile(int res, F&& nois
 
 } // namespace
 
-std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c) {
+std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c,
+                                                   const std::atomic<bool>* cancel) {
     const kern::CumulusParams P = cumulusParams(c, 0.0f);
-    return bakeTile(c.baseBakeResolution, [&](vec3 q) { return kern::cumulusBaseNoise(P, q); });
+    return bakeTile(c.baseBakeResolution, cancel,
+                    [&](vec3 q) { return kern::cumulusBaseNoise(P, q); });
 }
 
-std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c) {
+std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c,
+                                                     const std::atomic<bool>* cancel) {
     const kern::CumulusParams P = cumulusParams(c, 0.0f);
-    return bakeTile(c.detailBakeResolution, [&](vec3 q) { return kern::cumulusDetailNoise(P, q); });
+    return bakeTile(c.detailBakeResolution, cancel,
+                    [&](vec3 q) { return kern::cumulusDetailNoise(P, q); });
 }
 
 float CumulusField::density(vec3 p) const {

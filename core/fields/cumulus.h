@@ -8,6 +8,8 @@
 /// offsets for that frame's time are folded into its kernel parameters when it is made.
 #pragma once
 
+#include <atomic>
+
 #include <memory>
 #include <vector>
 
@@ -31,8 +33,11 @@ struct NoiseVolume {
 /// The kernel parameters of a cumulus layer at time `time` (seconds).
 kern::CumulusParams cumulusParams(const CumulusDesc& c, float time);
 /// Bakes one tile of the base / detail noise (TBB-parallel).
-std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c);
-std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c);
+/// (Both stop early, the tile incomplete, once `cancel` is set: core/cancel.h.)
+std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c,
+                                                   const std::atomic<bool>* cancel = nullptr);
+std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c,
+                                                     const std::atomic<bool>* cancel = nullptr);
 
 struct CumulusField {
     kern::CumulusParams params{};

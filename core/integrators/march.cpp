@@ -277,6 +277,7 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
         // has its own stream (its jitter along the ray, its shadow rays)
         float wSum = 0.0f, depthW = 0.0f;
         for (int k = 0; k < n; ++k) {
+            if ((k & 15) == 15 && cancelRequested(vols_.cancel)) break; // core/cancel.h
             const std::uint32_t key = pcg(pixelKey ^ pcg(std::uint32_t(k) + 1u));
             const float ux = r.jitter ? kern::hashToUnit(pcg(key ^ 0x1b873593u)) : 0.5f;
             const float uy = r.jitter ? kern::hashToUnit(pcg(key ^ 0x85ebca6bu)) : 0.5f;

@@ -265,6 +265,8 @@ void PathContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
     float alphaSum = 0.0f, wSum = 0.0f;
     int depthCount = 0;
     for (int s = 0; s < spp; ++s) {
+        // a frame of millions of samples per pixel stops within a few samples of a cancel
+        if ((s & 15) == 15 && cancelRequested(vols_.cancel)) break;
         Sampler rng = Sampler::forPixel(x, y, frameKey_, std::uint32_t(s));
         // uniform over the filter's width, weighted by the filter (box of width 1: the pixel)
         const float ox = r.jitter ? (rng.next() - 0.5f) * r.filterWidth : 0.0f;

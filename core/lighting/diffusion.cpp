@@ -1,5 +1,7 @@
 #include "core/lighting/diffusion.h"
 
+#include "core/cancel.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -154,6 +156,7 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     }
     const float omega = 1.85f; // over-relaxation; SOR converges for 0 < omega < 2 (SPD system)
     for (int it = 0; it < p.maxIterations && !cells.empty(); ++it) {
+        if (cancelRequested(p.cancel)) break;
         float change = 0.0f, scale = 0.0f;
         for (int col = 0; col < 2; ++col) {
             const std::vector<std::uint32_t>& list = colour[col];

@@ -25,6 +25,8 @@
 /// of the sun; the sky needs no separate ambient term.
 #pragma once
 
+#include <atomic>
+
 #include <vector>
 
 #include "core/geometry.h"
@@ -42,6 +44,7 @@ struct DiffusionParams {
     vec3 skyUp{0.0f}, skyDown{0.0f}, skySide{0.0f};
     int maxIterations = 400;
     float tolerance = 1e-3f; ///< stop when no voxel changes by more than this share of the max
+    const std::atomic<bool>* cancel = nullptr; ///< stop iterating once set (core/cancel.h)
 };
 
 struct DiffusionVolume {

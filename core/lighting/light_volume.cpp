@@ -6,6 +6,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include "core/cancel.h"
+
 namespace nimbus {
 
 namespace {
@@ -25,7 +27,8 @@ inline float rimFactor(float u, int n) {
 } // namespace
 
 /// Propagates the density integral toward sunDir slice by slice (see the header).
-void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir) {
+void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, vec3 sunDir,
+                              const std::atomic<bool>* cancel) {
     lv.tau.assign(size_t(lv.res.x) * lv.res.y * lv.res.z, 0.0f);
     // dominant axis of the sun direction; slices ordered from the sun side
     int a = 0;
@@ -54,8 +57,10 @@ void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, ve
         }
     const float hiB = float(lv.res[b]) - 0.5f, hiC = float(lv.res[c]) - 0.5f;
     for (int s = 1; s < lv.res[a]; ++s) {
+        if (cancelRequested(cancel)) return;
         const int ia = first + step * s, prev = ia - step;
         tbb::parallel_for(0, lv.res[c], [&](int ic) {
+            if (cancelRequested(cancel)) return;
             for (int ib = 0; ib < lv.res[b]; ++ib) {
                 const size_t i = idx(ia, ib, ic);
                 const float ub = float(ib) + db, uc = float(ic) + dc;
@@ -95,13 +100,15 @@ float LightVolume::sample(vec3 p) const {
 }
 
 std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3 res,
-                                    const MajorantGrid* grid, std::size_t& lookups) {
+                                    const MajorantGrid* grid, std::size_t& lookups,
+                                    const std::atomic<bool>* cancel) {
     const vec3 voxel = bounds.extent() / vec3(res);
     std::vector<float> rho(size_t(res.x) * res.y * res.z, 0.0f);
     std::atomic<size_t> count{0};
     tbb::parallel_for(0, res.z, [&](int z) {
         size_t local = 0;
-        for (int y = 0; y < res.y; ++y)
+        for (int y = 0; y < res.y; ++y) {
+            if (cancelRequested(cancel)) break;
             for (int x = 0; x < res.x; ++x) {
                 const vec3 p = bounds.lo + (vec3(x, y, z) + vec3(0.5f)) * voxel;
                 if (grid) {
@@ -112,6 +119,7 @@ std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3
                 rho[index(res, x, y, z)] = field.density(p);
                 ++local;
             }
+        }
         count += local;
     });
     lookups += count;
@@ -135,14 +143,16 @@ LightVolume lightVolumeGrid(const Field& field, float cell) {
 
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid,
-                                           std::vector<float>* rhoOut) {
+                                           std::vector<float>* rhoOut,
+                                           const std::atomic<bool>* cancel) {
     LightVolume lv = lightVolumeGrid(field, cell);
-    std::vector<float> rho = densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups);
+    std::vector<float> rho =
+        densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups, cancel);
 
     std::vector<LightVolume> out;
     for (const vec3& d : dirs) {
         out.push_back(lv);
-        propagateDensityIntegral(out.back(), rho, d);
+        propagateDensityIntegral(out.back(), rho, d, cancel);
         if (out.size() > 1) out.back().densityLookups = 0; // counted once, on the first
     }
     if (rhoOut) *rhoOut = std::move(rho);

@@ -13,6 +13,8 @@
 /// the powder term.
 #pragma once
 
+#include <atomic>
+
 #include <vector>
 
 #include "core/fields/field.h"
@@ -33,9 +35,11 @@ struct LightVolume {
 
 /// The densities of `field` at the centres of a grid of `res` voxels over `bounds` (x fastest);
 /// voxels whose centre lies in a cell the majorant grid (if given) proves empty stay 0 and are
-/// not evaluated. Adds the lookups made to `lookups`. TBB-parallel.
+/// not evaluated. Adds the lookups made to `lookups`. TBB-parallel. Stops early (the rest left
+/// 0) once `cancel` is set (core/cancel.h).
 std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3 res,
-                                    const MajorantGrid* grid, std::size_t& lookups);
+                                    const MajorantGrid* grid, std::size_t& lookups,
+                                    const std::atomic<bool>* cancel = nullptr);
 
 /// Voxels per axis of a light volume over `bounds` with voxels of about `cell`: at least 2.
 ivec3 lightVolumeResolution(const Box& bounds, float cell);
@@ -45,8 +49,10 @@ ivec3 lightVolumeResolution(const Box& bounds, float cell);
 LightVolume lightVolumeGrid(const Field& field, float cell);
 
 /// Fills lv.tau with the density integral toward `direction` from the densities `rho` at its
-/// voxel centres (the slice-by-slice propagation described above).
-void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, vec3 direction);
+/// voxel centres (the slice-by-slice propagation described above). Stops early once `cancel`
+/// is set.
+void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, vec3 direction,
+                              const std::atomic<bool>* cancel = nullptr);
 
 /// Builds the volume over field.bounds() with voxels of about `cell` world units. Cells the
 /// majorant grid (if given) proves empty are not evaluated. TBB-parallel within each slice.
@@ -54,9 +60,11 @@ LightVolume buildLightVolume(const Field& field, vec3 sunDirection, float cell,
                              const MajorantGrid* grid = nullptr);
 
 /// The same for several directions at once: the densities at the voxel centres are looked up
-/// once and shared (densityLookups is counted on the first volume only).
+/// once and shared (densityLookups is counted on the first volume only). Stops early (the
+/// volumes incomplete) once `cancel` is set.
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid = nullptr,
-                                           std::vector<float>* rhoOut = nullptr);
+                                           std::vector<float>* rhoOut = nullptr,
+                                           const std::atomic<bool>* cancel = nullptr);
 
 } // namespace nimbus

@@ -26,6 +26,8 @@ inline size_t index(const ivec3& res, int x, int y, int z) {
 struct ScaledSegments {
     MajorantIterator& walk;
     float scale;
+    CancelPoll& poll; ///< read every CancelPoll::kEvery flights by sampleTmaj (core/cancel.h)
+    bool cancelled() { return poll.now(); }
     bool next(MajorantSegment& seg) {
         if (!walk.next(seg)) return false;
         seg.sigma_maj *= scale;
@@ -122,7 +124,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     for (int a = 0; a < 3; ++a) fineRes[a] = std::max(2, int(std::ceil(ext[a] / target)));
     const vec3 fineVoxel = ext / vec3(fineRes);
     std::size_t fineLookups = 0;
-    std::vector<float> fine = densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups);
+    std::vector<float> fine =
+        densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups, cancel);
     pv.lookups += fineLookups;
     // the one untransformed placement may scale the volume's density
     const float placement = vs.instances[0].density;
@@ -141,6 +144,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         [&](const tbb::blocked_range<std::int64_t>& r) {
             if (cancel && cancel->load(std::memory_order_relaxed)) return;
             Tally& tally = tallies.local();
+            CancelPoll poll{cancel};
             for (std::int64_t i = r.begin(); i != r.end(); ++i) {
                 Sampler rng{kern::pcg(key ^ kern::pcg(std::uint32_t(i) ^
                                                       kern::pcg(std::uint32_t(i >> 32)))),
@@ -148,6 +152,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                 const float a = lo.x + span.x * rng.next(), b = lo.y + span.y * rng.next();
                 Ray ray{origin + a * u + b * v, d0};
                 vec3 w(1.0f);
+                if (poll.stopped) return;
                 for (int depth = 0; depth < p.maxDepth; ++depth) {
                     float tmax = std::numeric_limits<float>::max();
                     SurfaceHit hit;
@@ -159,7 +164,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                           vs.wholeMajorant[0]);
                     // delta tracking; the mean channel chooses the events, every channel keeps
                     // its own weight (for grey media the weight changes only by the albedo)
-                    ScaledSegments segments{walk, placement};
+                    ScaledSegments segments{walk, placement, poll};
                     bool collided = false;
                     float tHit = 0.0f;
                     sampleTmaj(

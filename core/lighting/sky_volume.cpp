@@ -1,5 +1,7 @@
 #include "core/lighting/sky_volume.h"
 
+#include "core/cancel.h"
+
 #include <algorithm>
 
 #include <tbb/parallel_for.h>
@@ -39,7 +41,7 @@ void SkyVolume::sample(vec3 p, float* out) const {
 }
 
 SkyVolume buildSkyVolume(const Field& field, int count, float cell, const MajorantGrid* grid,
-                         const std::vector<float>* rho) {
+                         const std::vector<float>* rho, const std::atomic<bool>* cancel) {
     count = std::clamp(count, 1, kMaxSkyDirections);
     LightVolume lv = lightVolumeGrid(field, cell);
     SkyVolume sv;
@@ -48,15 +50,16 @@ SkyVolume buildSkyVolume(const Field& field, int count, float cell, const Majora
     sv.voxel = lv.voxel;
     std::vector<float> own;
     if (!rho) {
-        own = densityAtCentres(field, lv.bounds, lv.res, grid, sv.densityLookups);
+        own = densityAtCentres(field, lv.bounds, lv.res, grid, sv.densityLookups, cancel);
         rho = &own;
     }
     const size_t n = size_t(lv.res.x) * lv.res.y * lv.res.z;
     sv.tau.assign(n * size_t(count), 0.0f);
     for (int k = 0; k < count; ++k) {
+        if (cancelRequested(cancel)) break;
         const vec3 d = kern::fibonacciDirection(k, count);
         sv.directions.push_back(d);
-        propagateDensityIntegral(lv, *rho, d);
+        propagateDensityIntegral(lv, *rho, d, cancel);
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096),
                           [&](const tbb::blocked_range<size_t>& r) {
                               for (size_t i = r.begin(); i != r.end(); ++i)

@@ -65,8 +65,10 @@ struct SkyVolume {
 /// directions (fibonacciDirection). `rho`, when given, holds the densities at the voxel centres
 /// of that grid (shared with the light volumes built from the same cell); otherwise they are
 /// looked up here, skipping cells the majorant grid (if given) proves empty. TBB-parallel.
+/// Stops early (incomplete) once `cancel` is set.
 SkyVolume buildSkyVolume(const Field& field, int count, float cell,
                          const MajorantGrid* grid = nullptr,
-                         const std::vector<float>* rho = nullptr);
+                         const std::vector<float>* rho = nullptr,
+                         const std::atomic<bool>* cancel = nullptr);
 
 } // namespace nimbus

@@ -1,5 +1,7 @@
 #include "core/tracking/majorant.h"
 
+#include "core/cancel.h"
+
 #include <cmath>
 #include <limits>
 
@@ -52,7 +54,8 @@ void MajorantGrid::buildBlocks() {
     for (size_t i = 0; i < n; ++i) blockDistance[i] = std::uint8_t(std::min(dist[i], 255));
 }
 
-MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding) {
+MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
+                               const std::atomic<bool>* cancel) {
     MajorantGrid g;
     g.bounds = field.bounds();
     const vec3 ext = g.bounds.extent();
@@ -78,12 +81,14 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding) {
         return g;
     }
     tbb::parallel_for(0, g.res.z, [&](int z) {
-        for (int y = 0; y < g.res.y; ++y)
+        for (int y = 0; y < g.res.y; ++y) {
+            if (cancelRequested(cancel)) return;
             for (int x = 0; x < g.res.x; ++x) {
                 vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
                 Box b{lo - pad, lo + g.cellSize + pad};
                 g.maj[(size_t(z) * g.res.y + y) * g.res.x + x] = field.majorant(b);
             }
+        }
     });
     g.buildBlocks();
     return g;

@@ -8,6 +8,8 @@
 /// bound is 0 provably holds no cloud. Written once; every integrator walks it.
 #pragma once
 
+#include <atomic>
+
 #include <cstdint>
 #include <vector>
 
@@ -43,8 +45,10 @@ struct MajorantGrid {
 };
 
 /// Builds the grid over field.bounds() with cells of about `cell` world units (TBB-parallel).
-/// `padding` grows each cell by this fraction of its size before bounding.
-MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding = 0.05f);
+/// `padding` grows each cell by this fraction of its size before bounding. Stops early (the
+/// grid incomplete) once `cancel` is set (core/cancel.h).
+MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding = 0.05f,
+                               const std::atomic<bool>* cancel = nullptr);
 
 /// A stretch [t0, t1] of a ray with density bound sigma_maj > 0.
 struct MajorantSegment {

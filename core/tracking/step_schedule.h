@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/cancel.h"
 #include "core/tracking/majorant.h"
 
 namespace nimbus {
@@ -41,14 +42,18 @@ struct StepSchedule {
 /// rays). Step n covers [t(n), t(n+1)] clipped to [tIn, tOut], the ray's span inside the field;
 /// its sample sits at the fraction `jitter` of the clipped step and is visited only if it lies
 /// in a non-empty segment, so skipping changes no sample that can see density. The callback
-/// gets (t, dt, n) and returns false to stop.
+/// gets (t, dt, n) and returns false to stop. The walk also stops when the walker is cancelled
+/// (core/cancel.h: asked every CancelPoll::kEvery steps, so a 1e-9 step cannot outlast a
+/// SIGTERM).
 template <class Segments, class F>
 void marchSegments(Segments& it, const StepSchedule& sched, double tIn, double tOut, float jitter,
                    F&& visit) {
     MajorantSegment seg;
     std::int64_t nNext = 0;
+    std::uint32_t polls = 0;
     while (it.next(seg)) {
         for (std::int64_t n = std::max(nNext, std::int64_t(std::floor(sched.u(seg.t0))));; ++n) {
+            if ((++polls & (CancelPoll::kEvery - 1)) == 0 && walkCancelled(it)) return;
             const double tA = std::max(sched.t(double(n)), tIn);
             const double tB = std::min(sched.t(double(n + 1)), tOut);
             if (tB <= tA) {

@@ -162,12 +162,14 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
 bool RayVolumes::begin(const VolumeSet& vs, const Ray& ray, float tmin, float tmax) {
     vs_ = &vs;
     ray_ = ray;
+    if (poll_.flag != vs.cancel) poll_ = CancelPoll{vs.cancel};
     spans_.clear();
     densityActive_.clear();
     walkers_.clear();
     densityNext_ = segNext_ = 0;
     coarseStarted_ = false;
     hits_.clear();
+    if (poll_()) return false;
     if (vs.single()) {
         hits_.push_back({0, tmin, tmax});
     } else if (vs.query) {

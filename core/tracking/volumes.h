@@ -17,6 +17,7 @@
 #include <glm/glm.hpp>
 
 #include "core/accel.h"
+#include "core/cancel.h"
 #include "core/fields/field.h"
 #include "core/tracking/majorant.h"
 
@@ -52,6 +53,8 @@ struct VolumeSet {
     std::unique_ptr<InstanceQuery> query; ///< null: linear scan over `instances`
     MajorantGrid coarse;                  ///< world grid, used when `useCoarse`
     bool useCoarse = false;
+    /// Set by the host to stop the frame (core/cancel.h): ray walks over this set end early.
+    const std::atomic<bool>* cancel = nullptr;
 
     /// One untransformed instance of one volume: the common case, no query needed.
     bool single() const { return instances.size() == 1 && instances[0].identity; }
@@ -75,7 +78,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
 /// segments in order, the sum over the instances active on each.
 class RayVolumes {
   public:
-    /// False when the ray crosses no instance.
+    /// False when the ray crosses no instance (or the frame is cancelled).
     bool begin(const VolumeSet& vs, const Ray& ray, float tmin, float tmax);
     float tIn() const { return tIn_; }
     float tOut() const { return tOut_; }
@@ -83,6 +86,8 @@ class RayVolumes {
     bool nextSegment(MajorantSegment& seg);
     /// Iterator-style adapter for marchSegments()
     bool next(MajorantSegment& seg) { return nextSegment(seg); }
+    /// Asked every CancelPoll::kEvery steps by marchSegments and sampleTmaj (core/cancel.h).
+    bool cancelled() { return poll_.now(); }
 
   private:
     struct Span {
@@ -107,6 +112,7 @@ class RayVolumes {
     float cur_ = 0.0f;
     bool coarseStarted_ = false;
     MajorantIterator coarse_{nullptr, Box{}, Ray{}, 0.0f, 0.0f, 0.0f};
+    CancelPoll poll_;
 };
 
 } // namespace nimbus

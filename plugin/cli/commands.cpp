@@ -2,9 +2,11 @@
 
 #include <atomic>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +14,8 @@
 #include <optional>
 #include <sstream>
 
+#include <semaphore.h>
+#include <thread>
 #include <unistd.h>
 
 #include "core/tracking/majorant.h"
@@ -33,19 +37,48 @@ std::atomic<bool> gCancel{false};
 
 namespace {
 
+/// Posted by the first signal (sem_post is async-signal-safe); the watchdog waits on it.
+sem_t gSignalled;
+
 extern "C" void onSignal(int sig) {
-    // first signal: stop rendering after the tiles in flight and remove partial outputs;
-    // a second one: leave at once
+    // first signal: stop rendering (the renderer polls gCancel inside its loops, core/cancel.h)
+    // and remove partial outputs; a second one: leave at once
+    const int savedErrno = errno;
     io::removeInFlightTempFiles();
     if (gCancel.exchange(true)) {
         std::signal(sig, SIG_DFL);
         std::raise(sig);
     }
+    sem_post(&gSignalled);
+    errno = savedErrno;
+}
+
+/// The last resort behind the cooperative stop: once a signal came, the process has
+/// kCancelGraceSeconds to end by itself (it takes milliseconds: docs/stability.md); if it has
+/// not, whatever it is stuck in (a library call that never polls gCancel), the temp files are
+/// removed and it exits 130 with a message saying so.
+void watchdog() {
+    while (sem_wait(&gSignalled) != 0) {
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(kCancelGraceSeconds));
+    io::removeInFlightTempFiles();
+    std::fprintf(stderr,
+                 "nimbus: interrupted; the work in flight did not stop within %.1f s of the "
+                 "signal, exiting without it\n",
+                 kCancelGraceSeconds);
+    std::fflush(stderr);
+    _exit(kExitInterrupted);
 }
 
 } // namespace
 
 void installSignalHandlers() {
+    static bool installed = false;
+    if (!installed) {
+        installed = true;
+        sem_init(&gSignalled, 0, 0);
+        std::thread(watchdog).detach();
+    }
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
     std::signal(SIGHUP, onSignal);
@@ -55,16 +88,23 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+std::string clipped(const std::string& m) {
+    constexpr std::size_t kMax = 8192, kHead = 6000, kTail = 1000;
+    if (m.size() <= kMax) return m;
+    return m.substr(0, kHead) + " [... " + std::to_string(m.size() - kHead - kTail) +
+           " bytes left out ...] " + m.substr(m.size() - kTail);
+}
+
 void printWarnings(host::Session& s) {
-    for (const auto& w : s.takeWarnings()) std::fprintf(stderr, "nimbus: %s\n", w.c_str());
+    for (const auto& w : s.takeWarnings()) std::fprintf(stderr, "nimbus: %s\n", clipped(w).c_str());
 }
 
 int report(const host::Status& st) {
     if (st.ok()) return kExitOk;
     if (st.code == host::StatusCode::interrupted)
-        std::fprintf(stderr, "nimbus: %s\n", st.message.c_str());
+        std::fprintf(stderr, "nimbus: %s\n", clipped(st.message).c_str());
     else
-        std::fprintf(stderr, "nimbus: error: %s\n", st.message.c_str());
+        std::fprintf(stderr, "nimbus: error: %s\n", clipped(st.message).c_str());
     return host::exitCode(st.code);
 }
 
@@ -128,13 +168,30 @@ bool framesToRender(const std::string& cliSpec, const std::string& sceneSpec,
     return true;
 }
 
-bool validOutputExists(const std::string& path) {
+/// Whether `path` holds a complete Nimbus frame of the scene's resolution; when a file is there
+/// but will be rendered again, `why` says why.
+bool validOutputExists(const std::string& path, int width, int height, std::string& why) {
+    why.clear();
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) return false;
+    if (!std::filesystem::exists(path, ec)) return false;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        why = "it is not a regular file";
+        return false;
+    }
     try {
         io::ExrImage img = io::readExr(path);
-        return img.attributes.count("nimbus/frame") && img.width > 0;
-    } catch (const std::exception&) {
+        if (!img.attributes.count("nimbus/frame")) {
+            why = "it is not a Nimbus frame (no nimbus/frame attribute)";
+            return false;
+        }
+        if (img.width != width || img.height != height) {
+            why = "it is " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                  ", not " + std::to_string(width) + "x" + std::to_string(height);
+            return false;
+        }
+        return true;
+    } catch (const std::exception& e) {
+        why = std::string("it cannot be read (") + e.what() + ")";
         return false;
     }
 }
@@ -147,8 +204,8 @@ int runRender(const RenderOptions& o) {
     io::SceneFile& f = ls.file();
     if (!o.output.empty()) f.output.path = o.output;
     if (f.output.path.size() < 4 || f.output.path.substr(f.output.path.size() - 4) != ".exr") {
-        std::fprintf(stderr, "nimbus: error: output path \"%s\" must end in .exr\n",
-                     f.output.path.c_str());
+        std::fprintf(stderr, "nimbus: error: %s\n",
+                     clipped("output path \"" + f.output.path + "\" must end in .exr").c_str());
         return kExitBadInput;
     }
     std::vector<int> frames;
@@ -167,6 +224,18 @@ int runRender(const RenderOptions& o) {
     }
 
     installSignalHandlers();
+    {
+        // temp files a SIGKILLed run of these frames left (with or without --resume)
+        std::vector<std::string> outs;
+        for (int frame : frames) {
+            outs.push_back(ls.outputPath(frame));
+            if (!f.output.preview.empty())
+                outs.push_back(io::expandFramePattern(f.output.preview, frame));
+        }
+        const std::size_t stale = io::removeStaleTempFiles(outs);
+        if (stale && !o.quiet)
+            std::fprintf(stderr, "removed %zu temp file(s) of interrupted runs\n", stale);
+    }
     const ProgressMode mode = o.quiet                 ? ProgressMode::None
                               : o.progress == "bar"   ? ProgressMode::Bar
                               : o.progress == "plain" ? ProgressMode::Plain
@@ -178,12 +247,18 @@ int runRender(const RenderOptions& o) {
     for (size_t k = 0; k < frames.size(); ++k) {
         const int frame = frames[k];
         const std::string out = ls.outputPath(frame);
-        if (o.resume && validOutputExists(out)) {
+        std::string why;
+        if (o.resume && validOutputExists(out, f.scene.camera.width, f.scene.camera.height, why)) {
             progress.finishLine();
             if (!o.quiet)
                 std::fprintf(stderr, "frame %d: %s exists, skipped (--resume)\n", frame,
                              out.c_str());
             continue;
+        }
+        if (o.resume && !why.empty() && !o.quiet) {
+            progress.finishLine();
+            std::fprintf(stderr, "frame %d: %s exists but %s: rendering it again (--resume)\n",
+                         frame, out.c_str(), why.c_str());
         }
         // the grids of the frame (a VDB field: only the named grid of that frame's file)
         const host::Status bound = ls.bind(frame);
@@ -192,11 +267,23 @@ int runRender(const RenderOptions& o) {
         Framebuffer fb;
         RenderStats st;
         FramePlan plan;
+        for (const std::string& w : ls.plan(frame).warnings) {
+            progress.finishLine();
+            std::fprintf(stderr, "nimbus: warning: frame %d: %s\n", frame, w.c_str());
+        }
         progress.update(int(k), frame, 0.0);
         const auto t0 = std::chrono::steady_clock::now();
+        // NIMBUS_TEST_FAULT (tests/test_stability.cpp): an exception out of a render worker
+        const char* fault = std::getenv("NIMBUS_TEST_FAULT");
+        const std::string testFault = fault ? fault : "";
         const host::Status result = ls.render(
             frame, fb, st,
-            [&](int done, int total) { progress.update(int(k), frame, double(done) / total); },
+            [&](int done, int total) {
+                if (testFault == "worker") throw 42;
+                if (testFault == "bad-alloc") throw std::bad_alloc();
+                if (testFault == "std") throw std::runtime_error("test fault in a worker");
+                progress.update(int(k), frame, double(done) / total);
+            },
             &gCancel, &plan);
         const double seconds = secondsSince(t0);
         if (!result.ok() || gCancel) {
@@ -217,6 +304,15 @@ int runRender(const RenderOptions& o) {
         const host::Status written = ls.writeFrame(frame, fb, md, st.nonFinite);
         if (!written.ok()) progress.finishLine();
         printWarnings(ls);
+        if (!written.ok() && gCancel) {
+            // the signal's handler removed the temp file under the writer: an interruption,
+            // not an I/O error
+            io::removeInFlightTempFiles();
+            std::fprintf(stderr,
+                         "nimbus: interrupted while writing frame %d; no output written for it\n",
+                         frame);
+            return kExitInterrupted;
+        }
         if (int rc = report(written)) return rc;
         if (gCancel) {
             progress.finishLine();

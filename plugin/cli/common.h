@@ -19,12 +19,19 @@ namespace nimbus::cli {
 
 /// Set by SIGINT/SIGTERM/SIGHUP once installSignalHandlers() ran.
 extern std::atomic<bool> gCancel;
+/// After the first signal the command stops by itself (the renderer polls gCancel inside its
+/// loops); a watchdog ends the process with exit 130 if it is still running this long after.
+constexpr double kCancelGraceSeconds = 0.9;
 void installSignalHandlers();
 
 double secondsSince(std::chrono::steady_clock::time_point t0);
 
 /// A scene loaded by the session: file with overrides, colours resolved, geometry built.
 using LoadedScene = host::Session;
+
+/// A message cut to its first and last bytes when longer than 8 KB: a value echoed from a scene
+/// (a 50 MB string) must not flood a farm's log.
+std::string clipped(const std::string& message);
 
 /// Prints the warnings the session collected ("nimbus: <warning>").
 void printWarnings(host::Session& s);

@@ -2,11 +2,14 @@
 /// @brief The `nimbus` command: render frame sequences, measure error against run time, print
 /// the scene-file reference.
 ///
-/// Exit codes: 0 success, 1 internal error, 2 bad input (command line, scene file, colour
-/// names), 3 I/O failure (cannot read or write a file), 4 out of memory, 130 interrupted.
+/// Exit codes: 0 success, 1 internal error (an exception no layer handled: the last-resort
+/// handlers below and in dispatch.cpp), 2 bad input (command line, scene file, colour names and
+/// configuration, limits), 3 I/O failure (cannot read or write a file), 4 out of memory, 130
+/// interrupted (SIGINT, SIGTERM, SIGHUP).
 
 #include <atomic>
 #include <csignal>
+#include <exception>
 #include <cstdio>
 #include <iostream>
 #include <new>
@@ -67,13 +70,39 @@ int run(cli::Command command, const void* options) {
     return entry(int(command), options);
 }
 
+[[noreturn]] void onTerminate() {
+    std::fputs("nimbus: internal error: unhandled exception; please report it\n", stderr);
+    _exit(cli::kExitInternal);
+}
+
+int mainImpl(int argc, char** argv);
+
 } // namespace
 
+/// A C++ exception never leaves main: whatever no layer handled becomes a message and exit 1.
 int main(int argc, char** argv) {
+    std::set_terminate(onTerminate);
+    try {
+        return mainImpl(argc, argv);
+    } catch (const std::bad_alloc&) {
+        std::fputs("nimbus: error: out of memory\n", stderr);
+        return cli::kExitNoMemory;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: internal error: %s; please report it\n", e.what());
+        return cli::kExitInternal;
+    } catch (...) {
+        std::fputs("nimbus: internal error: unknown exception; please report it\n", stderr);
+        return cli::kExitInternal;
+    }
+}
+
+namespace {
+
+int mainImpl(int argc, char** argv) {
     CLI::App app{"nimbus " NIMBUS_VERSION " - offline renderer for volumetric clouds.\n"
                  "Renders TOML scenes (see `nimbus reference`) to colour-managed OpenEXR frame "
-                 "sequences.\nExit codes: 0 ok, 2 bad input, 3 I/O error, 4 out of memory, "
-                 "130 interrupted."};
+                 "sequences.\nExit codes: 0 ok, 1 internal error, 2 bad input, 3 I/O error, "
+                 "4 out of memory, 130 interrupted (SIGINT, SIGTERM, SIGHUP)."};
     app.set_version_flag("--version", std::string("nimbus ") + NIMBUS_VERSION);
     app.require_subcommand(1);
     app.footer("Examples:\n"
@@ -114,7 +143,8 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0, 1024));
     render->add_flag("--explain", ro.explain, "Print the plan of each frame and exit");
     render->add_flag("--resume", ro.resume,
-                     "Skip frames whose output already exists as a complete Nimbus EXR");
+                     "Skip frames whose output already exists as a complete Nimbus EXR of the "
+                     "scene's resolution");
     render
         ->add_option("--progress", ro.progress,
                      "Progress display: auto (bar on a terminal, plain lines otherwise), bar, "
@@ -414,6 +444,13 @@ int main(int argc, char** argv) {
         return rc == 0 ? 0 : cli::kExitBadInput;
     }
 
+    // an empty value given on purpose is a mistake, not a request for the scene's value
+    for (auto [cmd, opt] : {std::pair{render, "--frames"}, std::pair{render, "--output"},
+                            std::pair{bake, "--frames"}, std::pair{bake, "--output"}})
+        if (*cmd && cmd->count(opt) && cmd->get_option(opt)->as<std::string>().empty()) {
+            std::fprintf(stderr, "nimbus: error: %s: %s is empty\n", cmd->get_name().c_str(), opt);
+            return cli::kExitBadInput;
+        }
     if (*render) return run(cli::Command::Render, &ro);
     if (*converge) {
         if (co.suite) {
@@ -448,3 +485,5 @@ int main(int argc, char** argv) {
     if (*reference) return run(cli::Command::Reference, nullptr);
     return 0;
 }
+
+} // namespace

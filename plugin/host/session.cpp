@@ -202,6 +202,10 @@ Status Session::render(int frame, Framebuffer& fb, RenderStats& stats, const Pro
         if (Status st = bind(frame); !st.ok()) return st;
     const FramePlan p = plan(frame);
     if (planOut) *planOut = p;
+    if (!p.refusal.empty())
+        return Status::error(StatusCode::bad_input,
+                             file_->path + ": frame " + std::to_string(frame) + ": " + p.refusal,
+                             file_->path);
     RenderCallbacks cb;
     cb.progress = progress;
     cb.cancel = cancel;

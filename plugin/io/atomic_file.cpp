@@ -6,7 +6,13 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <map>
+#include <set>
 #include <stdexcept>
 
 #include <fcntl.h>
@@ -99,13 +105,65 @@ void signalHandler(int sig) {
 
 } // namespace
 
+/// NAME_MAX of Linux file systems: a temp name never exceeds it.
+constexpr std::size_t kNameMax = 255;
+
+/// 8 hex digits naming this machine: a temp file of another machine (a farm writing to a shared
+/// file system) is never taken for one of a dead process here.
+std::string hostTag() {
+    char host[256] = "";
+    ::gethostname(host, sizeof host - 1);
+    std::uint32_t h = 2166136261u; // FNV-1a
+    for (const char* c = host; *c; ++c) h = (h ^ std::uint8_t(*c)) * 16777619u;
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "%08x", h);
+    return buf;
+}
+
 std::string makeTempPath(const std::string& finalPath) {
     const fs::path p(finalPath);
-    const std::string name = ".";
-    return (p.parent_path() /
-            (name + p.stem().string() + ".tmp." + std::to_string(::getpid()) + "." +
-             std::to_string(g_counter.fetch_add(1)) + p.extension().string()))
-        .string();
+    const std::string suffix = ".tmp-" + hostTag() + "-" + std::to_string(::getpid()) + "-" +
+                               std::to_string(g_counter.fetch_add(1));
+    std::string base = p.filename().string();
+    const std::size_t room = kNameMax - 1 - suffix.size();
+    if (base.size() > room) base.resize(room); // a long name: its prefix (within NAME_MAX)
+    return (p.parent_path() / ("." + base + suffix)).string();
+}
+
+std::size_t removeStaleTempFiles(const std::vector<std::string>& finalPaths) {
+    std::map<fs::path, std::set<std::string>> byDir;
+    for (const std::string& f : finalPaths) {
+        const fs::path p(f);
+        byDir[p.has_parent_path() ? p.parent_path() : fs::path(".")].insert(p.filename().string());
+    }
+    const std::string host = hostTag();
+    std::size_t removed = 0;
+    for (const auto& [dir, names] : byDir) {
+        std::error_code ec;
+        for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+            const std::string n = it->path().filename().string();
+            // .<name>.tmp-<host>-<pid>-<counter>
+            const std::size_t at = n.rfind(".tmp-");
+            if (n.size() < 2 || n[0] != '.' || at == std::string::npos || at < 1) continue;
+            const std::string base = n.substr(1, at - 1), rest = n.substr(at + 5);
+            const std::size_t d1 = rest.find('-'), d2 = rest.find('-', d1 + 1);
+            if (d1 == std::string::npos || d2 == std::string::npos) continue;
+            if (rest.substr(0, d1) != host) continue;
+            const std::string pidText = rest.substr(d1 + 1, d2 - d1 - 1);
+            if (pidText.empty() || pidText.find_first_not_of("0123456789") != std::string::npos)
+                continue;
+            const bool named = names.count(base) > 0 ||
+                               (n.size() == kNameMax &&
+                                std::any_of(names.begin(), names.end(), [&](const std::string& f) {
+                                    return f.rfind(base, 0) == 0;
+                                }));
+            if (!named) continue;
+            const pid_t pid = pid_t(std::stol(pidText));
+            if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue; // alive
+            if (::unlink(it->path().c_str()) == 0) ++removed;
+        }
+    }
+    return removed;
 }
 
 void writeAtomically(const std::string& finalPath,
@@ -131,6 +189,11 @@ void writeAtomically(const std::string& finalPath,
     const int slot = registerTemp(temp);
     try {
         writer(temp);
+        // tests/test_stability.cpp: a signal between writing and renaming (the handler removes
+        // the temp file, so the fsync below fails)
+        if (const char* f = std::getenv("NIMBUS_TEST_FAULT");
+            f && std::string(f) == "signal-in-write")
+            std::raise(SIGTERM);
         fsyncPath(temp, false);
         if (::rename(temp.c_str(), finalPath.c_str()) != 0) {
             const int err = errno;

@@ -6,13 +6,16 @@
 /// A frame written with writeAtomically() either exists complete (fsynced before the rename; the
 /// directory is fsynced after it) or not at all; a previous version of the file stays untouched
 /// until the new one is complete. Temp files are hidden dot-files named
-/// `.<stem>.tmp.<pid>.<counter><ext>`: the real extension stays last, because OpenImageIO picks
-/// the image format from the extension of the name it is given.
+/// `.<name>.tmp-<host>-<pid>-<counter>` (host: 8 hex digits of the host name; the name's prefix
+/// when the whole would pass NAME_MAX, 255): they never end in the output's extension (`find
+/// -name '*.exr'` does not see them; image writers take the format from the final name), and a
+/// legal output name always has a legal temp name.
 #pragma once
 
 #include <cstddef>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace nimbus::io {
 
@@ -28,8 +31,13 @@ void writeAtomically(const std::string& finalPath,
                      const std::function<void(const std::string& tempPath)>& writer);
 
 /// The temp path writeAtomically() would use next for @p finalPath (same directory,
-/// `.<stem>.tmp.<pid>.<counter><ext>`). Each call returns a new name.
+/// `.<name>.tmp-<host>-<pid>-<counter>`, at most 255 bytes). Each call returns a new name.
 std::string makeTempPath(const std::string& finalPath);
+
+/// Removes the temp files that processes of this host which no longer run (a SIGKILLed frame)
+/// left beside any of @p finalPaths; returns how many. Temp files of running processes and of
+/// other hosts are left alone.
+std::size_t removeStaleTempFiles(const std::vector<std::string>& finalPaths);
 
 /// Unlinks every temp file currently being written by writeAtomically() in this process.
 /// Async-signal-safe (a fixed array of paths, atomics and unlink(2) only): meant to be called from

@@ -7,7 +7,10 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <stdexcept>
 
 namespace nimbus::io {
@@ -39,19 +42,37 @@ size_t sanitize(float* v, size_t n) {
     return bad;
 }
 
+/// OIIO's message with the file system's state when that explains it: OpenEXR reports a full
+/// disk as "Failed to write pixel data" without the reason.
+std::string withDiskState(const std::string& err, const std::string& path) {
+    std::error_code ec;
+    const auto dir = std::filesystem::path(path).has_parent_path()
+                         ? std::filesystem::path(path).parent_path()
+                         : std::filesystem::path(".");
+    const std::filesystem::space_info sp = std::filesystem::space(dir, ec);
+    if (!ec && sp.available < (std::uintmax_t(1) << 20))
+        return err + " (" + std::strerror(ENOSPC) + ": " + std::to_string(sp.available) +
+               " bytes free in " + dir.string() + ")";
+    return err;
+}
+
 void writeWithOiio(const std::string& tempPath, const std::string& finalPath,
                    const OIIO::ImageSpec& spec, OIIO::TypeDesc format, const void* pixels) {
-    auto out = OIIO::ImageOutput::create(tempPath);
+    // the format from the final name (the temp name does not end in the extension)
+    const std::string ext = std::filesystem::path(finalPath).extension().string();
+    auto out = OIIO::ImageOutput::create(ext.empty() ? finalPath : ext.substr(1));
     if (!out) throw std::runtime_error("cannot write '" + finalPath + "': " + OIIO::geterror());
     if (!out->open(tempPath, spec))
         throw std::runtime_error("cannot write '" + finalPath + "': " + out->geterror());
     if (!out->write_image(format, pixels)) {
         const std::string err = out->geterror();
         out->close();
-        throw std::runtime_error("cannot write '" + finalPath + "': " + err);
+        throw std::runtime_error("cannot write '" + finalPath +
+                                 "': " + withDiskState(err, finalPath));
     }
     if (!out->close())
-        throw std::runtime_error("cannot write '" + finalPath + "': " + out->geterror());
+        throw std::runtime_error("cannot write '" + finalPath +
+                                 "': " + withDiskState(out->geterror(), finalPath));
 }
 
 } // namespace

@@ -39,6 +39,19 @@ void resolveColours(SceneFile& f, const ColorSystem& cs) {
                              "\" has no view \"" + f.output.view + "\"; known: " + joined(views));
     }
     const std::string ws = workingSpace(cs);
+    if (ws.empty())
+        throw SceneError(
+            where + cs.description() +
+            " has no scene_linear role: Nimbus renders in the config's "
+            "scene-linear space; add one under `roles:` (e.g. `scene_linear: ACEScg`)");
+    // every conversion a frame will make, tried now: a transform that needs a missing LUT file
+    // is bad input found at load, not an I/O error after the first frame's render
+    try {
+        cs.convert(vec3(0.18f), f.inputColorSpace, ws);
+        cs.convert(vec3(0.18f), ws, f.output.colorSpace);
+    } catch (const std::exception& e) {
+        throw SceneError(where + e.what());
+    }
     SceneDesc& s = f.scene;
     s.sun.irradiance = cs.convert(s.sun.irradiance, f.inputColorSpace, ws);
     s.sky.zenith = cs.convert(s.sky.zenith, f.inputColorSpace, ws);

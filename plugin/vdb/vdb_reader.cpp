@@ -102,7 +102,11 @@ class StructureReader {
     StructureReader(std::istream& is, std::uint64_t fileSize, std::string context)
         : is_(is), fileSize_(fileSize), context_(std::move(context)) {}
 
-    std::uint64_t pos() { return std::uint64_t(std::int64_t(is_.tellg())); }
+    /// The read position; after a failed read (tellg says -1) the end of the file.
+    std::uint64_t pos() {
+        const std::streamoff p = is_.tellg();
+        return p < 0 ? fileSize_ : std::uint64_t(p);
+    }
     void seek(std::uint64_t p) {
         if (p > fileSize_) truncated("a position", p - pos());
         is_.clear();
@@ -166,6 +170,11 @@ class StructureReader {
     }
 
     [[noreturn]] void truncated(const std::string& what, std::uint64_t wantedBytes) {
+        if (wantedBytes == 0) // the size is not known (a header read that ran out)
+            throw VdbError(context_ + "the file is truncated: " + what +
+                           " ends past the end of "
+                           "the file, which has only " +
+                           std::to_string(fileSize_) + " bytes" + version_);
         if (end_ < fileSize_) {
             corrupted(what + " needs " + std::to_string(wantedBytes) + " bytes at byte " +
                       std::to_string(pos()) + ", past the end of the grid (byte " +

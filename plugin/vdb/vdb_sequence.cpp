@@ -63,6 +63,32 @@ VdbFrameFile resolveVdbFrame(const std::string& pattern, int frame, bool hold, i
     if (isRegularFile(out.path)) return out;
 
     const std::string where = pattern + ": frame " + std::to_string(frame) + ": ";
+    {
+        // there, but not a file: say what it is (it was reported as missing)
+        std::error_code ec;
+        const fs::file_status st = fs::status(out.path, ec);
+        const char* kind = nullptr;
+        switch (st.type()) {
+        case fs::file_type::directory:
+            kind = "a directory";
+            break;
+        case fs::file_type::fifo:
+            kind = "a FIFO (named pipe)";
+            break;
+        case fs::file_type::character:
+            kind = "a character device";
+            break;
+        case fs::file_type::block:
+            kind = "a block device";
+            break;
+        case fs::file_type::socket:
+            kind = "a socket";
+            break;
+        default:
+            break;
+        }
+        if (kind) throw VdbError(where + "\"" + out.path + "\" is " + kind + ", not a VDB file");
+    }
     if (!io::patternHasFrameToken(pattern)) {
         throw VdbError(where + "the file \"" + out.path + "\" does not exist");
     }

@@ -266,13 +266,18 @@ std::string Param::expected() const {
 
 namespace {
 
-/// A number node checked against @p r after rounding to float (what gets stored).
+/// A number node checked against @p r as written and after rounding to float (what gets
+/// stored), against the range's ends rounded to float too: a documented end such as 0.99 is
+/// accepted (float(0.99) > 0.99 in double), 1e-50 for "> 0" is not (it is stored as 0).
 std::optional<double> readNumber(const toml::node& n, const std::string& label, const Range& r,
                                  const Context& cx, Problems& pr) {
     std::optional<double> x;
     if (auto i = n.as_integer()) x = double(i->get());
     if (auto f = n.as_floating_point()) x = f->get();
-    if (x && r.contains(double(float(*x)))) return double(float(*x));
+    Range stored = r;
+    stored.lo = double(float(r.lo));
+    stored.hi = double(float(r.hi));
+    if (x && r.contains(*x) && stored.contains(double(float(*x)))) return double(float(*x));
     pr.add(cx.at(n), label + ": expected a number" + r.suffix(false) + ", found " + describe(n));
     return std::nullopt;
 }
