@@ -104,6 +104,16 @@ TEST(FrameSpec, ErrorsNameTheProblem) {
     EXPECT_TRUE(contains(specError("99999999999"), "outside the range"));
     EXPECT_TRUE(contains(specError("0-1000000"), "more than 1000000 frames"));
     EXPECT_TRUE(contains(specError("1-600000,700000-1300000"), "more than 1000000 frames"));
+    // Repeats are allowed (eight full ranges) but bounded: a ninth is refused, whatever it adds.
+    std::string eight = "1-1000000";
+    for (int i = 1; i < 8; ++i) eight += ",1-1000000";
+    EXPECT_EQ(parseFrameSpec(eight).size(), 1000000u);
+    EXPECT_TRUE(contains(specError(eight + ",5"), "more than 8000000 frames counting repeats"));
+    // 41 copies of a range of 0.8 M frames: each element sorted ~2 M frames before the bound;
+    // now refused at the eleventh.
+    std::string many = "100-800000";
+    for (int i = 0; i < 40; ++i) many += ",100-800000";
+    EXPECT_TRUE(contains(specError(many), "counting repeats"));
 }
 
 TEST(FramePattern, HashRunIsZeroPadded) {

@@ -131,6 +131,7 @@ std::vector<int> parseFrameSpec(const std::string& spec) {
     if (in.atEnd()) specError(spec, "the spec is empty");
 
     std::vector<int> frames;
+    std::int64_t listed = 0; // frames listed so far, repeats included
     int element = 1;
     for (;;) {
         in.skipSpace();
@@ -162,6 +163,13 @@ std::vector<int> parseFrameSpec(const std::string& spec) {
         if (!in.atEnd() && in.peek() != ',') specError(spec, "unexpected character " + in.where());
 
         std::int64_t count = (std::int64_t(b) - a) / step + 1;
+        // Each de-duplication below sorts up to 2 kMaxFrames values; without this bound a short
+        // spec repeating large ranges (fuzzing found one of 60 bytes) sorted millions of frames
+        // once per element.
+        listed += count;
+        if (listed > kMaxListedFrames)
+            specError(spec, "it lists more than " + std::to_string(kMaxListedFrames) +
+                                " frames counting repeats (ranges that overlap count each time)");
         if (count > kMaxFrames || std::int64_t(frames.size()) + count > 2 * kMaxFrames) {
             // Drop duplicates before deciding: "1-1000000,1-1000000" names 1000000 frames.
             std::sort(frames.begin(), frames.end());

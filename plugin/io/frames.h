@@ -16,6 +16,7 @@
 /// scene-file reference and the CLI's --help all print them.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,9 @@ namespace nimbus::io {
 
 /// Most frames one spec may name (a guard against typos such as `1-10000000`).
 inline constexpr int kMaxFrames = 1000000;
+/// Most frames one spec may list counting repeats (`1-1000000,1-1000000` lists 2000000 and names
+/// 1000000): bounds the parser's work on specs that repeat large ranges many times.
+inline constexpr std::int64_t kMaxListedFrames = 8 * std::int64_t(kMaxFrames);
 
 /// One-paragraph description of the frame-spec grammar (Markdown-friendly plain text).
 std::string_view frameSpecSyntax();
@@ -37,7 +41,8 @@ std::string_view framePatternSyntax();
 /// sign, so the grammar stays unambiguous.
 /// @return the frames, sorted ascending, without duplicates (never empty).
 /// @throws std::invalid_argument quoting the spec and naming what was expected (empty spec or
-///         element, descending range, step < 1, junk, a number outside int, more than kMaxFrames).
+///         element, descending range, step < 1, junk, a number outside int, more than kMaxFrames,
+///         more than kMaxListedFrames counting repeats).
 std::vector<int> parseFrameSpec(const std::string& spec);
 
 /// True when @p pattern contains a frame token: a run of `#`, or `$F` / `$F<digits>` (a `$F`

@@ -73,7 +73,7 @@ for h in "${harnesses[@]}"; do
     echo "== fuzz_$h (${limit[*]}, corpus $corpus)"
     log="$build/fuzz_$h.log"
     if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-        "$build/tests/fuzz/fuzz_$h" "${limit[@]}" -max_len="$maxlen" -timeout=20 \
+        "$build/tests/fuzz/fuzz_$h" "${limit[@]}" -max_len="$maxlen" -timeout=60 \
         -rss_limit_mb=3072 -artifact_prefix="$artifacts" -print_final_stats=1 \
         "$corpus" >"$log" 2>&1; then
         echo "fuzz_$h FAILED: see $log and $artifacts"
