@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/fields/grid.h"
+#include "core/fields/sdf_cloud.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/sky_volume.h"
 #include "core/tracking/volumes.h"
@@ -85,7 +86,7 @@ std::string FramePlan::explain() const {
     o << "  march steps: " << stepDecision << "\n";
     o << "  empty-space skipping: "
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
-      << "\n";
+      << (sdfTrace ? "; the SDF field by sphere tracing its distance bound" : "") << "\n";
     o << "  sun transmittance: "
       << (!shadows         ? std::string("none (no sun)")
           : shadowRoulette ? "ratio-tracked shadow rays, traced with a probability from the "
@@ -154,6 +155,8 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     Box bounds = s.field.homogeneous.box;
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
     if (s.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
+    if (s.field.kind == FieldKind::Sdf) bounds = sdfCloudBounds(s.field.sdf);
+    p.sdfTrace = p.skipEmpty && s.field.kind == FieldKind::Sdf && isPlaced(s, 0);
     chooseSteps(s, bindings, p);
     p.majorantCell = autoMajorantCell(s, bounds, p.step);
     p.volumes = 1 + int(s.volumes.size());

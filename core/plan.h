@@ -26,6 +26,9 @@ struct FramePlan {
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
     bool skipEmpty = true;
+    /// an SDF cloud: empty space skipped by sphere tracing its distance bound (the majorant
+    /// grid is still built for the light volumes)
+    bool sdfTrace = false;
     bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid

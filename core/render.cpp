@@ -133,6 +133,9 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
     std::vector<char> instanced(n, 0);
     for (const VolumeInstance& in : vs.instances) instanced[size_t(in.volume)] = 1;
     vs.useCoarse = plan.skipEmpty && plan.instanced && !plan.hierarchical;
+    vs.traceSdf.assign(n, 0);
+    vs.traceSdf[0] = plan.sdfTrace && !vs.useCoarse && vs.fields[0].kind == FieldKind::Sdf &&
+                     !vs.fields[0].bounds().empty();
     double emptyCells = 0.0;
     for (size_t i = 0; i < n; ++i) {
         const Field& f = vs.fields[i];

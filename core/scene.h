@@ -13,6 +13,7 @@
 
 #include "core/accel.h"
 #include "core/geometry.h"
+#include "core/sdf/sdf.h"
 
 namespace nimbus {
 
@@ -69,7 +70,7 @@ struct MediumDesc {
     std::shared_ptr<const MieTable> mieTable;
 };
 
-enum class FieldKind { Homogeneous, Cumulus, Vdb };
+enum class FieldKind { Homogeneous, Cumulus, Vdb, Sdf };
 enum class NoiseEval { Auto, Direct, Baked };
 
 /// A box of constant density (tests, fog layers).
@@ -118,11 +119,21 @@ struct VdbFieldDesc {
     float density = 1.0f;         ///< multiplies the grid values
 };
 
+/// A cloud sculpted from signed distance functions (Thomann 2020, ch. 3-4): density =
+/// density * sdfDensityFromDistance(d, falloff), d the tree's (displaced) distance, see
+/// core/fields/sdf_field.h.
+struct SdfFieldDesc {
+    SdfNodeDesc root;      ///< the tree (scene file: [[field.node]] tables)
+    float density = 1.0f;  ///< density deeper inside than `falloff`
+    float falloff = 0.25f; ///< width of the soft edge inside the surface (world units)
+};
+
 struct FieldDesc {
     FieldKind kind = FieldKind::Cumulus;
     VdbFieldDesc vdb;
     HomogeneousDesc homogeneous;
     CumulusDesc cumulus;
+    SdfFieldDesc sdf;
 };
 
 /// A further VDB volume beside `field` (scene file `[[volume]]`), referred to by name.

@@ -1083,6 +1083,126 @@ std::vector<KernelCase> makeCases() {
     c.push_back(kernelCase(
         "sdfTetraVertex", "sdfTetraVertex(a0)", [](int i) { return sdfTetraVertex(i); },
         [](Draw& d) { return std::tuple(d.i(0, 3)); }));
+    // sdf.glsl: differences of lengths (values up to ~16 in magnitude here) that cancel toward 0
+    // on the surfaces; the noise rows take noise.glsl's mix() allowance
+    const Tolerance distance{.ulps = 4,
+                             .abs = 0x1p-17f,
+                             .why = "a length minus a size, both <= 16, cancelling toward 0 on "
+                                    "the surface: 4 ulp of 16 absolute"};
+    auto sdfPoint = [](Draw& d) { return d.v3(-4.0f, 4.0f, {0.0f, 1.0f, -1.0f, 0.5f}); };
+    auto sdfSize = [](Draw& d) { return d.f(0.05f, 3.0f, {1.0f, 0.5f}); };
+    auto sdfSizes = [sdfSize](Draw& d) { return vec3(sdfSize(d), sdfSize(d), sdfSize(d)); };
+    c.push_back(kernelCase(
+        "sdSphere", "sdSphere(a0, a1)", [](vec3 p, float r) { return sdSphere(p, r); },
+        [=](Draw& d) { return std::tuple(sdfPoint(d), sdfSize(d)); }, distance));
+    c.push_back(kernelCase(
+        "sdBox", "sdBox(a0, a1)", [](vec3 p, vec3 b) { return sdBox(p, b); },
+        [=](Draw& d) { return std::tuple(sdfPoint(d), sdfSizes(d)); }, distance));
+    c.push_back(kernelCase(
+        "sdRoundBox", "sdRoundBox(a0, a1, a2)",
+        [](vec3 p, vec3 b, float r) { return sdRoundBox(p, b, r); },
+        [=](Draw& d) {
+            const vec3 b = sdfSizes(d);
+            return std::tuple(sdfPoint(d), b, d.f(0.0f, std::min(b.x, std::min(b.y, b.z)), {0.0f}));
+        },
+        distance));
+    c.push_back(kernelCase(
+        "sdEllipsoid", "sdEllipsoid(a0, a1)", [](vec3 p, vec3 r) { return sdEllipsoid(p, r); },
+        [=](Draw& d) { return std::tuple(sdfPoint(d), sdfSizes(d)); }, distance));
+    c.push_back(kernelCase(
+        "sdSegment2", "sdSegment2(a0, a1, a2)",
+        [](vec2 p, vec2 a, vec2 b) { return sdSegment2(p, a, b); },
+        [](Draw& d) {
+            const vec2 a(d.f(-3.0f, 3.0f, {0.0f}), d.f(-3.0f, 3.0f, {0.0f}));
+            return std::tuple(vec2(d.f(-4.0f, 4.0f), d.f(-4.0f, 4.0f)), a,
+                              a + vec2(d.f(0.1f, 3.0f), d.f(-3.0f, 3.0f, {0.0f})));
+        },
+        distance));
+    c.push_back(kernelCase(
+        "sdCapsule", "sdCapsule(a0, a1, a2, a3)",
+        [](vec3 p, vec3 a, vec3 b, float r) { return sdCapsule(p, a, b, r); },
+        [=](Draw& d) {
+            const vec3 a = d.v3(-2.0f, 2.0f, {0.0f});
+            return std::tuple(sdfPoint(d), a, d.chance(0.1f) ? a : d.v3(-2.0f, 2.0f), sdfSize(d));
+        },
+        distance));
+    c.push_back(kernelCase(
+        "sdTorus", "sdTorus(a0, a1, a2)", [](vec3 p, float R, float r) { return sdTorus(p, R, r); },
+        [=](Draw& d) {
+            const float R = sdfSize(d);
+            return std::tuple(sdfPoint(d), R, d.f(0.01f, R, {R}));
+        },
+        distance));
+    c.push_back(kernelCase(
+        "sdCone", "sdCone(a0, a1, a2)", [](vec3 p, float r, float h) { return sdCone(p, r, h); },
+        [=](Draw& d) { return std::tuple(sdfPoint(d), sdfSize(d), sdfSize(d)); }, distance));
+    c.push_back(kernelCase(
+        "sdPlane", "sdPlane(a0, a1, a2)", [](vec3 p, vec3 n, float o) { return sdPlane(p, n, o); },
+        [=](Draw& d) { return std::tuple(sdfPoint(d), d.unitVector(), d.f(-2.0f, 2.0f, {0.0f})); },
+        distance));
+    auto values = [](Draw& d) {
+        const float a = d.f(-4.0f, 4.0f, {0.0f, 1.0f});
+        return std::tuple(a, d.chance(0.1f) ? a : d.f(-4.0f, 4.0f, {0.0f, -1.0f}),
+                          d.f(0.0f, 2.0f, {0.0f, 0.5f}));
+    };
+    auto hard = [values](Draw& d) {
+        const auto v = values(d);
+        return std::tuple(std::get<0>(v), std::get<1>(v));
+    };
+    c.push_back(kernelCase(
+        "sdfUnion", "sdfUnion(a0, a1)", [](float a, float b) { return sdfUnion(a, b); }, hard,
+        exact));
+    c.push_back(kernelCase(
+        "sdfIntersection", "sdfIntersection(a0, a1)",
+        [](float a, float b) { return sdfIntersection(a, b); }, hard, exact));
+    c.push_back(kernelCase(
+        "sdfSubtraction", "sdfSubtraction(a0, a1)",
+        [](float a, float b) { return sdfSubtraction(a, b); }, hard, exact));
+    c.push_back(kernelCase(
+        "sdfSmoothMin", "sdfSmoothMin(a0, a1, a2)",
+        [](float a, float b, float k) { return sdfSmoothMin(a, b, k); }, values, distance));
+    c.push_back(kernelCase(
+        "sdfSmoothMax", "sdfSmoothMax(a0, a1, a2)",
+        [](float a, float b, float k) { return sdfSmoothMax(a, b, k); }, values, distance));
+    c.push_back(kernelCase(
+        "sdfSmoothUnion", "sdfSmoothUnion(a0, a1, a2)",
+        [](float a, float b, float k) { return sdfSmoothUnion(a, b, k); }, values, distance));
+    c.push_back(kernelCase(
+        "sdfSmoothIntersection", "sdfSmoothIntersection(a0, a1, a2)",
+        [](float a, float b, float k) { return sdfSmoothIntersection(a, b, k); }, values,
+        distance));
+    c.push_back(kernelCase(
+        "sdfSmoothSubtraction", "sdfSmoothSubtraction(a0, a1, a2)",
+        [](float a, float b, float k) { return sdfSmoothSubtraction(a, b, k); }, values, distance));
+    c.push_back(kernelCase(
+        "sdfNoise", "sdfNoise(a0, a1, a2, a3, a4, a5)",
+        [](vec3 p, int kind, float freq, int oct, float gain, uint seed) {
+            return sdfNoise(p, kind, freq, oct, gain, seed);
+        },
+        [](Draw& d) {
+            return std::tuple(noisePoint(d) * 0.25f, d.i(0, 1), d.f(0.1f, 4.0f, {1.0f}),
+                              d.i(1, 5, {1, 5}), d.f(0.3f, 0.7f, {0.5f}), d.u({0u, 1u}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-20f,
+                  .why = "perlinFbm's 2^-21 (mix); 1 - 2 w doubles worleyFbm's rounding near 0: "
+                         "2^-20 absolute"}));
+    c.push_back(kernelCase(
+        "sdfSkipDistance", "sdfSkipDistance(a0, a1, a2)",
+        [](float dd, float a, float l) { return sdfSkipDistance(dd, a, l); },
+        [](Draw& d) {
+            return std::tuple(d.f(-4.0f, 4.0f, {0.0f}), d.f(0.0f, 1.0f, {0.0f}),
+                              d.f(-1.0f, 1.0f, {0.0f}));
+        },
+        distance));
+    c.push_back(kernelCase(
+        "sdfDensityFromDistance", "sdfDensityFromDistance(a0, a1)",
+        [](float dd, float w) { return sdfDensityFromDistance(dd, w); },
+        [](Draw& d) {
+            const float w = d.f(0.0f, 1.0f, {0.0f, 0.25f});
+            return std::tuple(d.f(-1.5f, 0.5f, {0.0f, -w, -0.5f * w}), w);
+        },
+        unitScale));
 
     return c;
 }

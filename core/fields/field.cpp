@@ -28,6 +28,9 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
         f.box = grid.bounds;
         f.data = makeGridField(desc.vdb, grid);
         break;
+    case FieldKind::Sdf:
+        f.data = makeSdfCloudField(desc.sdf, f.box);
+        break;
     }
     return f;
 }
@@ -49,6 +52,8 @@ float Field::density(vec3 p) const {
         return as<CumulusField>().density(p);
     case FieldKind::Vdb:
         return as<GridField>().density(p);
+    case FieldKind::Sdf:
+        return as<SdfCloudField>().density(p);
     }
     return 0.0f;
 }
@@ -63,6 +68,8 @@ float Field::majorant(const Box& b) const {
         return as<CumulusField>().majorant(c);
     case FieldKind::Vdb:
         return as<GridField>().majorant(c);
+    case FieldKind::Sdf:
+        return as<SdfCloudField>().majorant(c);
     }
     return 0.0f;
 }

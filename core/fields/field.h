@@ -14,13 +14,14 @@
 #include "core/fields/cumulus.h"
 #include "core/fields/grid.h"
 #include "core/fields/homogeneous.h"
+#include "core/fields/sdf_cloud.h"
 #include "core/scene.h"
 
 namespace nimbus {
 
 struct Field {
     /// Alternatives in FieldKind order.
-    using Kinds = std::variant<HomogeneousField, CumulusField, GridField>;
+    using Kinds = std::variant<HomogeneousField, CumulusField, GridField, SdfCloudField>;
 
     FieldKind kind = FieldKind::Homogeneous;
     Box box; ///< bounds(): no density outside

@@ -17,5 +17,6 @@ namespace nimbus::kern {
 #include "core/kernels/phase.glsl"
 #include "core/kernels/lighting.glsl"
 #include "core/kernels/pixel.glsl"
+#include "core/kernels/sdf.glsl"
 #include "core/kernels/sdf_shading.glsl"
 } // namespace nimbus::kern

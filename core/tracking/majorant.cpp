@@ -108,6 +108,45 @@ MajorantIterator::MajorantIterator(const MajorantGrid* grid, const Box& bounds, 
     }
 }
 
+MajorantIterator::MajorantIterator(const SdfCloudField& sdf, const Box& bounds, const Ray& ray,
+                                   float tmin, float tmax)
+    : grid_(nullptr), ray_(ray), sdf_(&sdf) {
+    float t0, t1;
+    if (!intersectBox(ray, bounds, tmin, tmax, t0, t1)) return;
+    done_ = false;
+    t_ = t0;
+    tEnd_ = t1;
+    dirLength_ = glm::length(ray.d);
+    // about half the shell where the density varies; a hundredth of the box for hard surfaces
+    const float shell = sdf.falloff + sdf.tree->displacementBound;
+    minSegment_ = shell > 0.0f ? 0.5f * shell : 0.01f * glm::length(bounds.extent());
+    minSegment_ = std::max(minSegment_, 4.0f * sdf.margin);
+}
+
+bool MajorantIterator::nextTraced(MajorantSegment& seg) {
+    while (t_ < tEnd_) {
+        float u;
+        const float s = sdf_->skip(ray_.at(t_), u);
+        ++steps_;
+        if (s > 0.25f * minSegment_) { // empty space: leap
+            t_ += s / dirLength_;
+            continue;
+        }
+        // at the support: the support certainly continues for -(u + A) (1-Lipschitz bound)
+        const float L = std::max(minSegment_, -(u + sdf_->tree->displacementBound) - sdf_->margin);
+        const float t0 = t_;
+        const float t1 = std::min(t_ + L / dirLength_, tEnd_);
+        t_ = t1 > t0 ? t1 : std::nextafter(t0, tEnd_);
+        const float m = sdf_->majorantBall(u, L);
+        if (m > 0.0f && t1 > t0) {
+            seg = {t0, t1, m};
+            return true;
+        }
+    }
+    done_ = true;
+    return false;
+}
+
 int MajorantIterator::cellOf(int a, float x) const {
     return kern::ddaCell(x, grid_->bounds.lo[a], grid_->cellSize[a]);
 }
@@ -123,6 +162,7 @@ void MajorantIterator::enterCell(int a, int c) {
 
 bool MajorantIterator::next(MajorantSegment& seg) {
     if (done_) return false;
+    if (sdf_) return nextTraced(seg);
     if (!grid_) {
         done_ = true;
         seg = {t_, tEnd_, whole_};

@@ -60,9 +60,21 @@ class MajorantIterator {
   public:
     MajorantIterator(const MajorantGrid* grid, const Box& bounds, const Ray& ray, float tmin,
                      float tmax, float wholeMajorant);
+    /// Segments of an SDF cloud by sphere tracing (Hart 1996) its 1-Lipschitz bound, no grid:
+    /// from the box entry the walk leaps by sdf.skip() (no density closer than that, the
+    /// displacement amplitude included) until it reaches the support; there it yields segments
+    /// of length L (local units) at sdf.majorantBall(bound, L), L the length over which the
+    /// support certainly continues or a minimum of about half the soft shell (falloff +
+    /// displacement). The ray's direction need not be unit (instances): t steps are local
+    /// lengths over |d|.
+    MajorantIterator(const SdfCloudField& sdf, const Box& bounds, const Ray& ray, float tmin,
+                     float tmax);
     bool next(MajorantSegment& seg);
+    /// Bound evaluations so far (traced walks only).
+    std::uint64_t traceSteps() const { return steps_; }
 
   private:
+    bool nextTraced(MajorantSegment& seg);
     /// From inside an empty block at distance d: moves the walk to the first cell past the
     /// empty cube of 2 d - 1 blocks around it.
     void leap(int d);
@@ -80,6 +92,9 @@ class MajorantIterator {
     float whole_ = 0.0f;
     ivec3 cell_{0}, step_{0};
     vec3 tNext_{0.0f}, tDelta_{0.0f};
+    const SdfCloudField* sdf_ = nullptr;
+    float dirLength_ = 1.0f, minSegment_ = 0.0f;
+    std::uint64_t steps_ = 0;
 };
 
 } // namespace nimbus

@@ -233,9 +233,12 @@ bool RayVolumes::nextSegment(MajorantSegment& out) {
             const Span& s = spans_[segNext_++];
             const VolumeInstance& in = vs_->instances[size_t(s.instance)];
             const size_t v = size_t(in.volume);
-            Walker w{MajorantIterator(vs_->useGrid[v] ? &vs_->grids[v] : nullptr,
-                                      vs_->fields[v].bounds(), s.local, s.t0, s.t1,
-                                      vs_->wholeMajorant[v]),
+            const Field& f = vs_->fields[v];
+            const bool traced = v < vs_->traceSdf.size() && vs_->traceSdf[v];
+            Walker w{traced
+                         ? MajorantIterator(f.as<SdfCloudField>(), f.bounds(), s.local, s.t0, s.t1)
+                         : MajorantIterator(vs_->useGrid[v] ? &vs_->grids[v] : nullptr, f.bounds(),
+                                            s.local, s.t0, s.t1, vs_->wholeMajorant[v]),
                      MajorantSegment{}, in.density};
             if (w.it.next(w.seg)) walkers_.push_back(w);
         }

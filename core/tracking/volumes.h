@@ -45,6 +45,8 @@ struct VolumeSet {
     std::vector<MajorantGrid> grids;  ///< per volume; used where `useGrid`
     std::vector<char> useGrid;        ///< per volume
     std::vector<float> wholeMajorant; ///< per volume: bound over all its bounds
+    /// per volume (empty: none): an SDF cloud walked by sphere tracing instead of its grid
+    std::vector<char> traceSdf;
     std::vector<VolumeInstance> instances;
     Box bounds;                           ///< union of the instances' world boxes
     std::unique_ptr<InstanceQuery> query; ///< null: linear scan over `instances`

@@ -283,7 +283,8 @@ int main(int argc, char** argv) {
 
     cli::BakeOptions bo;
     auto* bake = app.add_subcommand(
-        "bake", "Write the density field of a scene (procedural or simulated) as fog-volume VDB "
+        "bake", "Write the density field of a scene (procedural, SDF-sculpted or simulated) as "
+                "fog-volume VDB "
                 "files that Houdini or Blender can read");
     bake->add_option("scene", bo.scene, "Scene file (TOML)")->required();
     bake->add_option("-o,--output", bo.output,

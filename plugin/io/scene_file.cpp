@@ -18,6 +18,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "plugin/io/scene/params_sdf.h"
 #include "plugin/io/scene/reader.h"
 
 namespace nimbus::io {
@@ -42,6 +43,7 @@ SceneFile parseSceneText(const std::string& text, const std::string& sourceName,
     s.file.path = sourceName;
     Problems pr;
     validate(root, s, cx, pr);
+    if (s.file.scene.field.kind == FieldKind::Sdf) readSdfField(root, s, cx, pr);
     validateArrays(root, s, cx, pr);
     if (!pr.empty()) pr.raise();
     resolveArrays(s, pr);

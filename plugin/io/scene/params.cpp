@@ -10,7 +10,8 @@ namespace nimbus::io::scene {
 
 const WordTable<FieldKind> kFieldKinds = {{"cumulus", FieldKind::Cumulus},
                                           {"homogeneous", FieldKind::Homogeneous},
-                                          {"vdb", FieldKind::Vdb}};
+                                          {"vdb", FieldKind::Vdb},
+                                          {"sdf", FieldKind::Sdf}};
 
 std::string fieldKindName(FieldKind k) {
     for (const auto& [name, e] : kFieldKinds)
@@ -39,6 +40,7 @@ const std::vector<Param>& registry() {
         addCumulusParams(t);
         addHomogeneousParams(t);
         addVdbParams(t);
+        addSdfFieldParams(t);
         addGroundParams(t);
         addRenderParams(t);
         addOutputParams(t);

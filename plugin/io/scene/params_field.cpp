@@ -10,8 +10,9 @@ void addFieldParams(std::vector<Param>& t) {
                                  [](Staging& s) -> FieldDesc& { return s.file.scene.field; }};
     t.push_back(fld.param("kind", kFieldKinds,
                           "Density field: a procedural cumulus layer (Olajos 2016), a box of "
-                          "constant density, or a grid from a VDB file. The other keys of [field] "
-                          "depend on it.",
+                          "constant density, a grid from a VDB file, or a cloud sculpted from "
+                          "signed distance functions (the [[field.node]] tables). The other keys "
+                          "of [field] depend on it.",
                           &FieldDesc::kind));
 }
 

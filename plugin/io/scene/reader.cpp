@@ -504,6 +504,8 @@ void validate(const toml::table& root, Staging& s, const Context& cx, Problems& 
         if (sec == "field") kind = s.file.scene.field.kind;
         for (auto&& [k, node] : *tbl) {
             std::string key(k.str());
+            // the SDF tree's [[field.node]] tables are read by readSdfTree (params_sdf.h)
+            if (sec == "field" && key == "node" && kind == FieldKind::Sdf) continue;
             bool known = false;
             std::optional<FieldKind> otherKind;
             for (const Param& p : registry()) {

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "plugin/io/frames.h"
+#include "plugin/io/scene/params_sdf.h"
 #include "plugin/io/scene/reader.h"
 
 namespace nimbus::io::scene {
@@ -99,6 +100,37 @@ void tableOf(std::ostringstream& md, const std::string& section, std::optional<F
     md << "\n";
 }
 
+/// The [[field.node]] tables of kind = "sdf" (params_sdf.h): syntax and one row per key.
+void sdfNodeTable(std::ostringstream& md) {
+    md << "### [[field.node]] (kind = \"sdf\")\n\n"
+       << "The tree of signed distance functions of an SDF cloud, one table per node. A node is "
+          "a primitive (`type` = sphere, ellipsoid, box, round_box, capsule, torus, cone, plane) "
+          "or an operator (union, intersection, subtraction; smooth when `smooth` > 0) that "
+          "combines the nodes naming it as their `parent`, in file order (subtraction: the first "
+          "child minus the others). Nodes without `parent` are the top level: one is the root, "
+          "several are joined by a hard union. Each node has its own transform (parent from node "
+          "= translate R scale, R = Rz Ry Rx) and may add noise displacement (`displace` > 0). "
+          "Every distance is 1-Lipschitz, so empty space is skipped by sphere tracing with the "
+          "displacement amplitudes added to the bound. A key the node's type does not take is "
+          "an error.\n\n"
+       << "```toml\n[[field.node]]\nname = \"blob\"\ntype = \"union\"\nsmooth = 0.5\n\n"
+          "[[field.node]]\nparent = \"blob\"\ntype = \"sphere\"\nradius = 1.0\n\n"
+          "[[field.node]]\nparent = \"blob\"\ntype = \"box\"\nsize = [0.6, 0.4, 0.6]\n"
+          "translate = [1, 0, 0]\n```\n\n"
+       << "| Key | Type | Default | Allowed | Description |\n|---|---|---|---|---|\n";
+    for (const Param& p : sdfNodeRegistry()) {
+        Staging st;
+        st.sdfNodes.emplace_back();
+        st.element = 0;
+        const std::optional<Value> v = p.get(st);
+        const std::string def = v && p.key != "type" ? toToml(p, *v) : "";
+        md << "| `" << p.key << "` | " << cell(typeName(p.type)) << " | "
+           << (def.empty() || def == "\"\"" ? "unset" : cell(code(def))) << " | "
+           << cell(code(allowedOf(p))) << " | " << cell(p.doc) << " |\n";
+    }
+    md << "\n";
+}
+
 } // namespace
 
 } // namespace nimbus::io::scene
@@ -153,6 +185,7 @@ std::string sceneFileReference() {
             tableOf(md, sec, kind, true);
         }
         md << "Keys of the other kind are errors.\n\n";
+        sdfNodeTable(md);
     }
     for (const ArraySection& a : arraySections()) {
         md << "## [[" << a.name << "]]\n\n"

@@ -139,6 +139,15 @@ struct Staging {
         float densityMin = 1.0f, densityMax = 1.0f;
     };
     std::vector<Scatter> scatters;
+
+    /// SDF node tables being read (params_sdf.cpp), one per table of the array.
+    struct SdfNodeRow {
+        SdfNodeDesc desc;
+        std::string name, parent;
+        Where where;                        ///< the table
+        std::map<std::string, Where> given; ///< key -> location of its value
+    };
+    std::vector<SdfNodeRow> sdfNodes;
 };
 
 // --- rows
@@ -339,6 +348,7 @@ void addFieldParams(std::vector<Param>& t); ///< field.kind
 void addCumulusParams(std::vector<Param>& t);
 void addHomogeneousParams(std::vector<Param>& t);
 void addVdbParams(std::vector<Param>& t);
+void addSdfFieldParams(std::vector<Param>& t); ///< [field] kind = "sdf" (params_sdf.cpp)
 void addGroundParams(std::vector<Param>& t);
 void addRenderParams(std::vector<Param>& t);
 void addOutputParams(std::vector<Param>& t);
