@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "core/accel.h"
+#include "core/sdf/sdf.h"
 
 namespace nimbus {
 
@@ -52,6 +53,11 @@ struct SdfSolid {
     Box box{vec3(-1e30f), vec3(1e30f)};  ///< holds the solid's surface (may be unbounded)
     SolidShading shading;
 };
+
+/// A solid from a tree of SDF nodes: its distance, the safe step of a displaced tree
+/// (SdfTree::skipDistance) and its support box (solid_tree.cpp). Throws std::invalid_argument
+/// as flattenSdf does.
+SdfSolid solidFromTree(const SdfNodeDesc& root, const SolidShading& shading);
 
 /// The solids (and optionally Embree's surfaces, @p other) as one SurfaceQuery.
 class SdfSurfaces : public SurfaceQuery {
