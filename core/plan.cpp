@@ -159,7 +159,8 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
     if (s.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
     if (s.field.kind == FieldKind::Sdf) bounds = sdfCloudBounds(s.field.sdf);
-    p.sdfTrace = p.skipEmpty && s.field.kind == FieldKind::Sdf && isPlaced(s, 0);
+    p.sdfTrace =
+        p.skipEmpty && s.render.sdfTrace && s.field.kind == FieldKind::Sdf && isPlaced(s, 0);
     chooseSteps(s, bindings, p);
     p.majorantCell = autoMajorantCell(s, bounds, p.step);
     p.volumes = 1 + int(s.volumes.size());

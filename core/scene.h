@@ -225,6 +225,7 @@ struct RenderDesc {
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
     float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
     bool skipEmpty = true;        ///< use the majorant grid to skip empty space
+    bool sdfTrace = true; ///< SDF clouds: skip by sphere tracing the distance bound (else the grid)
     /// Instanced volumes: per-instance majorant grids found through the instance boxes
     /// (hierarchical), or one coarse world grid over all instances (false; for comparison).
     bool hierarchicalSkip = true;

@@ -142,6 +142,15 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::shadowGrowth));
     t.push_back(ren.param("skip_empty", {}, "Skip empty space with the majorant grid.",
                           &RenderDesc::skipEmpty));
+    t.push_back(
+        ren.param("sdf_trace", {},
+                  "field.kind = \"sdf\": skip the empty space around the cloud by sphere "
+                  "tracing its distance bound; false = the majorant grid (for "
+                  "comparison).",
+                  &RenderDesc::sdfTrace)
+            .usedWhen("render.skip_empty = true and field.kind = \"sdf\"", [](const SceneFile& f) {
+                return f.scene.render.skipEmpty && f.scene.field.kind == FieldKind::Sdf;
+            }));
     t.push_back(ren.param("hierarchical_skip", {},
                           "Instanced volumes: find the instance boxes a ray crosses (Embree), then "
                           "walk each volume's own majorant grid; false = one coarse world grid "
