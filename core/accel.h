@@ -35,6 +35,7 @@ struct SurfaceHit {
     vec3 normal{0.0f, 1.0f, 0.0f}; ///< unit, facing the ray's origin
     vec3 albedo{0.5f};
     bool holdout = false;
+    float ao = 1.0f; ///< ambient occlusion of the sky light (SDF solids; 1 elsewhere)
 };
 
 /// Opaque surfaces.
@@ -45,6 +46,11 @@ class SurfaceQuery {
     virtual bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit& hit) const = 0;
     /// Whether any surface lies on the ray within (tmin, tmax).
     virtual bool occluded(const Ray& ray, float tmin, float tmax) const = 0;
+    /// Share of the sun's light arriving along the ray within (tmin, tmax), in [0, 1]: 0 or 1
+    /// for hard surfaces; SDF solids give a soft penumbra estimate (core/sdf/solid.h).
+    virtual float sunVisibility(const Ray& ray, float tmin, float tmax) const {
+        return occluded(ray, tmin, tmax) ? 0.0f : 1.0f;
+    }
 };
 
 /// What the host builds per frame: an instance query over the frame's instance boxes.

@@ -215,6 +215,9 @@ std::string FramePlan::explain() const {
                            : "one coarse world majorant grid")
           << ")";
     o << "\n  surfaces: " << (surfaces ? "ground and/or meshes (Embree)" : "none") << "\n";
+    if (solids > 0)
+        o << "  SDF solids: " << solids
+          << " (sphere traced, soft shadows and AO; no Embree of their own)\n";
     o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
       << (aovs.depth ? ", depth" : "") << "\n";
     return o.str();
@@ -249,6 +252,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.instanced = isInstanced(s);
     p.hierarchical = s.render.hierarchicalSkip;
     p.surfaces = s.ground.enabled || !s.meshes.empty();
+    p.solids = int(s.solids.size());
     // the light-attenuation volume covers one untransformed volume; instanced scenes march
     p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
                     s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty();

@@ -61,6 +61,7 @@ struct FramePlan {
     bool instanced = false;    ///< more than one instance or a transformed one
     bool hierarchical = true;  ///< instanced: instance boxes + per-volume grids (else coarse)
     bool surfaces = false;     ///< ground or meshes
+    int solids = 0;            ///< [[solid]] count (core/sdf/solid.h)
     /// the density integral toward the sun on the light-volume grid, for march's attenuation
     /// volume, diffusion sun source or photon skin profile, or pathtrace's shadow roulette
     bool sunDepthVolume = false;

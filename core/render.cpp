@@ -21,6 +21,7 @@
 #include "core/media/medium.h"
 #include "core/media/mie.h"
 #include "core/media/sky.h"
+#include "core/sdf/solid.h"
 
 namespace nimbus {
 
@@ -261,6 +262,14 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             stats.diffusionIterations = dv.iterations;
         }
         const SurfaceQuery* surfaces = bindings.geometry ? bindings.geometry->surfaces() : nullptr;
+        // SDF solids (core/sdf/solid.h): sphere traced here, over Embree's surfaces if any
+        std::unique_ptr<SdfSurfaces> solids;
+        if (!s.solids.empty()) {
+            std::vector<SdfSolid> list;
+            for (const SolidDesc& d : s.solids) list.push_back(solidFromTree(d.root, d.shading));
+            solids = std::make_unique<SdfSurfaces>(std::move(list), surfaces);
+            surfaces = solids.get();
+        }
         PhotonVolume pv;
         if (photons) {
             t0 = std::chrono::steady_clock::now();

@@ -15,6 +15,7 @@
 #include "core/accel.h"
 #include "core/geometry.h"
 #include "core/sdf/sdf.h"
+#include "core/sdf/solid.h"
 
 namespace nimbus {
 
@@ -221,6 +222,14 @@ struct MeshDesc {
     SurfaceMaterialDesc material;
 };
 
+/// An opaque solid bounded by an SDF tree (scene file `[[solid]]`, core/sdf/solid.h): sphere
+/// traced, Lambertian, with soft sun shadows and ambient occlusion (march; pathtrace shades it as
+/// any opaque diffuse surface, hard shadows from the point sun, no AO term).
+struct SolidDesc {
+    SdfNodeDesc root; ///< the tree (scene file: [[solid.node]] tables)
+    SolidShading shading;
+};
+
 enum class InScatter { None, Olajos, Powder };
 /// march: approximation of the sun light scattered more than once (core/integrators/march.h).
 enum class MultipleScattering { None, Grid, Photons };
@@ -334,6 +343,7 @@ struct SceneDesc {
     std::vector<InstanceDesc> instances;
     GroundDesc ground;
     std::vector<MeshDesc> meshes;
+    std::vector<SolidDesc> solids;
     RenderDesc render;
 };
 

@@ -1241,6 +1241,48 @@ std::vector<KernelCase> makeCases() {
                   .abs = 0x1p-10f,
                   .why = "gardnerR2Min's 2^-18 through the slope (T2 - T1) / D <= 50 and the "
                          "density <= 2: 2^-10 absolute (measured worst 1.8e-6)"}));
+    // sdf_shading.glsl
+    auto sdfDist = [](Draw& d) { return d.f(0.0f, 5.0f, {0.0f, 1e-6f, 1.0f}); };
+    c.push_back(kernelCase(
+        "sdfPenumbraClassic", "sdfPenumbraClassic(a0, a1, a2)",
+        [](float h, float t, float k) { return sdfPenumbraClassic(h, t, k); },
+        [sdfDist](Draw& d) {
+            return std::tuple(sdfDist(d), d.f(0.0f, 50.0f, {0.0f, 1e-4f}),
+                              d.f(0.0f, 64.0f, {1.0f, 16.0f}));
+        }));
+    c.push_back(kernelCase(
+        "sdfPenumbraImproved", "sdfPenumbraImproved(a0, a1, a2, a3, a4)",
+        [](float h, float t, float ph, float st, float k) {
+            return sdfPenumbraImproved(h, t, ph, st, k);
+        },
+        [sdfDist](Draw& d) {
+            return std::tuple(sdfDist(d), d.f(0.0f, 50.0f, {0.0f, 1e-4f}),
+                              d.f(0.0f, 5.0f, {1e20f, 0.0f, 1.0f}), d.f(0.0f, 5.0f, {0.0f, 1.0f}),
+                              d.f(0.0f, 64.0f, {1.0f, 16.0f}));
+        }));
+    c.push_back(kernelCase(
+        "sdfAoDelta", "sdfAoDelta(a0, a1)", [](int i, float s) { return sdfAoDelta(i, s); },
+        [](Draw& d) { return std::tuple(d.i(0, 16), d.f(1e-3f, 10.0f, {0.2f})); }));
+    c.push_back(kernelCase(
+        "sdfAoWeight", "sdfAoWeight(a0, a1, a2)",
+        [](int i, float s, float k) { return sdfAoWeight(i, s, k); },
+        [](Draw& d) {
+            return std::tuple(d.i(0, 16), d.f(1e-3f, 10.0f, {0.2f}), d.f(0.0f, 4.0f, {1.0f}));
+        }));
+    c.push_back(kernelCase(
+        "sdfAoTerm", "sdfAoTerm(a0, a1, a2)",
+        [](float delta, float dist, float w) { return sdfAoTerm(delta, dist, w); },
+        [sdfDist](Draw& d) {
+            return std::tuple(sdfDist(d), d.f(-1.0f, 5.0f, {0.0f}), d.f(0.0f, 10.0f, {1.0f}));
+        }));
+    c.push_back(kernelCase(
+        "sdfAoFinish", "sdfAoFinish(a0)", [](float o) { return sdfAoFinish(o); },
+        [](Draw& d) {
+            return std::tuple(d.f(-1.0f, 3.0f, {0.0f, 1.0f}));
+        }));
+    c.push_back(kernelCase(
+        "sdfTetraVertex", "sdfTetraVertex(a0)", [](int i) { return sdfTetraVertex(i); },
+        [](Draw& d) { return std::tuple(d.i(0, 3)); }));
     // sdf.glsl: differences of lengths (values up to ~16 in magnitude here) that cancel toward 0
     // on the surfaces; the noise rows take noise.glsl's mix() allowance
     const Tolerance distance{.ulps = 4,

@@ -147,11 +147,20 @@ vec3 MarchContext::surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::u
     // Lambertian: albedo / pi times the irradiance of the sun (shadowed by every volume and
     // surface) and of the sky (clouds ignored: an approximation pathtrace does not make)
     const vec3 p = ray.at(hit.t) + hit.normal * (1e-4f * std::max(1.0f, hit.t));
-    vec3 E = skyIrradiance_(hit.normal);
+    // (SDF solids: the sky light times their ambient occlusion, the sun's times their soft
+    // shadow; other surfaces have ao = 1 and a visibility of 0 or 1)
+    vec3 E = skyIrradiance_(hit.normal) * hit.ao;
     const float cosSun = glm::dot(hit.normal, s_.sun.direction);
-    if (plan_.shadows && cosSun > 0.0f)
-        E += s_.sun.irradiance * cosSun *
-             kern::beerLambert(medium_.sigma_t * sunOpticalDepth(p, rng, cnt, rv));
+    const float vis = plan_.shadows && cosSun > 0.0f && surfaces_
+                          ? surfaces_->sunVisibility(Ray{p, s_.sun.direction}, 1e-4f,
+                                                     std::numeric_limits<float>::max())
+                          : 1.0f;
+    if (plan_.shadows && cosSun > 0.0f && vis > 0.0f) {
+        const float tau = lightVolume_ && lightVolume_->bounds.contains(p)
+                              ? lightVolume_->sample(p)
+                              : sunDensityIntegral(p, rng, cnt, rv);
+        E += s_.sun.irradiance * (cosSun * vis) * kern::beerLambert(medium_.sigma_t * tau);
+    }
     return hit.albedo * E * 0.318309886f;
 }
 

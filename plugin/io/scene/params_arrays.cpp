@@ -41,6 +41,15 @@ const std::vector<ArraySection>& arraySections() {
              s.file.scene.meshes.push_back(MeshDesc{});
              s.meshWhere.push_back(w);
          }},
+        {"solid",
+         "An opaque solid bounded by a tree of signed distance functions (its `[[solid.node]]` "
+         "tables, as `[[field.node]]`): sphere traced (no Embree), Lambertian, with soft sun "
+         "shadows (penumbra estimate k h / t), ambient occlusion from the distance field (march) "
+         "and the clouds' shadows; it shadows the clouds.",
+         [](Staging& s, Where w) {
+             s.file.scene.solids.push_back(SolidDesc{});
+             s.solidWhere.push_back(w);
+         }},
     };
     return table;
 }
@@ -126,6 +135,44 @@ const std::vector<Param>& arrayRegistry() {
             msh.param("holdout", {},
                       "A matte: hides what is behind it with alpha 0 and no colour of its own.",
                       &MeshDesc::material, &SurfaceMaterialDesc::holdout));
+
+        const Section<SolidShading> sol{"solid", [](Staging& s) -> SolidShading& {
+                                            return s.file.scene.solids[s.element].shading;
+                                        }};
+        static const WordTable<Penumbra> kPenumbras = {{"classic", Penumbra::Classic},
+                                                       {"improved", Penumbra::Improved}};
+        t.push_back(sol.rgb("albedo", closed(0, 1), "Diffuse reflectance.", &SolidShading::albedo));
+        t.push_back(sol.param("softness", atLeast(0),
+                              "k of the soft-shadow estimate min k h / t over the shadow ray "
+                              "(h: distance to the solid at ray parameter t): larger is sharper; "
+                              "about 1 / sin(sun's angular radius) for a physical sun; 0: hard "
+                              "shadows (docs/sdf_solids.md).",
+                              &SolidShading::softness));
+        t.push_back(sol.param("penumbra", kPenumbras,
+                              "\"classic\": k h / t; \"improved\": Quilez's estimate of the "
+                              "closest approach between two samples (fewer bands at sharp "
+                              "edges).",
+                              &SolidShading::penumbra));
+        t.push_back(sol.param("ao_samples", closed(0, 32),
+                              "Samples of the ambient occlusion along the normal; 0: none.",
+                              &SolidShading::aoSamples));
+        t.push_back(sol.param("ao_step", above(0),
+                              "Spacing of the AO samples (world units): sample i at (i + 1) "
+                              "ao_step, AO = 1 - sum 2^-(i+1) / ao_step * (delta_i - d).",
+                              &SolidShading::aoStep));
+        t.push_back(sol.param("ao_strength", atLeast(0), "Multiplier of the occlusion sum.",
+                              &SolidShading::aoStrength));
+        t.push_back(sol.param("step_scale", closed(0.05, 1),
+                              "Sphere-tracing step as a fraction of the distance where the "
+                              "provably safe step is smaller (inside a noise displacement's "
+                              "amplitude); lower it if a strongly displaced solid shows holes.",
+                              &SolidShading::stepScale));
+        t.push_back(sol.param("max_distance", above(0),
+                              "Camera and shadow rays look for the solid up to this far.",
+                              &SolidShading::maxDistance));
+        t.push_back(sol.param("max_steps", closed(1, 100000),
+                              "Sphere-tracing steps per ray before it counts as a miss.",
+                              &SolidShading::maxSteps));
         return t;
     }();
     return table;

@@ -35,9 +35,10 @@ std::map<std::string, std::string> sceneSettings(const SceneFile& f) {
         if (std::optional<Value> v = p.get(st)) out[p.full()] = toToml(p, *v);
     }
     for (const ArraySection& a : arraySections()) {
-        size_t count = a.name == "volume" ? f.scene.volumes.size()
-                       : a.name == "mesh" ? f.scene.meshes.size()
-                                          : 0; // instances: too many after [[scatter]]
+        size_t count = a.name == "volume"  ? f.scene.volumes.size()
+                       : a.name == "mesh"  ? f.scene.meshes.size()
+                       : a.name == "solid" ? f.scene.solids.size()
+                                           : 0; // instances: too many after [[scatter]]
         for (size_t i = 0; i < count; ++i) {
             st.element = i;
             for (const Param& p : arrayRegistry())

@@ -2,6 +2,7 @@
 /// @brief Text helpers, problem locations, reading TOML nodes against a row, `--set` overrides
 ///        and the validation of sections and [[array]] tables (see reader.h).
 #include "plugin/io/scene/reader.h"
+#include "plugin/io/scene/params_sdf.h"
 
 #include <algorithm>
 #include <array>
@@ -570,6 +571,14 @@ void validateArrays(const toml::table& root, Staging& s, const Context& cx, Prob
             s.element = i;
             for (auto&& [k, node] : tbl) {
                 const std::string key(k.str());
+                if (a.name == "solid" && key == "node") { // the tree (params_sdf.h)
+                    const std::string label = "solid[" + std::to_string(i) + "].node";
+                    s.solidTreeRead.resize(s.file.scene.solids.size(), 0);
+                    s.solidTreeRead[i] = 1; // given (its problems reported by readSdfTree)
+                    if (std::optional<SdfNodeDesc> tree = readSdfTree(node, label, cx, pr))
+                        s.file.scene.solids[i].root = std::move(*tree);
+                    continue;
+                }
                 const Param* p = nullptr;
                 for (const Param& q : arrayRegistry())
                     if (q.section == a.name && q.key == key) p = &q;
@@ -664,6 +673,12 @@ void resolveArrays(Staging& s, Problems& pr) {
     for (size_t i = 0; i < sc.meshes.size(); ++i)
         if (sc.meshes[i].path.empty())
             pr.add(s.meshWhere[i], "mesh[" + std::to_string(i) + "]: `path` is required");
+    s.solidTreeRead.resize(sc.solids.size(), 0);
+    for (size_t i = 0; i < sc.solids.size(); ++i)
+        if (!s.solidTreeRead[i])
+            pr.add(s.solidWhere[i], "solid[" + std::to_string(i) +
+                                        "]: needs its tree: one or more [[solid.node]] tables "
+                                        "after it (see the reference)");
     auto indexOf = [&](const std::string& name, const Where& w, const std::string& label) {
         const auto it = std::find(names.begin(), names.end(), name);
         if (it != names.end()) return int(it - names.begin());

@@ -127,6 +127,8 @@ struct Staging {
     std::vector<Placement> instanceVolumes; ///< per [[instance]]: the volume's name
     std::vector<Where> volumeWhere;         ///< per [[volume]]
     std::vector<Where> meshWhere;           ///< per [[mesh]]
+    std::vector<Where> solidWhere;          ///< per [[solid]]
+    std::vector<char> solidTreeRead;        ///< per [[solid]]: its [[solid.node]] tables given
     struct Scatter {
         std::string volume = "field";
         Where where;
