@@ -13,6 +13,7 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
   libegl-dev libopengl-dev libgl1-mesa-dri               # tests: GLSL parity on headless GL (llvmpipe)
   gnuplot-nox                                            # nimbus converge --plot
+  clang libclang-rt-14-dev                               # tests: libFuzzer, ASan, UBSan (tests/fuzz)
 )
 
 missing=()
