@@ -7,8 +7,7 @@
 #   tests/fuzz/run.sh                        # every harness, 60 s each
 #   tests/fuzz/run.sh --seconds 30 scene obj # some harnesses
 #   tests/fuzz/run.sh --runs 1000000 frames  # a number of executions instead of a time
-#   tests/fuzz/run.sh --ci                   # CI: a fixed seed and a fixed number of executions
-#                                            # per harness (reproducible, a few minutes in all)
+#   tests/fuzz/run.sh --ci                   # CI: seed 1, 30 s per harness (2 minutes in all)
 #
 # Corpora grow in build-fuzz/corpus/<harness>/, seeded from tests/fuzz/seeds/<harness>/ (and for
 # the scene parser examples/scenes, for the VDB reader the small files of ../shared/data/vdb when
@@ -66,15 +65,10 @@ for h in "${harnesses[@]}"; do
     esac
     limit=(-max_total_time="$seconds")
     [ -n "$runs" ] && limit=(-runs="$runs")
-    if [ "$ci" = 1 ]; then
-        # executions per harness: about 20 s each on one core of the 2-core CI machine
-        case "$h" in
-        scene|obj) limit=(-runs=40000) ;;
-        frames) limit=(-runs=15000) ;;
-        vdb) limit=(-runs=2000) ;;
-        vdb_isolated) limit=(-runs=60) ;;
-        esac
-    fi
+    # CI: a bounded time, not a number of executions: inputs that reach the frame-spec sorting
+    # with millions of frames run 50x slower under the fuzzer's comparison instrumentation
+    # (docs/fuzzing.md), so a count of executions did not bound the time.
+    [ "$ci" = 1 ] && limit=(-max_total_time=30)
     [ -n "$seed" ] && limit+=(-seed="$seed")
     echo "== fuzz_$h (${limit[*]}, corpus $corpus)"
     log="$build/fuzz_$h.log"
