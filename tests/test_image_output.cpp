@@ -46,12 +46,6 @@ std::string readBytes(const std::string& p) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-void writeText(const std::string& p, const std::string& text) {
-    std::ofstream out(p, std::ios::binary);
-    out << text;
-    if (!out) throw std::runtime_error("test could not write " + p);
-}
-
 /// A framebuffer with distinct values everywhere: including values beyond half-float range and
 /// below its precision, negatives and denormal-ish magnitudes, so only 32-bit float round-trips.
 nimbus::Framebuffer makeFramebuffer(int w, int h, nimbus::AovSet aovs) {

@@ -8,6 +8,8 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <stdexcept>
 #include <string>
 #include <system_error>
 #include <thread>
@@ -16,6 +18,13 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+
+/// Writes @p text to the file @p p (binary); throws when it cannot.
+inline void writeText(const std::string& p, const std::string& text) {
+    std::ofstream out(p, std::ios::binary);
+    out << text;
+    if (!out) throw std::runtime_error("test could not write " + p);
+}
 
 /// Succeeds when `part` occurs in `text`; the failure message shows the whole text.
 inline testing::AssertionResult contains(const std::string& text, const std::string& part) {

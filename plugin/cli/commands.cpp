@@ -21,6 +21,7 @@
 #include "core/tracking/majorant.h"
 #include "core/render.h"
 #include "core/tracking/volumes.h"
+#include "core/sdf/sdf.h"
 #include "plugin/cli/common.h"
 #include "plugin/cli/progress.h"
 #include "plugin/io/atomic_file.h"
@@ -358,13 +359,112 @@ int runRender(const RenderOptions& o) {
     return kExitOk;
 }
 
+namespace {
+
+/// A bake allocates one pointer per 8^3 block of its box: refuse boxes past this many voxels.
+constexpr double kMaxBakeVoxels = 4294967296.0; // 2^32
+
+/// The resolution of @p box at voxel size @p voxel, or an error naming @p what.
+bool bakeResolution(const Box& box, float voxel, int frame, const char* what, ivec3& res) {
+    const vec3 n = glm::ceil(box.extent() / voxel);
+    if (!(double(n.x) * n.y * n.z <= kMaxBakeVoxels)) {
+        std::fprintf(stderr,
+                     "nimbus: error: frame %d: %s: %.3g x %.3g x %.3g voxels of %g is more than "
+                     "the 2^32 a bake allows; give a larger --voxel or a smaller --box\n",
+                     frame, what, double(n.x), double(n.y), double(n.z), double(voxel));
+        return false;
+    }
+    res = glm::max(ivec3(n), ivec3(1));
+    return true;
+}
+
+/// The level sets of the scene's [[solid]]s for frame @p frame: one grid per solid, "<name>"
+/// for a single solid, "<name>_<n>" (n from 1, in file order) for several.
+bool solidLevelSets(const SceneDesc& scene, const BakeOptions& o, float voxel, int firstFrame,
+                    std::vector<vdb::LevelSetBake>& out, std::vector<std::string>& notes) {
+    const float band = o.halfWidth * voxel;
+    for (size_t i = 0; i < scene.solids.size(); ++i) {
+        const std::string name = scene.solids.size() == 1
+                                     ? o.levelSetGrid
+                                     : o.levelSetGrid + "_" + std::to_string(i + 1);
+        auto tree = std::make_shared<const SdfTree>(flattenSdf(scene.solids[i].root));
+        // every point within the band (plus a voxel, for the sign around it) lies in this box
+        const Box support = tree->supportBox(band + voxel);
+        Box box = support;
+        if (o.box) {
+            box.lo = glm::max(box.lo, o.box->lo);
+            box.hi = glm::min(box.hi, o.box->hi);
+        }
+        if (!sdfBoxBounded(box)) {
+            std::fprintf(stderr,
+                         "nimbus: error: %s: [[solid]] %zu is unbounded (a plane, or a union "
+                         "holding one); give --box xmin,ymin,zmin,xmax,ymax,zmax to bake its "
+                         "level set\n",
+                         o.scene.c_str(), i + 1);
+            return false;
+        }
+        if (box.empty()) {
+            std::fprintf(stderr,
+                         "nimbus: error: %s: [[solid]] %zu lies outside --box; nothing to "
+                         "bake\n",
+                         o.scene.c_str(), i + 1);
+            return false;
+        }
+        ivec3 res;
+        const std::string what = "level set \"" + name + "\"";
+        if (!bakeResolution(box, voxel, firstFrame, what.c_str(), res)) return false;
+        vdb::LevelSetBake l;
+        l.name = name;
+        l.resolution = res;
+        l.voxelSize = voxel;
+        // centred on the box; whole voxels
+        l.worldOrigin = 0.5f * (box.lo + box.hi) - 0.5f * voxel * vec3(res - 1);
+        l.halfWidth = o.halfWidth;
+        l.distance = [tree](vec3 p) { return gCancel ? 0.0f : tree->distance(p); };
+        l.bound = [tree](vec3 p) { return tree->bound(p); };
+        l.slack = tree->displacementBound;
+        // a surface the box cuts is open: meshing it to re-distance would lose its sign
+        const bool cut = box.lo != support.lo || box.hi != support.hi;
+        l.rebuild = !cut;
+        if (cut) {
+            notes.push_back(name + ": the box cuts the surface; distances are the SDF tree's own "
+                                   "(a bound where it is smooth-blended or displaced)");
+        }
+        out.push_back(std::move(l));
+    }
+    return true;
+}
+
+} // namespace
+
 int runBake(const BakeOptions& o) {
     LoadedScene ls;
     if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
     const io::SceneFile& f = ls.file();
+    if (o.levelSet && f.scene.solids.empty()) {
+        std::fprintf(stderr,
+                     "nimbus: error: %s: --level-set bakes the scene's [[solid]]s, and it has "
+                     "none\n",
+                     o.scene.c_str());
+        return kExitBadInput;
+    }
     std::vector<int> frames;
     if (!framesToRender(o.frames, f.frames, {&o.output}, frames)) return kExitBadInput;
     installSignalHandlers();
+    // the solids do not move: their level sets are the same for every frame
+    std::vector<vdb::LevelSetBake> sets;
+    std::vector<std::string> notes;
+    if (o.levelSet) {
+        const float voxel =
+            o.voxel > 0.0f ? o.voxel : ls.plan(frames.front(), AovSet{}).majorantCell;
+        try {
+            if (!solidLevelSets(f.scene, o, voxel, frames.front(), sets, notes))
+                return kExitBadInput;
+        } catch (const std::invalid_argument& e) {
+            std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+            return kExitBadInput;
+        }
+    }
     for (int frame : frames) {
         FrameBindings bindings;
         if (!bindFrame(ls, frame, bindings)) return kExitBadInput;
@@ -373,32 +473,58 @@ int runBake(const BakeOptions& o) {
         const MajorantGrid grid = buildMajorantGrid(field, plan.majorantCell);
         const float voxel = o.voxel > 0.0f ? o.voxel : plan.majorantCell;
         const Box b = field.bounds();
-        if (b.empty()) {
+        if (b.empty() && !o.levelSet) {
             std::fprintf(stderr, "nimbus: error: frame %d: the field is empty, nothing to bake\n",
                          frame);
             return kExitBadInput;
         }
-        const ivec3 res = glm::max(ivec3(glm::ceil(b.extent() / voxel)), ivec3(1));
-        const vec3 size = b.extent() / vec3(res);
+        std::vector<vdb::FogBake> fogs;
+        if (!b.empty()) {
+            ivec3 res;
+            if (!bakeResolution(b, voxel, frame, "the density", res)) return kExitBadInput;
+            const vec3 size = b.extent() / vec3(res);
+            vdb::FogBake fog;
+            fog.name = o.grid;
+            fog.resolution = res;
+            fog.worldOrigin = b.lo + 0.5f * size;
+            fog.voxelSize = size;
+            // voxel centres; cells the majorant grid proves empty are not evaluated
+            fog.density = [&](vec3 p) {
+                if (gCancel) return 0.0f;
+                const ivec3 c = glm::clamp(ivec3((p - grid.bounds.lo) / grid.cellSize), ivec3(0),
+                                           grid.res - ivec3(1));
+                return grid.at(c) > 0.0f ? field.density(p) : 0.0f;
+            };
+            fogs.push_back(std::move(fog));
+        }
         const std::string out = io::expandFramePattern(o.output, frame);
         const auto t0 = std::chrono::steady_clock::now();
         try {
-            // voxel centres; cells the majorant grid proves empty are not evaluated
-            const vdb::VdbBakeStats st =
-                vdb::bakeFogVdb(out, o.grid, res, b.lo + 0.5f * size, size, [&](vec3 p) {
-                    if (gCancel) return 0.0f;
-                    const ivec3 c = glm::clamp(ivec3((p - grid.bounds.lo) / grid.cellSize),
-                                               ivec3(0), grid.res - ivec3(1));
-                    return grid.at(c) > 0.0f ? field.density(p) : 0.0f;
-                });
+            const std::vector<vdb::VdbBakeStats> st = vdb::bakeVdb(out, fogs, sets);
             if (gCancel) {
                 std::remove(out.c_str());
                 return kExitInterrupted;
             }
-            std::fprintf(
-                stderr, "frame %d: %dx%dx%d voxels of %g, %llu active, max %g, %.2f s -> %s\n",
-                frame, res.x, res.y, res.z, double(voxel), (unsigned long long)st.activeVoxelCount,
-                double(st.maxValue), secondsSince(t0), out.c_str());
+            size_t k = 0;
+            for (const vdb::FogBake& fog : fogs) {
+                const vdb::VdbBakeStats& s = st[k++];
+                std::fprintf(
+                    stderr, "frame %d: \"%s\": %dx%dx%d voxels of %g, %llu active, max %g\n", frame,
+                    fog.name.c_str(), fog.resolution.x, fog.resolution.y, fog.resolution.z,
+                    double(voxel), (unsigned long long)s.activeVoxelCount, double(s.maxValue));
+            }
+            for (const vdb::LevelSetBake& l : sets) {
+                const vdb::VdbBakeStats& s = st[k++];
+                std::fprintf(
+                    stderr,
+                    "frame %d: level set \"%s\": %dx%dx%d voxels of %g, %llu in a band "
+                    "of %g voxels each side, %s\n",
+                    frame, l.name.c_str(), l.resolution.x, l.resolution.y, l.resolution.z,
+                    double(voxel), (unsigned long long)s.activeVoxelCount, double(l.halfWidth),
+                    s.rebuilt ? "re-distanced from its surface" : "the SDF tree's distances");
+            }
+            for (const std::string& n : notes) std::fprintf(stderr, "  note: %s\n", n.c_str());
+            std::fprintf(stderr, "frame %d: %.2f s -> %s\n", frame, secondsSince(t0), out.c_str());
         } catch (const std::exception& e) {
             std::fprintf(stderr, "nimbus: error: frame %d: %s\n", frame, e.what());
             return kExitIo;

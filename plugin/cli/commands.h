@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry.h"
+
 namespace nimbus::cli {
 
 // the exit codes of host::exitCode (plugin/host/session.h)
@@ -82,6 +84,10 @@ struct BakeOptions {
     std::string grid = "density";
     float voxel = 0.0f; ///< 0 = the plan's majorant cell
     int threads = -1;
+    bool levelSet = false;                ///< also the [[solid]]s, as level sets
+    std::string levelSetGrid = "surface"; ///< their grid name ("surface_<n>" for several)
+    float halfWidth = 3.0f;               ///< narrow band, voxels each side
+    std::optional<Box> box;               ///< clips the level sets (needed for unbounded solids)
 };
 
 /// `nimbus bench-vdb-render`: OpenVDB's VolumeRender against Nimbus march (bench_vdb.cpp).

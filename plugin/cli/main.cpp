@@ -7,7 +7,9 @@
 /// configuration, limits), 3 I/O failure (cannot read or write a file), 4 out of memory, 130
 /// interrupted (SIGINT, SIGTERM, SIGHUP).
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <exception>
 #include <cstdio>
@@ -330,6 +332,22 @@ int mainImpl(int argc, char** argv) {
         ->check(CLI::NonNegativeNumber);
     bake->add_option("-t,--threads", bo.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024));
+    bake->add_flag("--level-set", bo.levelSet,
+                   "Also write each [[solid]] as a narrow-band level set (grid \"surface\", or "
+                   "\"surface_1\", \"surface_2\", ... for several), re-distanced from its "
+                   "surface when the box holds all of it");
+    bake->add_option("--level-set-grid", bo.levelSetGrid, "Name of the level-set grid(s)")
+        ->capture_default_str();
+    bake->add_option("--half-width", bo.halfWidth,
+                     "Narrow band of the level sets, in voxels each side of the surface")
+        ->capture_default_str()
+        ->check(CLI::Range(1.0f, 64.0f));
+    std::vector<float> bakeBox;
+    bake->add_option("--box", bakeBox,
+                     "xmin,ymin,zmin,xmax,ymax,zmax: the box the level sets are baked in (needed "
+                     "for an unbounded solid such as a ground plane)")
+        ->delimiter(',')
+        ->expected(6);
 
     cli::BenchVdbOptions vo;
     auto* bench = app.add_subcommand(
@@ -480,7 +498,28 @@ int mainImpl(int argc, char** argv) {
         return run(cli::Command::Converge, &co);
     }
     if (*calibrate) return run(cli::Command::Calibrate, &ko);
-    if (*bake) return run(cli::Command::Bake, &bo);
+    if (*bake) {
+        if (bake->count("--box")) {
+            const Box box{vec3(bakeBox[0], bakeBox[1], bakeBox[2]),
+                          vec3(bakeBox[3], bakeBox[4], bakeBox[5])};
+            if (!std::all_of(bakeBox.begin(), bakeBox.end(),
+                             [](float v) { return std::isfinite(v); }) ||
+                !glm::all(glm::lessThan(box.lo, box.hi))) {
+                std::fprintf(stderr, "nimbus: error: bake: --box needs finite "
+                                     "xmin,ymin,zmin,xmax,ymax,zmax with each min below its "
+                                     "max\n");
+                return cli::kExitBadInput;
+            }
+            bo.box = box;
+        }
+        if ((bo.box || bake->count("--half-width") || bake->count("--level-set-grid")) &&
+            !bo.levelSet) {
+            std::fprintf(stderr, "nimbus: error: bake: --box, --half-width and "
+                                 "--level-set-grid apply to --level-set\n");
+            return cli::kExitBadInput;
+        }
+        return run(cli::Command::Bake, &bo);
+    }
     if (*bench) return run(cli::Command::BenchVdb, &vo);
     if (*reference) return run(cli::Command::Reference, nullptr);
     return 0;

@@ -51,8 +51,8 @@
 /// VdbLoadOptions::timeoutSeconds. Its stderr is captured: forwarded to the caller's stderr
 /// after a normal end, quoted in the message after a crash. The memory it peaked at is returned
 /// when it exits. Cost: one fork and one copy of the NanoVDB grid through a pipe (docs/vdb.md,
-/// "Corrupt files and the child process"). With isolate = false the grid is read in the calling process: for trusted
-/// files only.
+/// "Corrupt files and the child process"). With isolate = false the grid is read in the calling
+/// process: for trusted files only.
 ///    @note Forking while another thread of the caller holds a lock the reader needs (e.g. one
 ///          inside OpenVDB's grid registry, taken by a concurrent in-process load or
 ///          listVdbGrids()) makes the child wait for a lock nobody will release: it then ends

@@ -15,6 +15,7 @@
 #include <mutex>
 
 #include "plugin/io/atomic_file.h"
+#include "plugin/vdb/vdb_bake_detail.h"
 #include "plugin/vdb/vdb_error.h"
 
 #ifndef NIMBUS_VERSION
@@ -25,17 +26,8 @@ namespace nimbus::vdb {
 
 namespace {
 
+using detail::newGrid;
 using LeafT = openvdb::FloatTree::LeafNodeType;
-
-/// An empty grid (background 0) made by OpenVDB's grid registry inside libopenvdb. Calling
-/// GridT::create() here would instantiate Grid<T>'s whole vtable in this translation unit (OpenVDB
-/// 10 does not instantiate Grid explicitly): ~10-15 s of compile time per grid type.
-template <class GridT> typename GridT::Ptr newGrid() {
-    typename GridT::Ptr grid =
-        openvdb::gridPtrCast<GridT>(openvdb::GridBase::createGrid(GridT::gridType()));
-    if (!grid) throw VdbError("OpenVDB cannot create a grid of type " + GridT::gridType());
-    return grid;
-}
 
 std::string vecText(glm::dvec3 v) {
     return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) +
@@ -57,11 +49,11 @@ void writeFile(const std::string& path, const openvdb::GridCPtrVec& grids,
 }
 
 /// The bake: fills 8^3 leaves in parallel from @p sample(i, j, k), keeps the leaves with at least
-/// one sample > tolerance, writes the grid.
+/// one sample > tolerance.
 template <class SampleFn>
-VdbBakeStats bake(const std::string& path, const std::string& gridName, glm::ivec3 res,
-                  glm::vec3 worldOrigin, glm::vec3 voxelSize, float tolerance,
-                  const SampleFn& sample) {
+openvdb::FloatGrid::Ptr buildFog(const std::string& path, const std::string& gridName,
+                                 glm::ivec3 res, glm::vec3 worldOrigin, glm::vec3 voxelSize,
+                                 float tolerance, const SampleFn& sample, VdbBakeStats& stats) {
     const std::string ctx = path + ": grid \"" + gridName + "\": ";
     if (gridName.empty()) throw VdbError(path + ": cannot bake a grid without a name");
     if (res.x < 1 || res.y < 1 || res.z < 1) {
@@ -126,34 +118,37 @@ VdbBakeStats bake(const std::string& path, const std::string& gridName, glm::ive
     }
 
     openvdb::FloatGrid::Ptr grid = newGrid<openvdb::FloatGrid>();
-    VdbBakeStats stats;
+    stats = VdbBakeStats{};
+    bool first = true;
     for (std::unique_ptr<LeafT>& leaf : leaves) {
         if (!leaf) continue;
         ++stats.leafCount;
         stats.activeVoxelCount += leaf->onVoxelCount();
-        for (auto v = leaf->cbeginValueOn(); v; ++v) stats.maxValue = std::max(stats.maxValue, *v);
+        for (auto v = leaf->cbeginValueOn(); v; ++v) {
+            stats.maxValue = first ? *v : std::max(stats.maxValue, *v);
+            stats.minValue = first ? *v : std::min(stats.minValue, *v);
+            first = false;
+        }
         grid->tree().addLeaf(leaf.release());
     }
-    grid->setName(gridName);
-    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-    grid->setSaveFloatAsHalf(false);
-    grid->setIsInWorldSpace(true);
-    const openvdb::Vec3d scale(voxelSize.x, voxelSize.y, voxelSize.z);
-    const openvdb::Vec3d origin(worldOrigin.x, worldOrigin.y, worldOrigin.z);
-    openvdb::math::MapBase::Ptr map;
-    if (scale[0] == scale[1] && scale[1] == scale[2]) {
-        map = std::make_shared<openvdb::math::UniformScaleTranslateMap>(scale[0], origin);
-    } else {
-        map = std::make_shared<openvdb::math::ScaleTranslateMap>(scale, origin);
-    }
-    grid->setTransform(std::make_shared<openvdb::math::Transform>(map));
-    grid->insertMeta("nimbus_version", openvdb::StringMetadata(NIMBUS_VERSION));
-    grid->insertMeta("nimbus_sampling",
-                     openvdb::StringMetadata("voxel centres: sample (i,j,k) was taken at "
-                                             "world origin + (i,j,k) * voxel size"));
+    detail::placeGrid(*grid, gridName, openvdb::GRID_FOG_VOLUME, worldOrigin, voxelSize);
+    return grid;
+}
+
+openvdb::MetaMap nimbusFileMeta() {
     openvdb::MetaMap fileMeta;
     fileMeta.insertMeta("creator", openvdb::StringMetadata("Nimbus " NIMBUS_VERSION));
-    writeFile(path, {grid}, fileMeta);
+    return fileMeta;
+}
+
+template <class SampleFn>
+VdbBakeStats bake(const std::string& path, const std::string& gridName, glm::ivec3 res,
+                  glm::vec3 worldOrigin, glm::vec3 voxelSize, float tolerance,
+                  const SampleFn& sample) {
+    VdbBakeStats stats;
+    openvdb::FloatGrid::Ptr grid =
+        buildFog(path, gridName, res, worldOrigin, voxelSize, tolerance, sample, stats);
+    writeFile(path, {grid}, nimbusFileMeta());
     return stats;
 }
 
@@ -189,6 +184,31 @@ openvdb::GridBase::Ptr buildGrid(const VdbGridSpec& spec, const Convert& convert
 
 } // namespace
 
+namespace detail {
+
+void placeGrid(openvdb::FloatGrid& grid, const std::string& name, openvdb::GridClass cls,
+               glm::vec3 worldOrigin, glm::vec3 voxelSize) {
+    grid.setName(name);
+    grid.setGridClass(cls);
+    grid.setSaveFloatAsHalf(false);
+    grid.setIsInWorldSpace(true);
+    const openvdb::Vec3d scale(voxelSize.x, voxelSize.y, voxelSize.z);
+    const openvdb::Vec3d origin(worldOrigin.x, worldOrigin.y, worldOrigin.z);
+    openvdb::math::MapBase::Ptr map;
+    if (scale[0] == scale[1] && scale[1] == scale[2]) {
+        map = std::make_shared<openvdb::math::UniformScaleTranslateMap>(scale[0], origin);
+    } else {
+        map = std::make_shared<openvdb::math::ScaleTranslateMap>(scale, origin);
+    }
+    grid.setTransform(std::make_shared<openvdb::math::Transform>(map));
+    grid.insertMeta("nimbus_version", openvdb::StringMetadata(NIMBUS_VERSION));
+    grid.insertMeta("nimbus_sampling",
+                    openvdb::StringMetadata("voxel centres: sample (i,j,k) was taken at "
+                                            "world origin + (i,j,k) * voxel size"));
+}
+
+} // namespace detail
+
 VdbBakeStats writeFogVdb(const std::string& path, const std::string& gridName, int nx, int ny,
                          int nz, const float* dense, glm::vec3 worldOrigin, glm::vec3 voxelSize,
                          float backgroundTolerance) {
@@ -207,6 +227,30 @@ VdbBakeStats bakeFogVdb(const std::string& path, const std::string& gridName, gl
     return bake(
         path, gridName, resolution, worldOrigin, voxelSize, backgroundTolerance,
         [&](int i, int j, int k) { return density(glm::vec3(origin + glm::dvec3(i, j, k) * vs)); });
+}
+
+std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<FogBake>& fogs,
+                                  const std::vector<LevelSetBake>& levelSets) {
+    openvdb::GridCPtrVec grids;
+    std::vector<VdbBakeStats> stats;
+    for (const FogBake& f : fogs) {
+        if (!f.density) throw VdbError(path + ": grid \"" + f.name + "\": no density function");
+        const glm::dvec3 origin(f.worldOrigin), vs(f.voxelSize);
+        stats.emplace_back();
+        grids.push_back(buildFog(
+            path, f.name, f.resolution, f.worldOrigin, f.voxelSize, f.backgroundTolerance,
+            [&](int i, int j, int k) {
+                return f.density(glm::vec3(origin + glm::dvec3(i, j, k) * vs));
+            },
+            stats.back()));
+    }
+    for (const LevelSetBake& l : levelSets) {
+        stats.emplace_back();
+        grids.push_back(detail::buildLevelSet(path, l, stats.back()));
+    }
+    if (grids.empty()) throw VdbError(path + ": nothing to bake (no grid given)");
+    writeFile(path, grids, nimbusFileMeta());
+    return stats;
 }
 
 void writeVdbGrids(const std::string& path, const std::vector<VdbGridSpec>& grids,

@@ -44,6 +44,8 @@ struct VdbBakeStats {
     std::uint64_t activeVoxelCount = 0; ///< samples > backgroundTolerance
     std::uint64_t leafCount = 0;        ///< 8^3 leaf nodes allocated
     float maxValue = 0.0f;              ///< largest sample
+    float minValue = 0.0f;              ///< smallest active sample
+    bool rebuilt = false;               ///< a level set re-distanced from its zero crossing
 };
 
 /// Writes the dense array @p dense (nx*ny*nz floats, x fastest: index i + nx*(j + ny*k)) as a
@@ -62,6 +64,49 @@ VdbBakeStats bakeFogVdb(const std::string& path, const std::string& gridName, gl
                         glm::vec3 worldOrigin, glm::vec3 voxelSize,
                         const std::function<float(glm::vec3 worldPos)>& density,
                         float backgroundTolerance = 0.0f);
+
+/// A level set to bake (OpenVDB class "level set"): the signed distance to the surface where
+/// @p distance is 0 (negative inside), stored in a narrow band of active voxels within
+/// halfWidth voxels of the surface (values clamped to +-halfWidth * voxelSize, the background);
+/// the inactive voxels inside are set to -background by a signed flood fill, as OpenVDB's own
+/// level sets are. Voxel centres follow the convention of the file comment.
+struct LevelSetBake {
+    std::string name = "surface";
+    glm::ivec3 resolution{0};
+    glm::vec3 worldOrigin{0.0f}; ///< centre of voxel (0, 0, 0)
+    float voxelSize = 0.0f;      ///< uniform (level sets are isotropic)
+    float halfWidth = 3.0f;      ///< voxels each side of the surface (OpenVDB's default 3)
+    /// Signed distance or a bound of it (negative inside); called concurrently.
+    std::function<float(glm::vec3)> distance;
+    /// A 1-Lipschitz function within @p slack of distance(), used to skip 8^3 blocks that lie
+    /// wholly outside the band (evaluated once per block). Empty: distance() itself (then it
+    /// must be 1-Lipschitz).
+    std::function<float(glm::vec3)> bound;
+    float slack = 0.0f;
+    /// Re-distance the band from its zero crossing (openvdb::tools::levelSetRebuild: the surface
+    /// is meshed and converted back), so that the values are true distances even where
+    /// distance() is only a bound (smooth unions, displacement). Needs a closed surface: leave it
+    /// off for a surface the bake box cuts (a ground plane), whose band keeps distance()'s values.
+    bool rebuild = true;
+};
+
+/// A fog volume to bake, as bakeFogVdb() takes it.
+struct FogBake {
+    std::string name = "density";
+    glm::ivec3 resolution{0};
+    glm::vec3 worldOrigin{0.0f};
+    glm::vec3 voxelSize{0.0f};
+    std::function<float(glm::vec3)> density;
+    float backgroundTolerance = 0.0f;
+};
+
+/// Bakes @p fogs and @p levelSets and writes them, in that order, to one file @p path
+/// (atomically). Returns one VdbBakeStats per grid, in the same order (for a level set,
+/// maxValue is the largest active distance and minValue the smallest).
+/// @throws VdbError as bakeFogVdb(), and for a level set with a half width below 1, a
+///         non-finite distance (naming the voxel) or no voxel in its band.
+std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<FogBake>& fogs,
+                                  const std::vector<LevelSetBake>& levelSets);
 
 /// A grid given voxel by voxel and tile by tile, for tests and tools that need what a bake does
 /// not write: other value types and grid classes, arbitrary affine transforms, active tiles,
