@@ -32,6 +32,9 @@ struct SunDesc {
     bool enabled = true;
     vec3 direction{0.0f, 1.0f, 0.0f}; ///< unit vector pointing TOWARD the sun
     vec3 irradiance{1.0f};            ///< RGB, working space
+    /// Angular diameter of the sun's disc in degrees (0: a point). Only pathtrace samples the
+    /// disc (exact penumbrae); march and the precomputed volumes use its centre.
+    float angularDiameter = 0.0f;
 };
 
 enum class SkyKind { None, Uniform, Gradient };

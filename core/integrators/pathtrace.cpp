@@ -41,6 +41,16 @@ PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const Vo
       medium_(Medium::fromDesc(scene.medium)), sunDepth_(sunDepth),
       sigmaTMin_(std::min(medium_.sigma_t.x, std::min(medium_.sigma_t.y, medium_.sigma_t.z))) {
     frameKey_ = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(scene.render.seed ^ 0x5bd1e995u));
+    if (scene.sun.angularDiameter > 0.0f) {
+        sunCosMax_ = std::cos(glm::radians(0.5f * scene.sun.angularDiameter));
+        sunWeight_ = 2.0f / (1.0f + sunCosMax_);
+    }
+}
+
+vec3 PathContext::sunDirection(Sampler& rng) const {
+    if (!(sunCosMax_ < 1.0f)) return s_.sun.direction;
+    const float u0 = rng.next(), u1 = rng.next();
+    return kern::phaseDirection(s_.sun.direction, 1.0f - u0 * (1.0f - sunCosMax_), u1);
 }
 
 float PathContext::sunShadowProbability(vec3 p) const {
@@ -167,10 +177,11 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
             if (hit.holdout) break;
             const vec3 pos = ray.at(hit.t) + hit.normal * (1e-4f * std::max(1.0f, hit.t));
             if (depth == 0) depthOut = hit.t;
-            const float cosSun = glm::dot(hit.normal, s_.sun.direction);
+            const vec3 sunDir = plan_.shadows ? sunDirection(rng) : s_.sun.direction;
+            const float cosSun = glm::dot(hit.normal, sunDir);
             if (plan_.shadows && cosSun > 0.0f)
-                L += beta * hit.albedo * (kInvPi * cosSun) * s_.sun.irradiance *
-                     visibility(pos, s_.sun.direction, rng, cnt, scratch);
+                L += beta * hit.albedo * (kInvPi * cosSun * sunWeight_) * s_.sun.irradiance *
+                     visibility(pos, sunDir, rng, cnt, scratch);
             // cosine-weighted bounce: weight albedo
             const float u0 = rng.next(), u1 = rng.next();
             const vec3 d = kern::phaseDirection(hit.normal, std::sqrt(u0), u1);
@@ -202,9 +213,10 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
             if (plan_.shadows) {
                 const float q = sunShadowProbability(pos);
                 if (q >= 1.0f || rng.next() < q) {
-                    const vec3 ph = medium_.phase.eval(glm::dot(ray.d, s_.sun.direction));
+                    const vec3 sunDir = sunDirection(rng);
+                    const vec3 ph = medium_.phase.eval(glm::dot(ray.d, sunDir));
                     L += beta * s_.sun.irradiance * ph *
-                         visibility(pos, s_.sun.direction, rng, cnt, scratch) / q;
+                         visibility(pos, sunDir, rng, cnt, scratch) * sunWeight_ / q;
                 }
             }
             // next-event estimation: the sky (render.sky_nee), MIS with phase sampling by the

@@ -68,6 +68,9 @@ class PathContext {
     /// (read a voxel closer to the sun) leaves a transmittance of 0.1 or more; below, in
     /// proportion to it, never under kMinShadowProbability.
     float sunShadowProbability(vec3 p) const;
+    /// A direction toward the sun: its centre for a point sun, else uniform in the solid angle
+    /// of its disc (multiply what it lights by sunWeight_).
+    vec3 sunDirection(Sampler& rng) const;
     Event track(const Ray& ray, float tmax, Sampler& rng, int hero, vec3& f, vec3& p, float& t,
                 RayCounters& cnt, Scratch& scratch) const;
 
@@ -79,6 +82,11 @@ class PathContext {
     Medium medium_;
     const LightVolume* sunDepth_;
     float sigmaTMin_; ///< smallest channel of sigma_t
+    /// cos of the sun disc's angular radius (1: a point sun), and the irradiance weight of a
+    /// direction sampled in it: (solid angle) / (pi sin^2 alpha) = 2 / (1 + cos alpha), so that
+    /// a surface facing the sun receives exactly the sun's irradiance
+    float sunCosMax_ = 1.0f;
+    float sunWeight_ = 1.0f;
     std::uint32_t frameKey_;
 };
 

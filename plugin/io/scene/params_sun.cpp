@@ -30,6 +30,13 @@ void addSunParams(std::vector<Param>& t) {
     t.push_back(
         sun.rgb("irradiance", atLeast(0), "Sun irradiance, in `color_space`.", &SunDesc::irradiance)
             .usedWhen("sun.enabled = true", sunOn));
+    t.push_back(sun.param("angular_diameter", closed(0, 30),
+                          "Angular diameter of the sun's disc in degrees (the Sun: 0.53); 0 = a "
+                          "point. `pathtrace` samples the disc, so its shadows have exact "
+                          "penumbrae; `march`, the light volumes and photons use the disc's "
+                          "centre (SDF solids approximate the penumbra with `softness`).",
+                          &SunDesc::angularDiameter)
+                    .usedWhen("sun.enabled = true", sunOn));
     t.push_back(staged
                     .param("intensity", atLeast(0), "Scalar multiplier of `irradiance`.",
                            &Staging::sunIntensity)
