@@ -140,3 +140,32 @@ TEST(BenchVdb, Smoke1VolumeRenderMatchesNimbusReference) {
     // the bound catches a camera one pixel off
     EXPECT_GT(relShifted, 0.03);
 }
+
+// A bare .vdb file is framed as converge --suite frames it: the cloud fills the middle of the
+// frame, and VolumeRender and the Nimbus reference agree on it; a level set is refused.
+TEST(BenchVdb, FramesABareVdbFile) {
+    REQUIRE_DATA();
+    const TempDir dir("benchvdb");
+    CliRun r = runNimbus("bench-vdb-render " + (kData / "vpt_dragon.vdb").string() +
+                         " --scale 0.25 --ladder 1 --vdb-ladder 0.5 --vdb-steps \"\" "
+                         "--no-vdb-defaults --repeat 1 --threads 2 --output-dir " +
+                         (dir / "img").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_TRUE(contains(r.output, "vpt_dragon.vdb.toml, frame 1, 160x90"));
+    const auto ref = nimbus::io::readExr((dir / "img" / "reference.exr").string());
+    const auto vr = nimbus::io::readExr((dir / "img" / "volumerender_step_x_0.5.exr").string());
+    const int a = ref.channelIndex("A");
+    // framed: density near the centre, none in the corners
+    double centre = 0.0;
+    for (int y = 35; y < 55; ++y)
+        for (int x = 60; x < 100; ++x) centre += ref.at(x, y, a);
+    EXPECT_GT(centre / (20.0 * 40.0), 0.05);
+    for (auto [x, y] : {std::pair{0, 0}, {159, 0}, {0, 89}, {159, 89}})
+        EXPECT_EQ(ref.at(x, y, a), 0.0f);
+    EXPECT_LT(relativeRmse(ref, vr), 0.1);
+
+    r = runNimbus("bench-vdb-render " + (kData / "gaffer_sphere.vdb").string());
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_TRUE(contains(r.output, "cannot bench it"));
+    EXPECT_TRUE(contains(r.output, "level set"));
+}

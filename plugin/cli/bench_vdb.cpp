@@ -18,6 +18,7 @@
 #include "core/render.h"
 #include "plugin/cli/commands.h"
 #include "plugin/cli/common.h"
+#include "plugin/cli/vdb_scene.h"
 #include "plugin/io/image_output.h"
 #include "plugin/io/scene_setup.h"
 #include "plugin/vdb/volume_render_baseline.h"
@@ -110,7 +111,24 @@ std::string fileLabel(std::string s) {
 
 int runBenchVdb(const BenchVdbOptions& o) {
     LoadedScene ls;
-    if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) return rc;
+    const std::string ext = std::filesystem::path(o.scene).extension().string();
+    if (ext == ".vdb") {
+        // a bare VDB file: framed as converge --suite frames it, lit from the image's right
+        VdbFraming fr;
+        std::string skip;
+        const std::string path = std::filesystem::absolute(o.scene).string();
+        if (!frameVdbFile(path, 640, 360, "nimbus bench-vdb-render", fr, skip)) {
+            std::fprintf(stderr, "nimbus: error: %s: cannot bench it: %s\n", o.scene.c_str(),
+                         skip.c_str());
+            return kExitBadInput;
+        }
+        const std::string text = fr.scene + "[sun]\nelevation = 30.0\nazimuth = 110.0\n";
+        const int rc = report(ls.loadString(text, path + ".toml", o.overrides, o.threads));
+        printWarnings(ls);
+        if (rc) return rc;
+    } else if (int rc = loadScene(o.scene, o.overrides, o.threads, ls)) {
+        return rc;
+    }
     const io::SceneFile& f = ls.file();
     if (f.scene.field.kind != FieldKind::Vdb) {
         std::fprintf(stderr,

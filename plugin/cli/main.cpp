@@ -355,7 +355,11 @@ int mainImpl(int argc, char** argv) {
         "Render a VDB scene with OpenVDB's own VolumeRender (the renderer behind vdb_render) and "
         "with Nimbus march in single scattering, in one process; print the time and the error "
         "of each against a very-fine-step Nimbus reference, over a ladder of steps for both");
-    bench->add_option("scene", vo.scene, "Scene file (TOML) with [field] kind = \"vdb\"")
+    bench
+        ->add_option("scene", vo.scene,
+                     "Scene file (TOML) with [field] kind = \"vdb\", or a .vdb file (its density "
+                     "grid framed at 640x360 as converge --suite frames it, one-voxel steps, "
+                     "the sun 30 degrees up from the image's right)")
         ->required();
     bench->add_option("-s,--set", vo.overrides, "Override a scene value (as for render)")
         ->allow_extra_args(false);

@@ -34,6 +34,7 @@
 #include "core/render.h"
 #include "plugin/cli/commands.h"
 #include "plugin/cli/common.h"
+#include "plugin/cli/vdb_scene.h"
 #include "plugin/io/image_output.h"
 #include "plugin/io/scene_file.h"
 #include "plugin/vdb/vdb_error.h"
@@ -76,13 +77,6 @@ constexpr float kSunIntensity = 12.0f;
 const vec3 kSkyZenith(0.16f, 0.32f, 0.70f);
 const vec3 kSkyHorizon(0.60f, 0.70f, 0.82f);
 constexpr const char* kLightSpace = "lin_rec709";
-
-/// Camera of the VDB cases: vertical field of view, and the direction from the grid's centre
-/// toward the camera (from -z, 20 degrees toward +x and 10 degrees up).
-constexpr float kVdbFov = 40.0f;
-constexpr float kVdbAzimuth = 20.0f, kVdbElevation = 10.0f;
-/// The projected bounding box fills at most this fraction of the frame's width and height.
-constexpr float kFrameFill = 0.9f;
 
 struct Cloud {
     std::string name;   ///< the scene's or the VDB file's stem
@@ -164,48 +158,11 @@ std::string fileStamp(const std::string& path) {
            "." + std::to_string(st.st_mtim.tv_nsec);
 }
 
-std::string tomlString(const std::string& s) {
-    std::string out = "\"";
-    for (char c : s) {
-        if (c == '"' || c == '\\') out += '\\';
-        out += c;
-    }
-    return out + "\"";
-}
-
-std::string tomlVec(vec3 v) {
-    char buf[128];
-    std::snprintf(buf, sizeof buf, "[%.9g, %.9g, %.9g]", v.x, v.y, v.z);
-    return buf;
-}
-
 /// Direction toward the sun for camera `cam` (see SunPosition).
 vec3 sunDirection(const Camera& cam, const SunPosition& sp) {
     const float theta = glm::radians(float(sp.theta)), phi = glm::radians(float(sp.phi));
     const vec3 off = std::cos(phi) * cam.right + std::sin(phi) * cam.up;
     return glm::normalize(-std::cos(theta) * cam.forward + std::sin(theta) * off);
-}
-
-/// Camera position that frames `box` (every corner within kFrameFill of the frame) seen from
-/// direction `toCamera` (unit, from the box's centre).
-vec3 framingPosition(const Box& box, vec3 toCamera, float fovY, float aspect) {
-    const vec3 c = 0.5f * (box.lo + box.hi);
-    const vec3 f = -toCamera;
-    const vec3 r = glm::normalize(glm::cross(f, vec3(0.0f, 1.0f, 0.0f)));
-    const vec3 u = glm::cross(r, f);
-    const float tanY = std::tan(glm::radians(fovY) * 0.5f) * kFrameFill;
-    const float tanX = tanY * aspect;
-    float d = 0.0f;
-    for (int k = 0; k < 8; ++k) {
-        const vec3 p = vec3(k & 1 ? box.hi.x : box.lo.x, k & 2 ? box.hi.y : box.lo.y,
-                            k & 4 ? box.hi.z : box.lo.z) -
-                       c;
-        const float need =
-            std::max(std::abs(glm::dot(p, r)) / tanX, std::abs(glm::dot(p, u)) / tanY);
-        d = std::max(d, need - glm::dot(p, f));
-    }
-    d = std::max(d, 0.01f * glm::length(box.extent())); // never inside the box
-    return c + toCamera * d;
 }
 
 /// The density integral along the centre ray of every pixel, by the midpoint rule at `step`:
@@ -268,89 +225,18 @@ void prepareBase(Cloud& c, int w, int h) {
 
 /// The grid of a VDB file the suite renders: "density" when the file has a scalar grid of that
 /// name, else its only scalar grid. Empty with `why` set when there is none to choose.
-std::string chooseGrid(const std::vector<vdb::VdbGridInfo>& grids, std::string& why) {
-    std::vector<std::string> scalar;
-    std::string all;
-    for (const auto& g : grids) {
-        all += (all.empty() ? "" : ", ") + g.name + " (" + g.valueType + ")";
-        if (g.valueType == "float" || g.valueType == "half" || g.valueType == "double")
-            scalar.push_back(g.name);
-    }
-    if (std::find(scalar.begin(), scalar.end(), "density") != scalar.end()) return "density";
-    if (scalar.size() == 1) return scalar[0];
-    why = scalar.empty() ? "no float grid (" + (all.empty() ? std::string("no grids") : all) + ")"
-                         : "several float grids and none named density (" + all + ")";
-    return {};
-}
-
 /// Loads a VDB cloud: picks its grid, reads it in the isolated child (vdb::loadVdbGrid, as
 /// scenes do) to frame it and size the step, then loads the in-memory scene through the session
 /// (which reads the grid again, the same way). Returns an exit code; `skip` is set (exit code
 /// 0) when the file is not a fog volume the suite can use.
 int loadVdbCloud(Cloud& c, const ConvergeOptions& o, int w, int h, std::string& skip) {
-    std::vector<vdb::VdbGridInfo> grids;
-    try {
-        grids = vdb::listVdbGrids(c.source);
-    } catch (const std::exception& e) {
-        skip = e.what();
-        return kExitOk;
-    }
-    std::string why;
-    c.grid = chooseGrid(grids, why);
-    if (c.grid.empty()) {
-        skip = why;
-        return kExitOk;
-    }
-    vdb::LoadedVdbGrid g;
-    try {
-        vdb::VdbLoadOptions opt;
-        opt.path = c.source;
-        opt.gridName = c.grid;
-        vdb::applyVdbEnvironment(opt);
-        g = vdb::loadVdbGrid(opt);
-    } catch (const vdb::VdbError& e) {
-        skip = e.what(); // a level set, a corrupt file, ...
-        return kExitOk;
-    }
-    if (g.empty()) {
-        skip = "grid \"" + c.grid + "\" is empty (0 active voxels)";
-        return kExitOk;
-    }
-    c.voxel = double(std::min(g.voxelSize.x, std::min(g.voxelSize.y, g.voxelSize.z)));
-    const float el = glm::radians(kVdbElevation), az = glm::radians(kVdbAzimuth);
-    const vec3 toCamera(std::sin(az) * std::cos(el), std::sin(el), -std::cos(az) * std::cos(el));
-    // frame the voxels that hold density: the active ones (a dense grid's zeros are active
-    // too), within the tree nodes whose largest value is above 0
-    GridBinding binding;
-    binding.grid = g.grid();
-    binding.bounds = g.worldBounds;
-    FieldDesc fd;
-    fd.kind = FieldKind::Vdb;
-    const Field field = makeField(fd, 0.0f, binding);
-    Box nodes{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
-    field.forEachDensityNode([&](const Box& b, float maxDensity) {
-        if (!(maxDensity > 0.0f)) return;
-        nodes.lo = glm::min(nodes.lo, b.lo);
-        nodes.hi = glm::max(nodes.hi, b.hi);
-    });
-    if (nodes.empty()) {
-        skip = "grid \"" + c.grid + "\" holds no density above 0";
-        return kExitOk;
-    }
-    const Box box{glm::max(g.worldBounds.lo, nodes.lo), glm::min(g.worldBounds.hi, nodes.hi)};
-    const vec3 centre = 0.5f * (box.lo + box.hi);
-    const vec3 eye = framingPosition(box, toCamera, kVdbFov, float(w) / float(h));
-    std::ostringstream t;
-    t << "# nimbus converge --suite: " << c.source << ", grid " << c.grid << "\n"
-      << "frames = \"1\"\n[camera]\nposition = " << tomlVec(eye)
-      << "\nlook_at = " << tomlVec(centre) << "\nup = [0, 1, 0]\nfov = " << kVdbFov
-      << "\nwidth = " << w << "\nheight = " << h
-      << "\n[field]\nkind = \"vdb\"\npath = " << tomlString(c.source)
-      << "\ngrid = " << tomlString(c.grid) << "\n[render]\nstep = " << fmt("%.9g", c.voxel)
-      << "\nshadow_step = " << fmt("%.9g", c.voxel) << "\n";
+    VdbFraming framing;
+    if (!frameVdbFile(c.source, w, h, "nimbus converge --suite", framing, skip)) return kExitOk;
+    c.grid = framing.grid;
+    c.voxel = framing.voxel;
     c.ls = std::make_unique<LoadedScene>();
     const host::Status st =
-        c.ls->loadString(t.str(), "suite:" + c.name + ".toml", o.overrides, o.threads);
+        c.ls->loadString(framing.scene, "suite:" + c.name + ".toml", o.overrides, o.threads);
     printWarnings(*c.ls);
     return report(st);
 }
