@@ -33,6 +33,9 @@ struct FramePlan {
     bool pathtrace = false;    ///< the integrator is pathtrace (else march)
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
+    /// the medium scatters light (medium.sigma_s > 0 in some channel); at albedo 0 nothing
+    /// in-scatters, so march builds no multiple scattering, sky grids or in-medium shadow rays
+    bool scatters = true;
     bool skipEmpty = true;
     /// an SDF cloud: empty space skipped by sphere tracing its distance bound (the majorant
     /// grid is still built for the light volumes)

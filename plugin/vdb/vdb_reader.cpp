@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <mutex>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -509,12 +510,29 @@ std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
     }
 }
 
+namespace {
+
+std::mutex g_readsMutex;
+std::vector<VdbRead> g_reads; // vdbReadsSoFar(): one entry per load, a few per frame
+
+} // namespace
+
+std::vector<VdbRead> vdbReadsSoFar() {
+    std::lock_guard<std::mutex> lock(g_readsMutex);
+    return g_reads;
+}
+
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
     // Before a fork: the child inherits the registered grid types instead of registering them
     // again for every load.
     openvdb::initialize(); // idempotent and thread-safe
-    return options.isolate ? detail::loadVdbGridIsolated(options)
-                           : detail::loadVdbGridInProcess(options);
+    LoadedVdbGrid g = options.isolate ? detail::loadVdbGridIsolated(options)
+                                      : detail::loadVdbGridInProcess(options);
+    {
+        std::lock_guard<std::mutex> lock(g_readsMutex);
+        g_reads.push_back({g.path, g.gridName, g.gridsRead});
+    }
+    return g;
 }
 
 LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid) {

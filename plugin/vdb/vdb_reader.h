@@ -51,8 +51,8 @@
 /// VdbLoadOptions::timeoutSeconds. Its stderr is captured: forwarded to the caller's stderr
 /// after a normal end, quoted in the message after a crash. The memory it peaked at is returned
 /// when it exits. Cost: one fork and one copy of the NanoVDB grid through a pipe (docs/vdb.md,
-/// "Corrupt files and the child process"). With isolate = false the grid is read in the calling process: for trusted
-/// files only.
+/// "Corrupt files and the child process"). With isolate = false the grid is read in the calling
+/// process: for trusted files only.
 ///    @note Forking while another thread of the caller holds a lock the reader needs (e.g. one
 ///          inside OpenVDB's grid registry, taken by a concurrent in-process load or
 ///          listVdbGrids()) makes the child wait for a lock nobody will release: it then ends
@@ -180,6 +180,18 @@ struct LoadedVdbGrid {
 /// @throws VdbError for every refusal and every failure (file, format, grid, memory, a crash,
 ///         hang or invalid reply of the child process).
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options);
+
+/// One grid loadVdbGrid() read (vdbReadsSoFar).
+struct VdbRead {
+    std::string path;     ///< the file
+    std::string gridName; ///< the grid asked for
+    int gridsRead = 0;    ///< trees read from the file for it (LoadedVdbGrid::gridsRead)
+};
+
+/// Every grid loadVdbGrid() has read in this process, oldest first (failed loads are not
+/// listed): proves what a frame read, e.g. that grids no scene names and volumes no instance
+/// places are never read (tests/test_plan_obeyed.cpp). One entry per load; thread-safe.
+std::vector<VdbRead> vdbReadsSoFar();
 
 /// Lists the grids of a VDB file (names and value types) from its grid descriptors, without
 /// reading any tree. @throws VdbError when the file cannot be opened, is not a VDB file or is
