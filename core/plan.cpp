@@ -214,6 +214,18 @@ std::string FramePlan::explain() const {
                           : std::string("ambient, height occlusion"));
     if (!skyNote.empty()) o << " (" << skyNote << ")";
     o << "\n";
+    if (lightGrids > 0) {
+        char grids[160];
+        std::snprintf(grids, sizeof grids, "  light-volume grid: voxel %g, %d float grid%s",
+                      double(lightVolumeCell), lightGrids, lightGrids > 1 ? "s" : "");
+        o << grids;
+        if (lightGridBytes > 0.0) {
+            std::snprintf(grids, sizeof grids, ", %.1f MB\n", lightGridBytes / 1048576.0);
+            o << grids;
+        } else {
+            o << " (sized by the field's bounds: the grids are read when rendering)\n";
+        }
+    }
     o << "  volumes: " << volumes << ", instances: " << instances;
     if (instanced)
         o << " ("
@@ -302,6 +314,14 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
     p.densityGrid = p.diffusion || p.photons;
+    // what Renderer::render builds on the light-volume grid (the densities are kept for the sky
+    // volume too when density integrals are built beside it)
+    const int integrals = (p.sunDepthVolume ? 1 : 0) + (p.columnVolumes ? 2 : 0);
+    p.lightGrids = integrals + ((p.densityGrid || (p.skyVolume && integrals > 0)) ? 1 : 0);
+    if (p.lightGrids > 0 && !bounds.empty()) { // (a VDB field unread for --explain: unknown)
+        const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
+        p.lightGridBytes = double(res.x) * res.y * res.z * p.lightGrids * sizeof(float);
+    }
     checkBounds(s, bounds, p);
 
     if (s.field.kind != FieldKind::Cumulus) {

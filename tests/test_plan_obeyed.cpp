@@ -302,6 +302,9 @@ TEST(PlanObeyed, LightGridsPhotonsAndDiffusionOnlyWhenPlanned) {
                         const int volumes = (p.sunDepthVolume ? 1 : 0) + (p.columnVolumes ? 2 : 0);
                         EXPECT_EQ(st.lightVolumes, volumes);
                         EXPECT_EQ(st.lightVolumeVoxels > 0, volumes > 0);
+                        // the memory the plan states for them is what the renderer built
+                        EXPECT_EQ(double(st.lightVolumeVoxels + st.densityGridVoxels) * 4.0,
+                                  p.lightGridBytes);
                         EXPECT_EQ(st.diffusionIterations > 0, p.diffusion);
                         EXPECT_EQ(st.photonsTraced, p.photons ? 3000u : 0u);
                         EXPECT_EQ(st.skyVolumeBytes, size_t(p.skyVolumeBytes));
