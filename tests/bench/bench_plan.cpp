@@ -1,8 +1,8 @@
 // What the frame plan leaves out costs nothing: the default scene's cloud with no lights (a
 // minimal scene) against the same cloud with every optional feature present in the file but
 // switched off (sun and sky tables with enabled = false / kind = "none", a ground table with
-// enabled = false, photons, a light-attenuation volume, a single-scattered sky volume and
-// column occlusion asked for, 8 octaves). The two are rendered interleaved (A B B A ...) in one
+// enabled = false, photons, a light-attenuation volume, the sky-volume and column-occlusion
+// keys, 8 octaves). The two are rendered interleaved (A B B A ...) in one
 // process through the render session, so that the machine's load drifts over both alike; the
 // ratio of their median frame times is reported (docs/plan.md). No time is asserted anywhere.
 //   ./tests/nimbus_bench --benchmark_filter=PlanOff
