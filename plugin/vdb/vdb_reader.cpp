@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <deque>
 #include <mutex>
 #include <cerrno>
 #include <cmath>
@@ -513,13 +514,19 @@ std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
 namespace {
 
 std::mutex g_readsMutex;
-std::vector<VdbRead> g_reads; // vdbReadsSoFar(): one entry per load, a few per frame
+std::uint64_t g_readCount = 0;
+std::deque<VdbRead> g_reads; // the last kVdbRecentReads loads
 
 } // namespace
 
-std::vector<VdbRead> vdbReadsSoFar() {
+std::uint64_t vdbReadCount() {
     std::lock_guard<std::mutex> lock(g_readsMutex);
-    return g_reads;
+    return g_readCount;
+}
+
+std::vector<VdbRead> vdbRecentReads() {
+    std::lock_guard<std::mutex> lock(g_readsMutex);
+    return std::vector<VdbRead>(g_reads.begin(), g_reads.end());
 }
 
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
@@ -530,7 +537,9 @@ LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
                                       : detail::loadVdbGridInProcess(options);
     {
         std::lock_guard<std::mutex> lock(g_readsMutex);
+        ++g_readCount;
         g_reads.push_back({g.path, g.gridName, g.gridsRead});
+        if (g_reads.size() > kVdbRecentReads) g_reads.pop_front();
     }
     return g;
 }
