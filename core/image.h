@@ -25,8 +25,19 @@ struct Framebuffer {
         height = h;
         aovs = a;
         rgba.assign(size_t(w) * h * 4, 0.0f);
-        transmittance.assign(a.transmittance ? size_t(w) * h * 3 : 0, 0.0f);
-        depth.assign(a.depth ? size_t(w) * h : 0, 0.0f);
+        // an AOV not asked for holds no memory, even in a buffer reused from a frame that had it
+        auto aov = [](std::vector<float>& v, bool wanted, size_t n) {
+            if (wanted)
+                v.assign(n, 0.0f);
+            else
+                std::vector<float>().swap(v);
+        };
+        aov(transmittance, a.transmittance, size_t(w) * h * 3);
+        aov(depth, a.depth, size_t(w) * h);
+    }
+    /// Bytes held by the AOV buffers (beyond the beauty pass).
+    size_t aovBytes() const {
+        return (transmittance.capacity() + depth.capacity()) * sizeof(float);
     }
 };
 

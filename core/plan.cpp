@@ -171,7 +171,12 @@ std::string FramePlan::explain() const {
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
       << (sdfTrace ? "; the SDF field by sphere tracing its distance bound" : "") << "\n";
     o << "  sun transmittance: "
-      << (!shadows         ? std::string("none (no sun)")
+      << (!shadows ? std::string("none (no sun)")
+          : !pathtrace && !scatters
+              ? std::string(surfaces || solids > 0
+                                ? "toward the surfaces only (medium.sigma_s = 0: nothing "
+                                  "in-scatters)"
+                                : "none (medium.sigma_s = 0: nothing in-scatters)")
           : shadowRoulette ? "ratio-tracked shadow rays, traced with a probability from the "
                              "density integral toward the sun (voxel " +
                                  std::to_string(lightVolumeCell) + ")"
@@ -181,6 +186,7 @@ std::string FramePlan::explain() const {
       << "\n";
     o << "  multiple scattering: "
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
+          : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
           : photons   ? "sun: photons traced through the field, recorded on the light-volume "
                         "grid; sky: diffusion on that grid"
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
@@ -208,6 +214,18 @@ std::string FramePlan::explain() const {
                           : std::string("ambient, height occlusion"));
     if (!skyNote.empty()) o << " (" << skyNote << ")";
     o << "\n";
+    if (lightGrids > 0) {
+        char grids[160];
+        std::snprintf(grids, sizeof grids, "  light-volume grid: voxel %g, %d float grid%s",
+                      double(lightVolumeCell), lightGrids, lightGrids > 1 ? "s" : "");
+        o << grids;
+        if (lightGridBytes > 0.0) {
+            std::snprintf(grids, sizeof grids, ", %.1f MB\n", lightGridBytes / 1048576.0);
+            o << grids;
+        } else {
+            o << " (sized by the field's bounds: the grids are read when rendering)\n";
+        }
+    }
     o << "  volumes: " << volumes << ", instances: " << instances;
     if (instanced)
         o << " ("
@@ -237,6 +255,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.shadows = s.sun.enabled && maxComponent(s.sun.irradiance) > 0.0f;
     p.ambient = s.sky.kind != SkyKind::None && s.sky.ambient > 0.0f &&
                 maxComponent(glm::max(s.sky.zenith, s.sky.horizon)) > 0.0f;
+    p.scatters = maxComponent(s.medium.sigma_s) > 0.0f;
     p.skipEmpty = s.render.skipEmpty;
     Box bounds = s.field.homogeneous.box;
     if (s.field.kind == FieldKind::Cumulus) bounds = s.field.cumulus.bounds;
@@ -255,20 +274,24 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.solids = int(s.solids.size());
     // the light-attenuation volume covers one untransformed volume; instanced scenes march
     p.lightVolume = p.shadows && s.render.integrator == Integrator::March &&
-                    s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty();
+                    s.render.shadow == ShadowMethod::Volume && !p.instanced && s.volumes.empty() &&
+                    (p.scatters || p.surfaces || p.solids > 0);
     p.lightVolumeCell = s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : p.majorantCell;
     const bool marching = s.render.integrator == Integrator::March;
     // the grids of the diffusion and the column sky cover one untransformed volume
     const bool oneVolume = !p.instanced && s.volumes.empty();
-    p.photons = marching && oneVolume && p.shadows &&
+    // light scattered in the medium: nothing to compute at albedo 0 (march's in-scattering is
+    // sigma_s times it)
+    const bool inScatter = marching && p.scatters;
+    p.photons = inScatter && oneVolume && p.shadows &&
                 s.render.multipleScattering == MultipleScattering::Photons;
     // the sky's multiple scattering is the diffusion grid's in either model
     p.diffusion =
-        marching && oneVolume &&
+        inScatter && oneVolume &&
         ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
          (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
     p.skySingle =
-        marching && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
+        inScatter && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
@@ -280,7 +303,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.skyVolumeBytes = double(res.x) * res.y * res.z * p.skyDirections * sizeof(float);
     }
-    p.columnVolumes = marching && oneVolume && p.ambient && !p.diffusion && !p.skySingle &&
+    p.columnVolumes = inScatter && oneVolume && p.ambient && !p.diffusion && !p.skySingle &&
                       s.render.skyOcclusion == SkyOcclusion::Column;
     // the diffusion's sun source needs the density integral toward the sun, and so does the
     // photons' skin profile (core/lighting/photons.h)
@@ -291,6 +314,14 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
     p.densityGrid = p.diffusion || p.photons;
+    // what Renderer::render builds on the light-volume grid (the densities are kept for the sky
+    // volume too when density integrals are built beside it)
+    const int integrals = (p.sunDepthVolume ? 1 : 0) + (p.columnVolumes ? 2 : 0);
+    p.lightGrids = integrals + ((p.densityGrid || (p.skyVolume && integrals > 0)) ? 1 : 0);
+    if (p.lightGrids > 0 && !bounds.empty()) { // (a VDB field unread for --explain: unknown)
+        const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
+        p.lightGridBytes = double(res.x) * res.y * res.z * p.lightGrids * sizeof(float);
+    }
     checkBounds(s, bounds, p);
 
     if (s.field.kind != FieldKind::Cumulus) {

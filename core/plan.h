@@ -33,6 +33,9 @@ struct FramePlan {
     bool pathtrace = false;    ///< the integrator is pathtrace (else march)
     bool shadows = true;       ///< sun enabled with non-zero irradiance
     bool ambient = true;       ///< sky present with non-zero ambient
+    /// the medium scatters light (medium.sigma_s > 0 in some channel); at albedo 0 nothing
+    /// in-scatters, so march builds no multiple scattering, sky grids or in-medium shadow rays
+    bool scatters = true;
     bool skipEmpty = true;
     /// an SDF cloud: empty space skipped by sphere tracing its distance bound (the majorant
     /// grid is still built for the light volumes)
@@ -48,7 +51,12 @@ struct FramePlan {
     bool skyVolume = false;
     int skyDirections = 0;
     double skyVolumeBytes = 0.0; ///< its memory: voxels x directions x 4 bytes
-    std::string skyNote;         ///< why the sky is not what the scene asked for, when it is not
+    /// march: float grids on the light-volume grid: the density integrals (toward the sun, up
+    /// and down for the column sky) and the densities kept for the diffusion, the photons or
+    /// the sky volume; their memory is lightGrids x voxels x 4 bytes (the sky volume apart)
+    int lightGrids = 0;
+    double lightGridBytes = 0.0;
+    std::string skyNote; ///< why the sky is not what the scene asked for, when it is not
     float lightVolumeCell = 0.0f;
     /// march: the primary and first shadow steps (world units), render.step and
     /// render.shadow_step or, where those are 0, chosen here (see stepDecision)

@@ -219,13 +219,26 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         const bool skyVolume = plan.skyVolume && any;
         // the sky volume shares the densities at the voxel centres when other volumes are built
         const bool needRho = (plan.densityGrid || (skyVolume && !dirs.empty())) && any;
-        if (needRho && dirs.empty()) dirs.push_back(vec3(0.0f, 1.0f, 0.0f)); // geometry
-        if (!dirs.empty()) {
+        if (!dirs.empty() || needRho) {
             t0 = std::chrono::steady_clock::now();
-            volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
-                                        needRho ? &rho : nullptr, cb.cancel);
+            if (!dirs.empty()) {
+                volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
+                                            needRho ? &rho : nullptr, cb.cancel);
+            } else {
+                // the densities alone, on the grid's geometry: no density integral is needed
+                LightVolume geometry = lightVolumeGrid(field, plan.lightVolumeCell);
+                rho = densityAtCentres(field, geometry.bounds, geometry.res, g,
+                                       geometry.densityLookups, cb.cancel);
+                volumes.push_back(std::move(geometry));
+            }
             stats.lightVolumeSeconds = secondsSince(t0);
             stats.lightVolumeLookups = volumes.front().densityLookups;
+            stats.densityGridVoxels = rho.size();
+            for (const LightVolume& v : volumes)
+                if (!v.tau.empty()) {
+                    ++stats.lightVolumes;
+                    stats.lightVolumeVoxels += v.tau.size();
+                }
         }
         size_t next = 0;
         const LightVolume* towardVolume = toward ? &volumes[next++] : nullptr;
@@ -290,12 +303,14 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             sv.photons = &pv;
             stats.photonSeconds = secondsSince(t0);
             stats.photonLookups = pv.lookups;
+            stats.photonsTraced = pv.traced;
         }
         if (cancelled()) {
             completed = false;
             return;
         }
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
+        stats.aovBytes = fb.aovBytes();
         t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:

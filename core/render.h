@@ -37,12 +37,19 @@ struct RenderStats {
     double majorantSeconds = 0.0; ///< majorant grids and the instance query
     double lightVolumeSeconds = 0.0;
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
-    double diffusionSeconds = 0.0;        ///< march: solving the multiple-scattering grid
+    /// Work done, counted where it is done (tests/test_plan_obeyed.cpp proves with these that
+    /// the renderer builds what the plan names and nothing else):
+    int lightVolumes = 0;                ///< density integrals propagated (one per direction)
+    std::uint64_t lightVolumeVoxels = 0; ///< their voxels, all directions
+    std::uint64_t densityGridVoxels = 0; ///< densities looked up at light-grid voxel centres
+    double diffusionSeconds = 0.0;       ///< march: solving the multiple-scattering grid
     int diffusionIterations = 0;
     double photonSeconds = 0.0;      ///< march: tracing the photons of the sun
+    std::uint64_t photonsTraced = 0; ///< photons that left the sun
     std::uint64_t photonLookups = 0; ///< density lookups spent on them
     double skyVolumeSeconds = 0.0;   ///< march: the single-scattered sky's density integrals
     std::size_t skyVolumeBytes = 0;
+    std::size_t aovBytes = 0; ///< memory of the frame's AOV buffers (0 when none is asked for)
     double integrateSeconds = 0.0;
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }
 };

@@ -194,7 +194,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                 const float rho = rv.density(t);
                 if (rho <= 0.0f) return true;
                 vec3 S(0.0f);
-                if (plan_.shadows) {
+                if (plan_.shadows && plan_.scatters) {
                     const float tau = sunOpticalDepth(
                         p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt, scratch.shadow);
                     if (std::isfinite(tau)) { // not behind a surface

@@ -146,13 +146,16 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
     bool surf = surfaces_ && surfaces_->intersect(cameraRay, 0.0f, kInf, hit);
     if (surf) tSurf = hit.t;
 
-    // camera-ray transmittance for alpha and the AOV (ratio tracking, independent stream)
+    // camera-ray transmittance for alpha and the AOV (ratio tracking, independent stream),
+    // tracked only when one of them needs it (an opaque pixel without the AOV does not)
+    const bool opaque =
+        (surf && !hit.holdout) || (!surf && s_.render.background == Background::Sky);
     Sampler trng{rng.key ^ 0xa511e9b3u, 0};
-    Tcam = transmittance(cameraRay.o, cameraRay.d, trng, cnt, scratch, tSurf);
+    Tcam = opaque && !plan_.aovs.transmittance
+               ? vec3(0.0f)
+               : transmittance(cameraRay.o, cameraRay.d, trng, cnt, scratch, tSurf);
     depthOut = 0.0f;
-    alphaOut = (surf && !hit.holdout) || (!surf && s_.render.background == Background::Sky)
-                   ? 1.0f
-                   : std::clamp(1.0f - mean3(Tcam), 0.0f, 1.0f);
+    alphaOut = opaque ? 1.0f : std::clamp(1.0f - mean3(Tcam), 0.0f, 1.0f);
 
     // Spectral MIS (one-sample over the channel that drives the tracking): f is the path
     // throughput and p the path pdf under each channel's own tracking; the estimate of channel

@@ -39,6 +39,7 @@ struct ScaledSegments {
 struct Tally {
     std::vector<std::int64_t> sum;
     std::uint64_t lookups = 0;
+    std::uint64_t traced = 0;
 };
 
 } // namespace
@@ -153,6 +154,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                 Ray ray{origin + a * u + b * v, d0};
                 vec3 w(1.0f);
                 if (poll.stopped) return;
+                ++tally.traced;
                 for (int depth = 0; depth < p.maxDepth; ++depth) {
                     float tmax = std::numeric_limits<float>::max();
                     SurfaceHit hit;
@@ -230,6 +232,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     for (Tally& t : tallies) {
         for (size_t k = 0; k < sum.size(); ++k) sum[k] += t.sum[k];
         pv.lookups += t.lookups;
+        pv.traced += t.traced;
     }
     const double area = double(span.x) * span.y;
     const vec3 flux = p.sunIrradiance * float(area / double(p.photons));

@@ -73,6 +73,7 @@ struct PhotonVolume {
                                       : 1.0f;
     }
     std::uint64_t lookups = 0; ///< density lookups spent (filling its density grid, tracking)
+    std::uint64_t traced = 0;  ///< photons that left the sun (fewer than asked when cancelled)
 
     /// Trilinear lookup at world point p, times the skin profile there.
     vec3 sample(vec3 p) const;

@@ -328,7 +328,9 @@ int runRender(const RenderOptions& o) {
             // the per-frame light grids, when the plan has any
             char grids[160] = "";
             if (st.lightVolumeSeconds > 0.0)
-                std::snprintf(grids, sizeof grids, ", light grids %.2f s", st.lightVolumeSeconds);
+                std::snprintf(
+                    grids, sizeof grids, ", light grids %.2f s (%.0f MB)", st.lightVolumeSeconds,
+                    double(st.lightVolumeVoxels + st.densityGridVoxels) * 4.0 / 1048576.0);
             if (st.diffusionSeconds > 0.0)
                 std::snprintf(grids + std::strlen(grids), sizeof grids - std::strlen(grids),
                               ", diffusion %.2f s", st.diffusionSeconds);

@@ -1,6 +1,7 @@
 #include "plugin/geom/embree_geometry.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -22,12 +23,15 @@ void onEmbreeError(void*, RTCError code, const char* message) {
     (void)message;
 }
 
+std::atomic<int> g_devicesCreated{0}; // embreeDevicesCreated()
+
 /// Owns a device; shared by the surface scene and every instance query made from it.
 struct Device {
     RTCDevice device = nullptr;
     Device() {
         device = rtcNewDevice(nullptr);
         if (!device) throw GeometryError("Embree: cannot create a device");
+        ++g_devicesCreated;
         rtcSetDeviceErrorFunction(device, onEmbreeError, nullptr);
     }
     ~Device() { rtcReleaseDevice(device); }
@@ -310,6 +314,10 @@ std::shared_ptr<const GeometryBackend> makeEmbreeGeometry(const SceneDesc& scene
         surfaces->commit();
     }
     return std::make_shared<EmbreeGeometry>(std::move(device), std::move(surfaces));
+}
+
+int embreeDevicesCreated() {
+    return g_devicesCreated.load();
 }
 
 } // namespace nimbus::geom

@@ -45,4 +45,8 @@ std::shared_ptr<const GeometryBackend> makeEmbreeGeometry(const SceneDesc& scene
                                                           const std::string& sceneDir,
                                                           std::vector<std::string>& warnings);
 
+/// Embree devices this process has created (one per makeEmbreeGeometry call): a scene without
+/// surfaces or instances never creates one (tests/test_plan_obeyed.cpp).
+int embreeDevicesCreated();
+
 } // namespace nimbus::geom

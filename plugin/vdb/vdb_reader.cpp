@@ -16,6 +16,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <deque>
+#include <mutex>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -509,12 +511,37 @@ std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
     }
 }
 
+namespace {
+
+std::mutex g_readsMutex;
+std::uint64_t g_readCount = 0;
+std::deque<VdbRead> g_reads; // the last kVdbRecentReads loads
+
+} // namespace
+
+std::uint64_t vdbReadCount() {
+    std::lock_guard<std::mutex> lock(g_readsMutex);
+    return g_readCount;
+}
+
+std::vector<VdbRead> vdbRecentReads() {
+    std::lock_guard<std::mutex> lock(g_readsMutex);
+    return std::vector<VdbRead>(g_reads.begin(), g_reads.end());
+}
+
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
     // Before a fork: the child inherits the registered grid types instead of registering them
     // again for every load.
     openvdb::initialize(); // idempotent and thread-safe
-    return options.isolate ? detail::loadVdbGridIsolated(options)
-                           : detail::loadVdbGridInProcess(options);
+    LoadedVdbGrid g = options.isolate ? detail::loadVdbGridIsolated(options)
+                                      : detail::loadVdbGridInProcess(options);
+    {
+        std::lock_guard<std::mutex> lock(g_readsMutex);
+        ++g_readCount;
+        g_reads.push_back({g.path, g.gridName, g.gridsRead});
+        if (g_reads.size() > kVdbRecentReads) g_reads.pop_front();
+    }
+    return g;
 }
 
 LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid) {

@@ -181,6 +181,21 @@ struct LoadedVdbGrid {
 ///         hang or invalid reply of the child process).
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options);
 
+/// One grid loadVdbGrid() read (vdbRecentReads).
+struct VdbRead {
+    std::string path;     ///< the file
+    std::string gridName; ///< the grid asked for
+    int gridsRead = 0;    ///< trees read from the file for it (LoadedVdbGrid::gridsRead)
+};
+
+/// Grids loadVdbGrid() has read in this process (failed loads are not counted), and the last
+/// kVdbRecentReads of them, oldest first: they prove what a frame read, e.g. that grids no scene
+/// names and volumes no instance places are never read (tests/test_plan_obeyed.cpp). Kept
+/// bounded for processes that render millions of frames. Thread-safe.
+constexpr std::size_t kVdbRecentReads = 256;
+std::uint64_t vdbReadCount();
+std::vector<VdbRead> vdbRecentReads();
+
 /// Lists the grids of a VDB file (names and value types) from its grid descriptors, without
 /// reading any tree. @throws VdbError when the file cannot be opened, is not a VDB file or is
 /// truncated.
