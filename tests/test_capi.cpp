@@ -22,6 +22,7 @@
 
 #include "plugin/capi/nimbus.h"
 #include "plugin/host/session.h"
+#include "plugin/io/atomic_file.h"
 #include "plugin/io/image_output.h"
 #include "tests/test_util.h"
 
@@ -562,6 +563,40 @@ TEST(CApi, TwoContextsRenderingAtOnceGiveTheImagesOfOneAfterTheOther) {
         EXPECT_TRUE(bitIdentical(parA, seqA)) << "round " << round;
         EXPECT_TRUE(bitIdentical(parB, seqB)) << "round " << round;
     }
+}
+
+// A cancelled render removes no other writer's temp file: a frame being written by another
+// session (another context of the library) must survive a render cancelled beside it. Checked
+// on host::Session with io::writeAtomically held open, which makes the order certain.
+TEST(CApiThreads, ACancelledRenderLeavesAnotherWritersFileAlone) {
+    TempDir dir("capi");
+    const std::string out = (dir / "frame.exr").string();
+    std::atomic<int> stage{0}; // 1: the temp file is written, 2: the render was cancelled
+    std::string error;
+    std::thread writer([&] {
+        try {
+            io::writeAtomically(out, [&](const std::string& temp) {
+                writeText(temp, "a frame");
+                stage = 1;
+                while (stage < 2) std::this_thread::yield();
+            });
+        } catch (const std::exception& e) {
+            error = e.what();
+        }
+    });
+    while (stage < 1) std::this_thread::yield();
+    host::Session s;
+    ASSERT_TRUE(s.loadString(tinyScene(), "scene.toml").ok());
+    Framebuffer fb;
+    RenderStats stats;
+    std::atomic<bool> cancel{false};
+    const host::Status st = s.render(
+        3, fb, stats, [&](int, int) { cancel = true; }, &cancel);
+    stage = 2;
+    writer.join();
+    EXPECT_EQ(st.code, host::StatusCode::interrupted);
+    EXPECT_TRUE(error.empty()) << error;
+    EXPECT_TRUE(fs::exists(out));
 }
 
 TEST(CApi, AnOverlappingCallOnOneContextIsRefused) {
