@@ -212,8 +212,9 @@ NIMBUS_API nimbus_status nimbus_load_string(nimbus_context* ctx, const char* tex
  * checks. Overrides accumulate in the order given (a later one of the same key wins) and
  * apply to the loaded scene at once (it is loaded again with them) and to every later load.
  * A bad key or value is refused with NIMBUS_BAD_INPUT and not kept; the scene and the earlier
- * overrides stay as they were. Without a scene loaded, the override is checked against the
- * default scene.
+ * overrides stay as they were. Without a scene loaded, the overrides are checked against the
+ * default scene (an empty scene file): keys of another field kind need `field.kind=...` set
+ * before them, or a scene loaded first.
  */
 NIMBUS_API nimbus_status nimbus_set(nimbus_context* ctx, const char* assignment);
 /** Drops every override (the loaded scene is loaded again without them). */
