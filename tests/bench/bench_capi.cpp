@@ -1,7 +1,8 @@
 // The overhead of the C ABI (libnimbus.so, plugin/capi/nimbus.h) against the C++ call it wraps
 // (host::Session::render): the same frame of the same scene rendered both ways, noise baked
 // beforehand, at two sizes: a 24x14 frame (a few ms: fixed per-call costs show) and the default
-// scene at 160x90 (a real frame). Interleave the two in one run (docs/capi.md):
+// scene at 160x90 (a real frame); the tiny frame also on one thread (CPU time = the work).
+// Interleave the two in one run (docs/capi.md):
 //   ./tests/nimbus_bench --benchmark_filter=CApi --benchmark_repetitions=10 \
 //       --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
@@ -40,6 +41,15 @@ Case tiny() {
             "[render]\nstep = 0.2\nshadow_step = 0.2\nthreads = 2\n",
             {},
             3};
+}
+
+/// The tiny scene on one thread: the render runs on the calling thread, so its CPU time is the
+/// work itself, less disturbed by the other processes of a shared machine.
+Case tinyOneThread() {
+    Case c = tiny();
+    c.name = "tiny1thread";
+    c.overrides = {"render.threads=1"};
+    return c;
 }
 
 Case defaultScene() {
@@ -97,6 +107,12 @@ BENCHMARK_CAPTURE(viaSession, tiny, tiny())
     ->Name("CApi/session/tiny")
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(viaCApi, tiny, tiny())->Name("CApi/c_abi/tiny")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(viaSession, tiny1, tinyOneThread())
+    ->Name("CApi/session/tiny1thread")
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(viaCApi, tiny1, tinyOneThread())
+    ->Name("CApi/c_abi/tiny1thread")
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(viaSession, cumulus, defaultScene())
     ->Name("CApi/session/cumulus160x90")
     ->Unit(benchmark::kMillisecond);
