@@ -14,6 +14,7 @@ PACKAGES=(
   libegl-dev libopengl-dev libgl1-mesa-dri               # tests: GLSL parity on headless GL (llvmpipe)
   gnuplot-nox                                            # nimbus converge --plot
   clang libclang-rt-14-dev                               # tests: libFuzzer, ASan, UBSan (tests/fuzz)
+  python3 python3-numpy                                  # examples/python (ctypes host of libnimbus.so)
 )
 
 missing=()

@@ -8,7 +8,6 @@
 
 #include "core/tracking/volumes.h"
 #include "plugin/geom/embree_geometry.h"
-#include "plugin/io/atomic_file.h"
 #include "plugin/io/frames.h"
 #include "plugin/io/scene_setup.h"
 #include "plugin/vdb/vdb_field.h"
@@ -216,7 +215,9 @@ Status Session::render(int frame, Framebuffer& fb, RenderStats& stats, const Pro
         return Status::error(StatusCode::no_memory, "out of memory");
     }
     if (!complete || (cancel && cancel->load())) {
-        io::removeInFlightTempFiles();
+        // no io::removeInFlightTempFiles() here: a render writes no file, and that registry is
+        // the process's, so it would also remove the temp file of a frame another session is
+        // writing (tests/test_capi.cpp, CApiThreads); the command clears it on a signal itself
         return Status::error(StatusCode::interrupted, "interrupted during frame " +
                                                           std::to_string(frame) +
                                                           "; no output written for it");
