@@ -183,12 +183,13 @@ std::vector<int> parseFrameSpec(const std::string& spec) {
         ++element;
     }
 
-    // The union, in order, without duplicates. Within a span of up to 2^26 frames a bitmap
-    // (8 MB at most) marks them, so no sorting at all; wider specs (a few frames far apart)
-    // sort the listed frames once.
+    // The union, in order, without duplicates. Where the frames are dense (a span of at most
+    // 2^26 frames and at most 16 times the frames listed) a bitmap over the span marks them,
+    // with no sorting; sparse specs (a few frames far apart) sort the listed frames once.
+    // Either way the work is bounded by a small multiple of the frames listed.
     std::vector<int> frames;
     const std::int64_t span = std::int64_t(hi) - lo + 1;
-    if (span <= (std::int64_t(1) << 26)) {
+    if (span <= (std::int64_t(1) << 26) && span <= 16 * listed + 65536) {
         std::vector<bool> on(static_cast<size_t>(span), false);
         for (const Range& r : ranges)
             for (std::int64_t f = r.a; f <= r.b; f += r.step) on[size_t(f - lo)] = true;
