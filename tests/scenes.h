@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <string>
 
 #include "core/scene.h"
 
@@ -140,4 +141,19 @@ inline nimbus::SceneDesc whiteFurnace(nimbus::SceneDesc s, nimbus::vec3 sky) {
     s.sky.kind = nimbus::SkyKind::Uniform;
     s.sky.zenith = sky;
     return s;
+}
+
+/// The same kind of scene as scene-file text: a 24x14 cumulus layer (frame 3), a fraction of a
+/// second to render through the session or the C ABI; @p extra is appended (more tables).
+inline std::string tinySceneText(const std::string& extra = "") {
+    return "color_space = \"lin_rec709\"\n"
+           "frames = \"3\"\n"
+           "[camera]\nposition = [0.0, 0.3, -24.0]\nlook_at = [0.0, 5.5, 0.0]\nfov = 45.0\n"
+           "width = 24\nheight = 14\n"
+           "[sun]\nelevation = 9.0\nazimuth = -30.0\nintensity = 12.0\n"
+           "[medium]\nsigma_s = 12.0\ng = 0.5\n"
+           "[field]\nkind = \"cumulus\"\nbounds_min = [-30.0, 1.2, -20.0]\n"
+           "bounds_max = [30.0, 5.2, 40.0]\nbase_octaves = 2\ndetail_octaves = 1\n"
+           "[render]\nstep = 0.2\nshadow_step = 0.2\nthreads = 2\n" +
+           extra;
 }

@@ -22,6 +22,7 @@
 
 #include "plugin/capi/nimbus.h"
 #include "plugin/host/session.h"
+#include "tests/scenes.h"
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/image_output.h"
 #include "tests/test_util.h"
@@ -31,18 +32,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// A 24x14 cumulus scene (as tests/test_host.cpp), a fraction of a second to render.
 std::string tinyScene(const std::string& extra = "") {
-    return "color_space = \"lin_rec709\"\n"
-           "frames = \"3\"\n"
-           "[camera]\nposition = [0.0, 0.3, -24.0]\nlook_at = [0.0, 5.5, 0.0]\nfov = 45.0\n"
-           "width = 24\nheight = 14\n"
-           "[sun]\nelevation = 9.0\nazimuth = -30.0\nintensity = 12.0\n"
-           "[medium]\nsigma_s = 12.0\ng = 0.5\n"
-           "[field]\nkind = \"cumulus\"\nbounds_min = [-30.0, 1.2, -20.0]\n"
-           "bounds_max = [30.0, 5.2, 40.0]\nbase_octaves = 2\ndetail_octaves = 1\n"
-           "[render]\nstep = 0.2\nshadow_step = 0.2\nthreads = 2\n" +
-           extra;
+    return tinySceneText(extra);
 }
 
 /// A context that is destroyed with the test.

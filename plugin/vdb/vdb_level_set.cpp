@@ -19,7 +19,7 @@ namespace nimbus::vdb::detail {
 
 namespace {
 
-using LeafT = openvdb::FloatTree::LeafNodeType;
+using LeafT = FloatLeaf;
 
 std::string ijkText(glm::ivec3 v) {
     return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) +
@@ -71,22 +71,13 @@ openvdb::FloatGrid::Ptr buildLevelSet(const std::string& path, const LevelSetBak
     // every voxel centre of a block lies within 3.5 sqrt(3) voxels of the block's centre
     const float blockRadius = 3.5f * std::sqrt(3.0f) * vs;
 
-    const glm::ivec3 blocks = (res + 7) / 8;
-    const std::size_t blockCount = std::size_t(blocks.x) * blocks.y * blocks.z;
-    std::vector<std::unique_ptr<LeafT>> leaves(blockCount);
-    std::atomic<bool> bad{false};
-    std::mutex badMutex;
-    glm::ivec3 badIjk(0);
-    float badValue = 0.0f;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blockCount), [&](const auto& r) {
-        for (std::size_t b = r.begin(); b != r.end(); ++b) {
-            if (bad.load(std::memory_order_relaxed)) return;
-            const glm::ivec3 o = 8 * glm::ivec3(int(b % blocks.x), int((b / blocks.x) % blocks.y),
-                                                int(b / (std::size_t(blocks.x) * blocks.y)));
+    BadSample bad;
+    std::vector<std::unique_ptr<LeafT>> leaves =
+        buildLeaves(res, bad, [&](glm::ivec3 o) -> std::unique_ptr<LeafT> {
             // the whole block farther than the band from the surface: nothing to store (the
             // flood fill gives its sign)
             const float c = bound(centre(glm::dvec3(o) + 3.5));
-            if (std::isfinite(c) && std::abs(c) > band + blockRadius + slack) continue;
+            if (std::isfinite(c) && std::abs(c) > band + blockRadius + slack) return nullptr;
             auto leaf = std::make_unique<LeafT>(openvdb::Coord(o.x, o.y, o.z), band, false);
             bool any = false;
             for (int i = o.x; i < std::min(o.x + 8, res.x); ++i)
@@ -94,9 +85,8 @@ openvdb::FloatGrid::Ptr buildLevelSet(const std::string& path, const LevelSetBak
                     for (int k = o.z; k < std::min(o.z + 8, res.z); ++k) {
                         const float d = spec.distance(centre(glm::dvec3(i, j, k)));
                         if (std::isnan(d)) {
-                            std::lock_guard<std::mutex> lock(badMutex);
-                            if (!bad.exchange(true)) badIjk = glm::ivec3(i, j, k), badValue = d;
-                            return;
+                            bad.report(glm::ivec3(i, j, k), d);
+                            return nullptr;
                         }
                         const openvdb::Index n = LeafT::coordToOffset(openvdb::Coord(i, j, k));
                         if (std::abs(d) < band) {
@@ -106,12 +96,11 @@ openvdb::FloatGrid::Ptr buildLevelSet(const std::string& path, const LevelSetBak
                             leaf->setValueOff(n, d < 0.0f ? -band : band);
                         }
                     }
-            if (any) leaves[b] = std::move(leaf);
-        }
-    });
-    if (bad) {
-        throw VdbError(ctx + "the distance at voxel " + ijkText(badIjk) + " is " +
-                       std::to_string(badValue) + "; it must be a number");
+            return any ? std::move(leaf) : nullptr;
+        });
+    if (bad.seen()) {
+        throw VdbError(ctx + "the distance at voxel " + bad.where() + " is " +
+                       std::to_string(bad.value()) + "; it must be a number");
     }
 
     openvdb::FloatGrid::Ptr grid = newGrid<openvdb::FloatGrid>();

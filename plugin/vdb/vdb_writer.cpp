@@ -27,7 +27,7 @@ namespace nimbus::vdb {
 namespace {
 
 using detail::newGrid;
-using LeafT = openvdb::FloatTree::LeafNodeType;
+using LeafT = detail::FloatLeaf;
 
 std::string vecText(glm::dvec3 v) {
     return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) +
@@ -75,46 +75,29 @@ openvdb::FloatGrid::Ptr buildFog(const std::string& path, const std::string& gri
     }
     openvdb::initialize();
 
-    const glm::ivec3 blocks = (res + 7) / 8;
-    const std::size_t blockCount = std::size_t(blocks.x) * blocks.y * blocks.z;
-    std::vector<std::unique_ptr<LeafT>> leaves(blockCount);
-    std::atomic<bool> bad{false};
-    std::mutex badMutex;
-    glm::ivec3 badIjk(0);
-    float badValue = 0.0f;
-
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blockCount), [&](const auto& r) {
-        for (std::size_t b = r.begin(); b != r.end(); ++b) {
-            if (bad.load(std::memory_order_relaxed)) return;
-            const glm::ivec3 bi(int(b % blocks.x), int((b / blocks.x) % blocks.y),
-                                int(b / (std::size_t(blocks.x) * blocks.y)));
-            const glm::ivec3 o = bi * 8;
+    detail::BadSample bad;
+    std::vector<std::unique_ptr<LeafT>> leaves =
+        detail::buildLeaves(res, bad, [&](glm::ivec3 o) -> std::unique_ptr<LeafT> {
             std::unique_ptr<LeafT> leaf;
-            for (int i = o.x; i < std::min(o.x + 8, res.x); ++i) {
-                for (int j = o.y; j < std::min(o.y + 8, res.y); ++j) {
+            for (int i = o.x; i < std::min(o.x + 8, res.x); ++i)
+                for (int j = o.y; j < std::min(o.y + 8, res.y); ++j)
                     for (int k = o.z; k < std::min(o.z + 8, res.z); ++k) {
                         const float v = sample(i, j, k);
                         if (!std::isfinite(v)) {
-                            std::lock_guard<std::mutex> lock(badMutex);
-                            if (!bad.exchange(true)) badIjk = glm::ivec3(i, j, k), badValue = v;
-                            return;
+                            bad.report(glm::ivec3(i, j, k), v);
+                            return nullptr;
                         }
                         if (!(v > tolerance)) continue; // background: zero, small or negative
-                        if (!leaf) {
+                        if (!leaf)
                             leaf =
                                 std::make_unique<LeafT>(openvdb::Coord(o.x, o.y, o.z), 0.0f, false);
-                        }
                         leaf->setValueOn(LeafT::coordToOffset(openvdb::Coord(i, j, k)), v);
                     }
-                }
-            }
-            leaves[b] = std::move(leaf);
-        }
-    });
-    if (bad) {
-        throw VdbError(ctx + "sample (" + std::to_string(badIjk.x) + ", " +
-                       std::to_string(badIjk.y) + ", " + std::to_string(badIjk.z) + ") is " +
-                       std::to_string(badValue) + "; a density must be finite");
+            return leaf;
+        });
+    if (bad.seen()) {
+        throw VdbError(ctx + "sample " + bad.where() + " is " + std::to_string(bad.value()) +
+                       "; a density must be finite");
     }
 
     openvdb::FloatGrid::Ptr grid = newGrid<openvdb::FloatGrid>();

@@ -14,6 +14,7 @@
 
 #include "plugin/capi/nimbus.h"
 #include "plugin/host/session.h"
+#include "tests/scenes.h"
 
 using namespace nimbus;
 
@@ -29,18 +30,7 @@ struct Case {
 };
 
 Case tiny() {
-    return {"tiny",
-            false,
-            "color_space = \"lin_rec709\"\nframes = \"3\"\n"
-            "[camera]\nposition = [0.0, 0.3, -24.0]\nlook_at = [0.0, 5.5, 0.0]\nfov = 45.0\n"
-            "width = 24\nheight = 14\n"
-            "[sun]\nelevation = 9.0\nazimuth = -30.0\nintensity = 12.0\n"
-            "[medium]\nsigma_s = 12.0\ng = 0.5\n"
-            "[field]\nkind = \"cumulus\"\nbounds_min = [-30.0, 1.2, -20.0]\n"
-            "bounds_max = [30.0, 5.2, 40.0]\nbase_octaves = 2\ndetail_octaves = 1\n"
-            "[render]\nstep = 0.2\nshadow_step = 0.2\nthreads = 2\n",
-            {},
-            3};
+    return {"tiny", false, tinySceneText(), {}, 3};
 }
 
 /// The tiny scene on one thread: the render runs on the calling thread, so its CPU time is the
