@@ -15,6 +15,8 @@
 #include <unistd.h>
 
 #include "core/media/phase.h"
+#include "core/sampler.h"
+#include "core/tracking/tracking.h"
 #include "plugin/cli/stress_checks.h"
 #include "render_util.h"
 #include "test_util.h"
@@ -210,4 +212,42 @@ TEST(StressChecks, HenyeyGreensteinAtGOfPlusMinusOneIsFinite) {
     // and near +-1 the kernel is unchanged: HG(1, 0.999) = (1 + g) / (4 pi (1 - g)^2)
     const PhaseFunction p(kern::phaseParamsHG(0.999f));
     EXPECT_NEAR(p.eval(1.0f).x / (1.999 / (4.0 * M_PI * 1e-6)), 1.0, 2e-3);
+}
+
+namespace {
+
+/// One majorant segment [t0, t1] at sigma_maj.
+struct OneSegment {
+    MajorantSegment seg;
+    bool done = false;
+    bool next(MajorantSegment& s) {
+        if (done) return false;
+        s = seg;
+        done = true;
+        return true;
+    }
+};
+
+} // namespace
+
+TEST(StressChecks, TrackingLeavesASegmentWhoseFlightsAreBelowFloatResolution) {
+    // sigma_maj 1e15 at t = 5: every flight (1e-15) is far below t's ulp (4.8e-7), so t never
+    // advanced and a walk through density 0 (every collision null) never ended. Now 8 such flights
+    // in a row move it one ulp: the walk leaves the segment after about 8 x 2^21 flights.
+    OneSegment segs{MajorantSegment{5.0f, 6.0f, 1.0f}};
+    Sampler rng{12345u, 0};
+    std::uint64_t flights = 0;
+    const bool left = sampleTmaj(segs, 1e15f, rng, [&](float, const MajorantSegment&, float) {
+        return ++flights < 100000000u; // a null collision; give up after 1e8
+    });
+    EXPECT_TRUE(left) << "stopped after " << flights << " flights";
+    EXPECT_LT(flights, 30000000u);
+    // at an ordinary majorant the walk is unchanged: about sigma_maj x length flights
+    OneSegment thin{MajorantSegment{5.0f, 6.0f, 1.0f}};
+    flights = 0;
+    EXPECT_TRUE(sampleTmaj(thin, 1000.0f, rng, [&](float, const MajorantSegment&, float) {
+        ++flights;
+        return true;
+    }));
+    EXPECT_NEAR(double(flights), 1000.0, 5.0 * std::sqrt(1000.0));
 }
