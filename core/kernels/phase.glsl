@@ -111,8 +111,10 @@ NB_FN float phaseHGDenominator(float cosTheta, float g) {
 }
 
 NB_FN float phaseHG(float cosTheta, float g) {
-    float d = phaseHGDenominator(cosTheta, g);
-    return NB_INV_4PI * (1.0f - g) * (1.0f + g) / (d * sqrt(max(d, 1e-12f)));
+    // d is 0 only at the peak of g = +-1 (a delta, which no density represents): 0 there, not
+    // 0 / 0; the floor changes nothing while |g| < 1 - 1e-6
+    float d = max(phaseHGDenominator(cosTheta, g), 1e-12f);
+    return NB_INV_4PI * (1.0f - g) * (1.0f + g) / (d * sqrt(d));
 }
 
 // Inverse CDF of HG; u in [0, 1], c = 2u - 1. The textbook form
@@ -128,7 +130,7 @@ NB_FN float phaseHGSampleCos(float g, float u) {
     } else {
         // q = 1 + g c as a sum of two positive terms (it is small where g c -> -1)
         float q = g > 0.0f ? (1.0f - g) + 2.0f * g * u : (1.0f + g) - 2.0f * g * (1.0f - u);
-        float s = (1.0f - g) * (1.0f + g) / q;
+        float s = (1.0f - g) * (1.0f + g) / max(q, 1e-30f); // q = 0 only for g = +-1, u = 0
         cosTheta = (1.0f + g * g - s * s) / (2.0f * g);
     }
     return clamp(cosTheta, -1.0f, 1.0f);

@@ -6,6 +6,7 @@
 /// photons: a deposit and an event).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "core/cancel.h"
@@ -23,13 +24,26 @@ namespace nimbus {
 template <class Segments, class Rng, class F>
 bool sampleTmaj(Segments& segments, float sigmaScale, Rng& rng, F&& visit) {
     MajorantSegment seg;
-    std::uint32_t polls = 0;
+    std::uint32_t polls = 0, stalled = 0;
     while (segments.next(seg)) {
         const float sigmaMaj = seg.sigma_maj * sigmaScale;
         float t = seg.t0;
         for (;;) {
             if ((++polls & (CancelPoll::kEvery - 1)) == 0 && walkCancelled(segments)) return true;
-            t = kern::freeFlight(t, sigmaMaj, rng.next());
+            // A flight shorter than half an ulp of t leaves t where it stands: at a density
+            // scale of 1e12 every flight does, and where the density is 0 inside the majorant's
+            // cell the walk would never end. After 8 such flights in a row (never at ordinary
+            // densities: each has a chance of about sigma_maj ulp(t)) the walk moves on by one
+            // ulp, as far as the float position can resolve: at most ~2^26 flights per binade
+            // of t.
+            float tn = kern::freeFlight(t, sigmaMaj, rng.next());
+            if (tn > t) {
+                stalled = 0;
+            } else if (++stalled == 8) {
+                tn = std::nextafter(t, INFINITY);
+                stalled = 0;
+            }
+            t = tn;
             if (t >= seg.t1) break;
             if (!visit(t, seg, sigmaMaj)) return false;
         }

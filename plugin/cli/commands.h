@@ -113,7 +113,15 @@ struct BenchVdbOptions {
     std::string csv;
 };
 
+/// `nimbus stress`: the numerical-stability report (stress.cpp, docs/stress.md).
+struct StressOptions {
+    bool quick = false; ///< the short list of cases at 16x9 pixels
+    std::string csv;    ///< also write the table here
+    std::string filter; ///< run only the cases whose name contains this
+};
+
 int runConverge(const ConvergeOptions& o);
+int runStress(const StressOptions& o);
 int runBenchVdb(const BenchVdbOptions& o);
 int runBake(const BakeOptions& o);
 int runCalibrate(const CalibrateOptions& o);

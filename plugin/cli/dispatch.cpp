@@ -67,6 +67,8 @@ extern "C" __attribute__((visibility("default"))) int nimbus_cli_command(int com
             return runBake(*static_cast<const BakeOptions*>(options));
         case Command::BenchVdb:
             return runBenchVdb(*static_cast<const BenchVdbOptions*>(options));
+        case Command::Stress:
+            return runStress(*static_cast<const StressOptions*>(options));
         case Command::Reference:
             std::cout << nimbus::io::sceneFileReference();
             return kExitOk;
