@@ -134,6 +134,26 @@ void checkBounds(const SceneDesc& s, const Box& b, FramePlan& p) {
                                                      "render.majorant_cell",
                    key, p.lightVolumeCell, n, dirs);
     }
+    {
+        // float precision far from the origin: positions there are quantised to
+        // |x| 2^-23, and once that is a sizeable part of a step (or of the field itself) the
+        // picture shifts and turns blocky
+        double far = 0.0;
+        for (int a = 0; a < 3; ++a)
+            far = std::max({far, std::abs(double(b.lo[a])), std::abs(double(b.hi[a])),
+                            std::abs(double(s.camera.position[a]))});
+        const double ulp = far * std::ldexp(1.0, -23);
+        const double fine = std::min(double(p.step), double(maxComponent(b.extent())) / 64.0);
+        if (fine > 0.0 && ulp > 0.5 * fine) {
+            std::snprintf(buf, sizeof buf,
+                          "the field or the camera lies %.3g units from the origin, where a "
+                          "float resolves only %.3g units (%.0f%% of the finest length the "
+                          "frame needs, %.3g): expect a shifted, blocky picture; move the "
+                          "scene toward the origin",
+                          far, ulp, 100.0 * ulp / fine, fine);
+            p.warnings.push_back(buf);
+        }
+    }
     if (!p.pathtrace) {
         const double len = double(glm::length(b.extent()));
         const double prim = stepsPerRay(len, p.step, s.render.stepGrowth);

@@ -219,6 +219,29 @@ TEST(Stability, ExplainWarnsOfAbsurdStepsAndShowsRefusals) {
     EXPECT_TRUE(contains(r.output, "refused: render.majorant_cell = 0.001 needs"));
 }
 
+// A scene far from the origin, where floats quantise positions to more than half a step, is
+// warned of (it renders shifted and blocky: `nimbus stress --filter camera/far`); the same
+// scene near the origin is not.
+TEST(Stability, ExplainWarnsOfAFieldFarFromTheOrigin) {
+    TempDir dir;
+    auto scene = [&](double x) {
+        const std::string path = (dir / ("far" + std::to_string(int(x > 0)) + ".toml")).string();
+        const std::string v = std::to_string(x);
+        writeText(path, "[camera]\nposition = [" + v + ", 0.0, -100.0]\nlook_at = [" + v +
+                            ", 0.0, 0.0]\n[field]\nkind = \"homogeneous\"\nbounds_min = [" +
+                            std::to_string(x - 1.0) + ", -1.0, -1.0]\nbounds_max = [" +
+                            std::to_string(x + 1.0) + ", 1.0, 1.0]\n");
+        return path;
+    };
+    CliRun r = runNimbus("render " + scene(1e7) + " --explain");
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_TRUE(contains(r.output, "warning: the field or the camera lies 1e+07 units from the "
+                                   "origin, where a float resolves only 1.19 units"));
+    r = runNimbus("render " + scene(0.0) + " --explain");
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(r.output.find("from the origin"), std::string::npos) << r.output;
+}
+
 // An empty --frames or -o is an error, not a silent fall-back to the scene's values.
 TEST(Stability, EmptyFramesOrOutputIsAnError) {
     CliRun r = runNimbus("render " + kScene + " --frames '' --explain");

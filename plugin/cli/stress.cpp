@@ -1049,9 +1049,6 @@ Cases allCases() {
                             "diffuses through half a voxel, a resistance that grows with sigma_t)";
     markKnown(cs, "density/diffusion/1e+06", diffusion);
     markKnown(cs, "density/diffusion/1e+12", diffusion);
-    markKnown(cs, "camera/far-1e+07/",
-              "float positions 1e7 out are quantised to 1 unit: the "
-              "picture is wrong and nothing warns (issue 17)");
 
     return cs;
 }
