@@ -4,14 +4,19 @@
         --nimbus build/nimbus --library build/libnimbus.so.0 \\
         --vdb ../shared/data/vdb/vpt_dragon.vdb --out build/blender_test [--case render]
 
-ctest runs it (blender.render_matches_cli, blender.cancel, blender.reports_errors). Cases:
+ctest runs it (blender.render_matches_cli, blender.covers_what_cycles_covers, blender.cancel,
+blender.reports_errors). Cases:
   render  enable the add-on; build a scene by script (a VDB volume object, moved, rotated and
           scaled; a camera aimed at it; a sun; a world colour); render it through the add-on;
           save the result as EXR (and PNG); export the scene as TOML with the add-on's operator;
           render that with `nimbus render --set output.color_space=lin_rec709`; compare:
           PSNR >= 60 dB (printed). Also: the image is not empty (the volume is in frame).
-  cancel  Blender asks to stop (RenderEngine.test_break() true) at the first poll: the render
-          stops before its last tile and says so, and no image is produced.
+  cycles  the same scene rendered by Blender's Cycles (Principled Volume, density 1): the pixels
+          with alpha > 0.1 overlap those of the add-on's render (IoU >= 0.75), better than those
+          of a mirrored image: the camera, axes and object transform are mapped right.
+  cancel  Ctrl+C (SIGINT, which in background mode sets the break flag that
+          RenderEngine.test_break() reports, as Esc does in the render window) once the first
+          tile is done: the render stops before its last tile and says so; no image is produced.
   errors  a Volume whose .vdb file is missing: bpy.ops.render.render raises RuntimeError with the
           library's message naming the file (Blender goes on); then an orthographic camera
           and a misspelt override: the add-on's and the library's messages; then a scene that renders again after the errors.
@@ -46,7 +51,7 @@ def parse():
     p.add_argument("--library", required=True)
     p.add_argument("--vdb", required=True)
     p.add_argument("--out", required=True)
-    p.add_argument("--case", default="render", choices=["render", "cancel", "errors"])
+    p.add_argument("--case", default="render", choices=["render", "cancel", "errors", "cycles"])
     p.add_argument("--size", default="96x64")
     return p.parse_args(argv)
 
@@ -241,6 +246,48 @@ def case_cancel(args):
     check(not saved, "a cancelled render leaves no image to save")
 
 
+def case_cycles(args):
+    """The same scene through Blender's own Cycles (a Principled Volume of density 1: the
+    extinction per unit density Nimbus's default medium has): the volume must cover the same
+    pixels, which checks the camera, axis and object-transform mapping independently of the
+    exported scene file (that the CLI comparison shares with the add-on)."""
+    scene = build_scene(args.vdb, args.size)
+    bpy.ops.render.render(write_still=False)
+    save_render(scene, os.path.join(args.out, "nimbus.exr"), "OPEN_EXR")
+    mat = bpy.data.materials.new("volume")
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    for n in list(nodes):
+        nodes.remove(n)
+    out = nodes.new("ShaderNodeOutputMaterial")
+    vol = nodes.new("ShaderNodeVolumePrincipled")
+    vol.inputs["Density"].default_value = 1.0
+    mat.node_tree.links.new(vol.outputs[0], out.inputs["Volume"])
+    bpy.data.objects["dragon"].data.materials.append(mat)
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 16
+    scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
+    bpy.ops.render.render(write_still=False)
+    save_render(scene, os.path.join(args.out, "cycles.exr"), "OPEN_EXR")
+    save_render(scene, os.path.join(args.out, "cycles.png"), "PNG")
+    a = read_exr(os.path.join(args.out, "nimbus.exr"))[..., 3]
+    b = read_exr(os.path.join(args.out, "cycles.exr"))[..., 3]
+
+    def iou(x, y):
+        mx, my = x > 0.1, y > 0.1
+        return float((mx & my).sum()) / max(1, int((mx | my).sum()))
+
+    same, mirrored_x, mirrored_y = iou(a, b), iou(a, b[:, ::-1]), iou(a, b[::-1])
+    print("alpha > 0.1 overlap (IoU) Nimbus vs Cycles: %.3f (Cycles mirrored left-right %.3f, "
+          "upside down %.3f); mean alpha Nimbus %.4f, Cycles %.4f"
+          % (same, mirrored_x, mirrored_y, float(a.mean()), float(b.mean())))
+    check(same >= 0.75, "the volume covers the same pixels as in Cycles (IoU %.3f >= 0.75)"
+          % same)
+    check(same > mirrored_x + 0.1 and same > mirrored_y + 0.1,
+          "and not those of a mirrored image")
+
+
 def case_errors(args):
     scene = build_scene(args.vdb, "48x32")
     missing = os.path.join(args.out, "no_such_file.vdb")
@@ -295,7 +342,8 @@ def main():
     os.environ["NIMBUS_LIBRARY"] = os.path.abspath(args.library)
     os.makedirs(args.out, exist_ok=True)
     enable_addon()
-    {"render": case_render, "cancel": case_cancel, "errors": case_errors}[args.case](args)
+    {"render": case_render, "cancel": case_cancel, "errors": case_errors,
+     "cycles": case_cycles}[args.case](args)
     print("PASS", args.case)
     sys.stdout.flush()
     # Blender exits 1 after a SIGINT (the cancel case) even when all went well: exit here, with
