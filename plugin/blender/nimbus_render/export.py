@@ -12,8 +12,10 @@ import os
 import bpy
 from mathutils import Matrix, Vector
 
-# Blender world -> Nimbus world: (x, y, z) -> (x, z, -y)
-TO_NIMBUS = Matrix.Rotation(-math.pi / 2.0, 4, "X")
+# Blender world -> Nimbus world: (x, y, z) -> (x, z, -y), the rotation by -90 degrees about X
+# written exactly (Matrix.Rotation would leave cos(90 degrees) ~ 1e-17 terms)
+TO_NIMBUS = Matrix(((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, -1.0, 0.0, 0.0),
+                    (0.0, 0.0, 0.0, 1.0)))
 
 # The keys of a cumulus [field] a cloud object may set as "nimbus_<key>" custom properties
 # (examples/scenes/reference.md); bounds come from the object itself.
