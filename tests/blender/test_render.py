@@ -5,7 +5,7 @@
         --vdb ../shared/data/vdb/vpt_dragon.vdb --out build/blender_test [--case render]
 
 ctest runs it (blender.render_matches_cli, blender.cloud_matches_cli,
-blender.covers_what_cycles_covers, blender.cancel,
+blender.covers_what_cycles_covers, blender.zip_installs_and_renders, blender.cancel,
 blender.reports_errors). Cases:
   render  enable the add-on; build a scene by script (a VDB volume object, moved, rotated and
           scaled; a camera aimed at it; a sun; a world colour); render it through the add-on;
@@ -15,6 +15,8 @@ blender.reports_errors). Cases:
   cloud   Add > Nimbus Cloud (an Empty box with nimbus_* custom properties) beside the VDB: the
           exported [field] has the box in Nimbus's axes and the properties as keys; the add-on's
           render equals the CLI's (PSNR >= 60 dB, printed).
+  zip     build/nimbus_render.zip installed with Blender's add-on installer into
+          $BLENDER_USER_SCRIPTS, the library set in its preferences: it renders the volume.
   cycles  the same scene rendered by Blender's Cycles (Principled Volume, density 1): the pixels
           with alpha > 0.1 overlap those of the add-on's render (IoU >= 0.75), better than those
           of a mirrored image: the camera, axes and object transform are mapped right.
@@ -55,8 +57,9 @@ def parse():
     p.add_argument("--library", required=True)
     p.add_argument("--vdb", required=True)
     p.add_argument("--out", required=True)
-    p.add_argument("--case", default="render", choices=["render", "cancel", "errors", "cycles", "cloud"])
+    p.add_argument("--case", default="render", choices=["render", "cancel", "errors", "cycles", "cloud", "zip"])
     p.add_argument("--size", default="96x64")
+    p.add_argument("--zip", help="the packaged add-on (case zip)")
     return p.parse_args(argv)
 
 
@@ -291,6 +294,29 @@ def case_cloud(args):
     check(value >= 60.0, "PSNR %.2f dB >= 60 dB" % value)
 
 
+def case_zip(args):
+    """The packaged add-on (build/nimbus_render.zip) installed as a user installs it
+    (Preferences > Add-ons > Install, into $BLENDER_USER_SCRIPTS), with the library named by
+    its preference (no $NIMBUS_LIBRARY): it renders the scene."""
+    user = os.environ.get("BLENDER_USER_SCRIPTS", "")
+    check(user.startswith(os.path.abspath(args.out)),
+          "$BLENDER_USER_SCRIPTS is a folder of the test's (%r)" % user)
+    os.environ.pop("NIMBUS_LIBRARY", None)
+    check(bpy.ops.preferences.addon_install(filepath=args.zip, overwrite=True) == {"FINISHED"},
+          "Blender installs %s" % args.zip)
+    mod = addon_utils.enable("nimbus_render", default_set=True, handle_error=None)
+    check(mod is not None and os.path.abspath(mod.__file__).startswith(user),
+          "the installed add-on is enabled (%s)" % (mod and mod.__file__))
+    prefs = bpy.context.preferences.addons["nimbus_render"].preferences
+    prefs.library = os.path.abspath(args.library)
+    scene = build_scene(args.vdb, args.size)
+    bpy.ops.render.render(write_still=False)
+    exr = os.path.join(args.out, "zip.exr")
+    save_render(scene, exr, "OPEN_EXR")
+    img = read_exr(exr)
+    check(float(np.mean(img[..., 3] > 0.05)) > 0.02, "it renders the volume")
+
+
 def case_cycles(args):
     """The same scene through Blender's own Cycles (a Principled Volume of density 1: the
     extinction per unit density Nimbus's default medium has): the volume must cover the same
@@ -384,11 +410,12 @@ def main():
               "repository is needed for this test)" % args.vdb)
         sys.stdout.flush()
         os._exit(SKIP)
-    os.environ["NIMBUS_LIBRARY"] = os.path.abspath(args.library)
     os.makedirs(args.out, exist_ok=True)
-    enable_addon()
+    if args.case != "zip":
+        os.environ["NIMBUS_LIBRARY"] = os.path.abspath(args.library)
+        enable_addon()
     {"render": case_render, "cancel": case_cancel, "errors": case_errors,
-     "cycles": case_cycles, "cloud": case_cloud}[args.case](args)
+     "cycles": case_cycles, "cloud": case_cloud, "zip": case_zip}[args.case](args)
     print("PASS", args.case)
     sys.stdout.flush()
     # Blender exits 1 after a SIGINT (the cancel case) even when all went well: exit here, with
