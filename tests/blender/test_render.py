@@ -25,7 +25,9 @@ blender.reports_errors). Cases:
           tile is done: the render stops before its last tile and says so; no image is produced.
   errors  a Volume whose .vdb file is missing: bpy.ops.render.render raises RuntimeError with the
           library's message naming the file (Blender goes on); then an orthographic camera
-          and a misspelt override: the add-on's and the library's messages; then a scene that renders again after the errors.
+          and a misspelt override: the add-on's and the library's messages; a level set
+          (gaffer_sphere.vdb, the active grid ls_sphere): refused with how to convert it, then
+          rendered with nimbus_levelset_to_fog; then the scene renders again.
 Exit status 0 when every check holds, 1 otherwise (--python-exit-code 1), 77 when the VDB file
 is absent (ctest SKIP_RETURN_CODE).
 """
@@ -395,6 +397,23 @@ def case_errors(args):
     check("render.stpe" in raised and "unknown key" in raised,
           "a misspelt override is reported with the library's message")
     scene.nimbus.overrides = ""
+
+    level_set = os.path.join(os.path.dirname(args.vdb), "gaffer_sphere.vdb")
+    check(os.path.exists(level_set), "%s is there" % level_set)
+    dragon = bpy.data.objects["dragon"]
+    dragon.data.filepath = level_set  # its one grid, ls_sphere, is a level set
+    try:
+        bpy.ops.render.render(write_still=False)
+        raised = ""
+    except RuntimeError as e:
+        raised = str(e)
+    print("level set ->", raised.strip())
+    check("level set" in raised and "nimbus_levelset_to_fog" in raised,
+          "a level set is refused, saying how to convert it")
+    dragon["nimbus_levelset_to_fog"] = 1
+    bpy.ops.render.render(write_still=False)  # raises if refused
+    dragon.data.filepath = args.vdb
+    del dragon["nimbus_levelset_to_fog"]
 
     bpy.ops.render.render(write_still=False)
     save_render(scene, os.path.join(args.out, "after_errors.exr"), "OPEN_EXR")

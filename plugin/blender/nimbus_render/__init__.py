@@ -158,6 +158,8 @@ class NimbusRenderEngine(bpy.types.RenderEngine):
                               % (self._done, self._total))
             return
         if error is not None:
+            if "level set" in error:
+                error += " [Blender: the object's custom property nimbus_levelset_to_fog = 1]"
             return self._fail("Nimbus: %s" % error)
         result = self.begin_result(0, 0, w, h)
         result.layers[0].passes["Combined"].rect = to_blender_pixels(rgba)

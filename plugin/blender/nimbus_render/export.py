@@ -149,6 +149,21 @@ def _volume_path(obj):
     return path
 
 
+def _default_grid(vol):
+    """"density" when the file has it (or Blender has not read the file), else the grid that is
+    active in Blender's Grids panel."""
+    try:
+        if not vol.grids.is_loaded:
+            vol.grids.load()  # the file's grid list (metadata), as the Grids panel reads it
+        names = [g.name for g in vol.grids]
+        active = vol.grids.active_index
+    except (AttributeError, RuntimeError):
+        return "density"
+    if not names or "density" in names:
+        return "density"
+    return names[active] if 0 <= active < len(names) else names[0]
+
+
 def _placement(obj, warn):
     """translate, rotate (degrees, R = Rz Ry Rx), scale of the object in Nimbus's world."""
     m = TO_NIMBUS @ obj.matrix_world
@@ -250,12 +265,16 @@ def scene_toml(depsgraph, warn=print, render_size=None):
         if vdbs:
             instances.append(["[[instance]]", 'volume = "field"'])
     for obj in vdbs:
-        grid = str(obj.get("nimbus_grid", "density"))
+        grid = obj.get("nimbus_grid")
+        if grid is None:
+            grid = _default_grid(obj.data)
         density = float(obj.get("nimbus_density", 1.0))
         if obj.data.is_sequence:
             warn("%s: a VDB sequence renders the file named (%s), not the frame's"
                  % (obj.name, obj.data.filepath))
-        body = ["path = %s" % _str(_volume_path(obj)), "grid = %s" % _str(grid)]
+        body = ["path = %s" % _str(_volume_path(obj)), "grid = %s" % _str(str(grid))]
+        if obj.get("nimbus_levelset_to_fog"):
+            body.append("levelset_to_fog = true")
         if not field:
             name = "field"
             field = ["[field]", 'kind = "vdb"'] + body
