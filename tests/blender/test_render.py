@@ -11,7 +11,8 @@ blender.reports_errors). Cases:
           scaled; a camera aimed at it; a sun; a world colour); render it through the add-on;
           save the result as EXR (and PNG); export the scene as TOML with the add-on's operator;
           render that with `nimbus render --set output.color_space=lin_rec709`; compare:
-          PSNR >= 60 dB (printed). Also: the image is not empty (the volume is in frame).
+          PSNR >= 60 dB (printed). Also: the image is not empty (the volume is in frame); with an
+          opaque film the pixels the volume misses have the world's colour.
   cloud   Add > Nimbus Cloud (an Empty box with nimbus_* custom properties) beside the VDB: the
           exported [field] has the box in Nimbus's axes and the properties as keys; the add-on's
           render equals the CLI's (PSNR >= 60 dB, printed).
@@ -195,6 +196,19 @@ def case_render(args):
     print("PSNR add-on vs nimbus CLI: %.2f dB (max |difference| %.3g, %dx%d, peak %.3g)"
           % (value, diff, w, h, max(1.0, float(np.max(theirs)))))
     check(value >= 60.0, "PSNR %.2f dB >= 60 dB" % value)
+
+    # opaque film: where no volume is, the pixel is the world colour (a uniform sky), back in
+    # Blender's linear Rec.709 after Nimbus's ACEScg
+    scene.render.film_transparent = False
+    bpy.ops.render.render(write_still=False)
+    opaque = os.path.join(args.out, "blender_sky.exr")
+    save_render(scene, opaque, "OPEN_EXR")
+    save_render(scene, os.path.join(args.out, "blender_sky.png"), "PNG")
+    sky = read_exr(opaque)[alpha == 0.0]
+    check(len(sky) > 0, "some pixels see only the sky")
+    err = float(np.max(np.abs(sky - np.array([0.25, 0.35, 0.6, 1.0], dtype=np.float32))))
+    print("sky pixels vs the world colour (0.25, 0.35, 0.6): max |difference| %.3g" % err)
+    check(err < 1e-4, "the sky shows the world colour")
 
 
 def rendered_output(interrupt_at=None):
