@@ -22,7 +22,6 @@ import importlib.util
 import os
 import sys
 import threading
-import time
 
 import bpy
 import numpy as np
