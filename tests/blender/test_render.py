@@ -18,9 +18,10 @@ blender.reports_errors). Cases:
           render equals the CLI's (PSNR >= 60 dB, printed).
   zip     build/nimbus_render.zip installed with Blender's add-on installer into
           $BLENDER_USER_SCRIPTS, the library set in its preferences: it renders the volume.
-  cycles  the same scene rendered by Blender's Cycles (Principled Volume, density 1): the pixels
-          with alpha > 0.1 overlap those of the add-on's render (IoU >= 0.75), better than those
-          of a mirrored image: the camera, axes and object transform are mapped right.
+  cycles  the same scene rendered by Blender's Cycles (Principled Volume, density 1), landscape,
+          portrait and with a VERTICAL sensor fit: the pixels with alpha > 0.1 overlap those of
+          the add-on's render (IoU >= 0.75), better than those of a mirrored image: the camera,
+          its field of view, the axes and the object transform are mapped right.
   cancel  Ctrl+C (SIGINT, which in background mode sets the break flag that
           RenderEngine.test_break() reports, as Esc does in the render window) once the first
           tile is done: the render stops before its last tile and says so; no image is produced.
@@ -337,10 +338,10 @@ def case_cycles(args):
     """The same scene through Blender's own Cycles (a Principled Volume of density 1: the
     extinction per unit density Nimbus's default medium has): the volume must cover the same
     pixels, which checks the camera, axis and object-transform mapping independently of the
-    exported scene file (that the CLI comparison shares with the add-on)."""
+    exported scene file (that the CLI comparison shares with the add-on). Three framings: the
+    landscape image, a portrait one (AUTO sensor fit: the sensor width spans the height), and a
+    VERTICAL sensor fit with a sensor height of its own."""
     scene = build_scene(args.vdb, args.size)
-    bpy.ops.render.render(write_still=False)
-    save_render(scene, os.path.join(args.out, "nimbus.exr"), "OPEN_EXR")
     mat = bpy.data.materials.new("volume")
     mat.use_nodes = True
     nodes = mat.node_tree.nodes
@@ -351,28 +352,38 @@ def case_cycles(args):
     vol.inputs["Density"].default_value = 1.0
     mat.node_tree.links.new(vol.outputs[0], out.inputs["Volume"])
     bpy.data.objects["dragon"].data.materials.append(mat)
-    scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = 16
     scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
-    bpy.ops.render.render(write_still=False)
-    save_render(scene, os.path.join(args.out, "cycles.exr"), "OPEN_EXR")
-    save_render(scene, os.path.join(args.out, "cycles.png"), "PNG")
-    a = read_exr(os.path.join(args.out, "nimbus.exr"))[..., 3]
-    b = read_exr(os.path.join(args.out, "cycles.exr"))[..., 3]
+    w, h = (int(v) for v in args.size.split("x"))
+    cam = scene.camera.data
 
     def iou(x, y):
         mx, my = x > 0.1, y > 0.1
         return float((mx & my).sum()) / max(1, int((mx | my).sum()))
 
-    same, mirrored_x, mirrored_y = iou(a, b), iou(a, b[:, ::-1]), iou(a, b[::-1])
-    print("alpha > 0.1 overlap (IoU) Nimbus vs Cycles: %.3f (Cycles mirrored left-right %.3f, "
-          "upside down %.3f); mean alpha Nimbus %.4f, Cycles %.4f"
-          % (same, mirrored_x, mirrored_y, float(a.mean()), float(b.mean())))
-    check(same >= 0.75, "the volume covers the same pixels as in Cycles (IoU %.3f >= 0.75)"
-          % same)
-    check(same > mirrored_x + 0.1 and same > mirrored_y + 0.1,
-          "and not those of a mirrored image")
+    for label, size, fit in (("landscape", (w, h), "AUTO"), ("portrait", (h, w), "AUTO"),
+                             ("vertical fit", (w, h), "VERTICAL")):
+        scene.render.resolution_x, scene.render.resolution_y = size
+        cam.sensor_fit = fit
+        cam.sensor_height = 18.0  # used by the VERTICAL fit only
+        images = {}
+        for engine in ("NIMBUS", "CYCLES"):
+            scene.render.engine = engine
+            bpy.ops.render.render(write_still=False)
+            path = os.path.join(args.out, "%s_%s.exr" % (engine.lower(), label.split()[0]))
+            save_render(scene, path, "OPEN_EXR")
+            images[engine] = read_exr(path)[..., 3]
+        a, b = images["NIMBUS"], images["CYCLES"]
+        same, mirrored_x, mirrored_y = iou(a, b), iou(a, b[:, ::-1]), iou(a, b[::-1])
+        print("%s %dx%d: alpha > 0.1 overlap (IoU) Nimbus vs Cycles %.3f (Cycles mirrored "
+              "left-right %.3f, upside down %.3f); mean alpha Nimbus %.4f, Cycles %.4f"
+              % (label, size[0], size[1], same, mirrored_x, mirrored_y, float(a.mean()),
+                 float(b.mean())))
+        check(same >= 0.75, "%s: the volume covers the same pixels as in Cycles (IoU %.3f >= "
+              "0.75)" % (label, same))
+        check(same > mirrored_x + 0.1 and same > mirrored_y + 0.1,
+              "%s: and not those of a mirrored image" % label)
 
 
 def case_errors(args):
