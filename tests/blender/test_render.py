@@ -14,7 +14,8 @@ blender.reports_errors). Cases:
           PSNR >= 60 dB (printed). Also: the image is not empty (the volume is in frame); with an
           opaque film the pixels the volume misses have the world's colour.
   cloud   Add > Nimbus Cloud (an Empty box with nimbus_* custom properties) beside the VDB: the
-          exported [field] has the box in Nimbus's axes and the properties as keys; the add-on's
+          exported [field] has the box in Nimbus's axes and the properties as keys, the sun's
+          direction and the node-based world's colour x strength are mapped; the add-on's
           render equals the CLI's (PSNR >= 60 dB, printed).
   zip     build/nimbus_render.zip installed with Blender's add-on installer into
           $BLENDER_USER_SCRIPTS, the library set in its preferences: it renders the volume.
@@ -285,9 +286,23 @@ def case_cloud(args):
     cam = scene.camera
     cam.location = (0.0, -14.0, 3.0)
     cam.rotation_euler = (math.radians(85.0), 0.0, 0.0)
+    # a sun rotated 90 degrees about X shines along Blender's +y, from the -y horizon: toward
+    # it is Blender -y, Nimbus +z
+    bpy.data.objects["sun"].rotation_euler = (math.radians(90.0), 0.0, 0.0)
+    # the world as node-based, colour x strength
+    world = scene.world
+    world.use_nodes = True
+    bg = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value = (0.1, 0.2, 0.3, 1.0)
+    bg.inputs["Strength"].default_value = 2.0
     toml = os.path.join(args.out, "cloud.toml")
     check(bpy.ops.nimbus.export_scene(filepath=toml) == {"FINISHED"}, "the scene exports")
     text = open(toml).read()
+    sun = [float(v) for v in re.search(r"\ndirection = \[(.*)\]", text).group(1).split(",")]
+    check(np.allclose(sun, [0.0, 0.0, 1.0], atol=1e-6), "the sun's direction is %s" % sun)
+    zenith = [float(v) for v in re.search(r"\nzenith = \[(.*)\]", text).group(1).split(",")]
+    check(np.allclose(zenith, [0.2, 0.4, 0.6], atol=1e-6),
+          "the sky is the Background colour x strength (%s)" % zenith)
     # Blender box x -12..12, y 4..16, z 1..3 -> Nimbus x -12..12, y 1..3, z -16..-4
     for line in ("bounds_min = [-12.0, 1.0, -16.0]", "bounds_max = [12.0, 3.0, -4.0]",
                  "base_octaves = 2", "detail_octaves = 1", "coverage = 0.85",
