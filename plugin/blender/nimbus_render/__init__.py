@@ -22,6 +22,7 @@ import importlib.util
 import os
 import sys
 import threading
+import traceback
 
 import bpy
 import numpy as np
@@ -134,10 +135,14 @@ class NimbusRenderEngine(bpy.types.RenderEngine):
             text = export.scene_toml(depsgraph, warn=self._warn, render_size=(w, h))
         except export.ExportError as e:
             return self._fail("Nimbus: %s" % e)
+        except Exception as e:  # a bug of the add-on: say so in Blender, traceback on stderr
+            traceback.print_exc()
+            return self._fail("Nimbus: the add-on failed to export the scene (%s: %s); "
+                              "please report it" % (type(e).__name__, e))
 
         try:
             ctx = nimbus.Context(library=library_path())
-        except OSError as e:
+        except (OSError, ImportError) as e:  # not found; or of another major version
             return self._fail("Nimbus: cannot load libnimbus.so (%s); set the add-on's "
                               "Library preference or $NIMBUS_LIBRARY" % e)
         with ctx:
