@@ -126,31 +126,54 @@ void printWarnings(nimbus_context* ctx) {
     }
 }
 
-/// Prints the context's last error as the command always has ("nimbus: error: <message>",
-/// "nimbus: <message>" for an interruption, "nimbus: internal error: ..." for a bug) or as a
-/// JSON error event; returns the exit code (the status).
-int report(nimbus_context* ctx, nimbus_status st) {
-    if (st == NIMBUS_OK) return kExitOk;
-    const std::string m = ctx ? nimbus_last_error(ctx) : "out of memory";
+/// A failed call's error, taken from the context at once (the next call clears it).
+struct Failure {
+    nimbus_status status = NIMBUS_OK;
+    std::string message, file;
+    int line = 0;
+};
+
+Failure failure(nimbus_context* ctx, nimbus_status st) {
+    Failure f;
+    f.status = st;
+    if (st == NIMBUS_OK) return f;
+    f.message = ctx ? nimbus_last_error(ctx) : "out of memory";
+    if (ctx) {
+        f.file = nimbus_last_error_file(ctx);
+        f.line = nimbus_last_error_line(ctx);
+    }
+    return f;
+}
+
+/// Prints an error as the command always has ("nimbus: error: <message>", "nimbus: <message>"
+/// for an interruption, "nimbus: internal error: ...; please report it" for a bug) or as a JSON
+/// error event; returns the exit code (the status).
+int report(const Failure& f) {
+    if (f.status == NIMBUS_OK) return kExitOk;
+    const std::string& m = f.message;
     if (gJson) {
         JsonLine j("error");
-        j.num("exit_code", int(st));
-        j.str("status", nimbus_status_name(st));
+        j.num("exit_code", int(f.status));
+        j.str("status", nimbus_status_name(f.status));
         j.str("message", clipped(m));
-        if (ctx && *nimbus_last_error_file(ctx)) {
-            j.str("file", nimbus_last_error_file(ctx));
-            j.num("line", nimbus_last_error_line(ctx));
+        if (!f.file.empty()) {
+            j.str("file", f.file);
+            j.num("line", f.line);
         }
         j.print();
-    } else if (st == NIMBUS_INTERRUPTED) {
+    } else if (f.status == NIMBUS_INTERRUPTED) {
         std::fprintf(stderr, "nimbus: %s\n", clipped(m).c_str());
-    } else if (st == NIMBUS_INTERNAL) {
+    } else if (f.status == NIMBUS_INTERNAL) {
         const std::string what = m.rfind("internal error", 0) == 0 ? m : "internal error: " + m;
         std::fprintf(stderr, "nimbus: %s; please report it\n", clipped(what).c_str());
     } else {
         std::fprintf(stderr, "nimbus: error: %s\n", clipped(m).c_str());
     }
-    return int(st);
+    return int(f.status);
+}
+
+int report(nimbus_context* ctx, nimbus_status st) {
+    return report(failure(ctx, st));
 }
 
 /// An error of the command itself (not of a library call).
@@ -271,10 +294,11 @@ int render(const RenderOptions& o) {
         if (nimbus_status st = nimbus_set_threads(ctx, o.threads)) return report(ctx, st);
     std::vector<const char*> assignments;
     for (const std::string& a : o.overrides) assignments.push_back(a.c_str());
-    const nimbus_status loaded =
-        nimbus_load_file_with(ctx, o.scene.c_str(), assignments.data(), int(assignments.size()));
+    const Failure loaded =
+        failure(ctx, nimbus_load_file_with(ctx, o.scene.c_str(), assignments.data(),
+                                           int(assignments.size())));
     printWarnings(ctx);
-    if (loaded != NIMBUS_OK) return report(ctx, loaded);
+    if (loaded.status != NIMBUS_OK) return report(loaded);
     if (!o.output.empty())
         if (nimbus_status st = nimbus_set_output(ctx, o.output.c_str())) return report(ctx, st);
     const std::string pattern = str(nimbus_scene_string(ctx, NIMBUS_SCENE_OUTPUT_PATTERN));
@@ -360,9 +384,9 @@ int render(const RenderOptions& o) {
             }
         }
         // the grids of the frame (a VDB field: only the named grid of that frame's file)
-        const nimbus_status bound = nimbus_prepare(ctx, frame);
+        const Failure bound = failure(ctx, nimbus_prepare(ctx, frame));
         printWarnings(ctx);
-        if (bound != NIMBUS_OK) return report(ctx, bound);
+        if (bound.status != NIMBUS_OK) return report(bound);
         int nWarnings = 0;
         nimbus_plan_int(ctx, frame, NIMBUS_PLAN_WARNINGS, &nWarnings);
         for (int i = 0; i < nWarnings; ++i) {
@@ -391,37 +415,32 @@ int render(const RenderOptions& o) {
             return report(ctx, st);
         if (gCancel) {
             progress.finishLine();
-            std::fprintf(stderr, "nimbus: interrupted during frame %d; no output written for it\n",
-                         frame);
-            return kExitInterrupted;
+            Failure f;
+            f.status = NIMBUS_INTERRUPTED;
+            f.message =
+                "interrupted during frame " + std::to_string(frame) + "; no output written for it";
+            return report(f);
         }
-        const nimbus_status result = nimbus_render_write(ctx, frame, nullptr);
+        const Failure written = failure(ctx, nimbus_render_write(ctx, frame, nullptr));
+        const nimbus_status result = written.status;
         nimbus_set_progress(ctx, nullptr, nullptr);
         const double seconds = stat(ctx, NIMBUS_STAT_SECONDS);
         if (result != NIMBUS_OK) progress.finishLine();
         printWarnings(ctx);
         if (result != NIMBUS_OK) {
             nimbus_discard_writes();
-            if (result == NIMBUS_INTERRUPTED) return report(ctx, result);
+            if (result == NIMBUS_INTERRUPTED) return report(written);
             if (gCancel && result == NIMBUS_IO) {
                 // the signal's handler removed the temp file under the writer: an interruption,
                 // not an I/O error
-                if (gJson) {
-                    JsonLine j("error");
-                    j.num("exit_code", kExitInterrupted);
-                    j.str("status", "interrupted");
-                    j.str("message", "interrupted while writing frame " + std::to_string(frame) +
-                                         "; no output written for it");
-                    j.print();
-                } else {
-                    std::fprintf(
-                        stderr,
-                        "nimbus: interrupted while writing frame %d; no output written for it\n",
-                        frame);
-                }
+                Failure f;
+                f.status = NIMBUS_INTERRUPTED;
+                f.message = "interrupted while writing frame " + std::to_string(frame) +
+                            "; no output written for it";
+                report(f);
                 return kExitInterrupted;
             }
-            return report(ctx, result);
+            return report(written);
         }
         if (gCancel) {
             progress.finishLine();
