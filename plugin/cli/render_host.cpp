@@ -515,11 +515,18 @@ extern "C" __attribute__((visibility("default"))) int nimbus_cli_render(const vo
         return render(*static_cast<const RenderOptions*>(options));
     } catch (const std::bad_alloc&) {
         nimbus_discard_writes();
-        std::fprintf(stderr, "nimbus: error: out of memory\n");
-        return kExitNoMemory;
+        return fail(kExitNoMemory, "out of memory");
     } catch (const std::exception& e) {
         nimbus_discard_writes();
-        std::fprintf(stderr, "nimbus: internal error: %s\n", e.what());
-        return kExitInternal;
+        Failure f;
+        f.status = NIMBUS_INTERNAL;
+        f.message = e.what();
+        return report(f);
+    } catch (...) {
+        nimbus_discard_writes();
+        Failure f;
+        f.status = NIMBUS_INTERNAL;
+        f.message = "an exception that is not a std::exception";
+        return report(f);
     }
 }
