@@ -159,3 +159,19 @@ TEST(FarmCli, RenderCommandIsAHostOfLibnimbus) {
     for (const char* internal : {"nimbus::host::", "nimbus::io::ExrImage", "nimbus::Renderer"})
         EXPECT_EQ(defined.find(internal), std::string::npos) << internal;
 }
+
+// `nimbus --help` and `--version` stay fast: they load neither the render command's shared
+// object nor libnimbus.so (nor what those need); `render` loads both (the control: the dynamic
+// loader's log names them).
+TEST(FarmCli, HelpAndVersionLoadNoRenderLibrary) {
+    for (const char* args : {"--help", "--version", "render --help"}) {
+        const CliRun r = runNimbus(args, "LD_DEBUG=files");
+        EXPECT_EQ(r.exitCode, 0) << args;
+        for (const char* lib : {"libnimbus_render.so", "libnimbus.so", "libOpenImageIO"})
+            EXPECT_EQ(r.output.find(lib), std::string::npos) << args << " loaded " << lib;
+    }
+    const CliRun r = runNimbus("render /nonexistent/scene.toml", "LD_DEBUG=files");
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_TRUE(contains(r.output, "libnimbus_render.so"));
+    EXPECT_TRUE(contains(r.output, "libnimbus.so.0"));
+}
