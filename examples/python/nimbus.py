@@ -139,7 +139,7 @@ def _load(path):
 
 
 def version(library=None):
-    """The library's version string, e.g. "0.1.0"."""
+    """The library's version string, e.g. "0.2.0"."""
     return _load(library or library_path()).nimbus_version().decode()
 
 

@@ -103,7 +103,7 @@ extern "C" {
  * a host built against a header of major version M needs a library of major version M and a
  * minor version at least this header's. */
 #define NIMBUS_VERSION_MAJOR 0
-#define NIMBUS_VERSION_MINOR 1
+#define NIMBUS_VERSION_MINOR 2
 #define NIMBUS_VERSION_PATCH 0
 
 /** What a call did; the values are the `nimbus` command's exit codes. */
