@@ -4,6 +4,7 @@
 /// libnimbus.so with hidden visibility and a version script (nimbus.map) exporting nimbus_*.
 #include "plugin/capi/nimbus.h"
 
+#include <cstring>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -356,7 +357,18 @@ nimbus_status renderWrite(nimbus_context* ctx, int frame, const char* path) {
     return NIMBUS_OK;
 }
 
-int planItem(const FramePlan& p, const SceneDesc& scene, bool readsGrids, nimbus_plan_item item) {
+/// The value a C caller passed for an enum parameter, read from its bytes: C lets any int
+/// arrive there, and in C++ loading a value outside the enumerators' range through the enum type
+/// is undefined (UBSan: "load of value 99, which is not a valid value for type
+/// 'nimbus_plan_item'"). The switches below take the int and refuse what they do not know.
+template <class E> int enumValue(const E& e) {
+    static_assert(sizeof(E) == sizeof(int), "the C ABI's enums are int-sized");
+    int v;
+    std::memcpy(&v, &e, sizeof v);
+    return v;
+}
+
+int planItem(const FramePlan& p, const SceneDesc& scene, bool readsGrids, int item) {
     switch (item) {
     case NIMBUS_PLAN_WIDTH:
         return scene.camera.width;
@@ -394,7 +406,7 @@ int planItem(const FramePlan& p, const SceneDesc& scene, bool readsGrids, nimbus
     throw Misuse("unknown plan item " + std::to_string(int(item)));
 }
 
-double statItem(const nimbus_context* ctx, nimbus_stat item) {
+double statItem(const nimbus_context* ctx, int item) {
     const RenderStats& st = ctx->stats;
     switch (item) {
     case NIMBUS_STAT_SECONDS:
@@ -433,7 +445,7 @@ double statItem(const nimbus_context* ctx, nimbus_stat item) {
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }
 
-std::string sceneItem(host::Session& s, nimbus_scene_item item) {
+std::string sceneItem(host::Session& s, int item) {
     switch (item) {
     case NIMBUS_SCENE_PATH:
         return s.file().path;
@@ -540,7 +552,7 @@ void nimbus_version_numbers(int* major, int* minor, int* patch) {
 }
 
 const char* nimbus_status_name(nimbus_status status) {
-    switch (status) {
+    switch (enumValue(status)) {
     case NIMBUS_OK:
         return "ok";
     case NIMBUS_INTERNAL:
@@ -625,7 +637,7 @@ nimbus_status nimbus_plan_int(nimbus_context* ctx, int frame, nimbus_plan_item i
         host::Session& s = loadedSession(ctx);
         if (!value) throw Misuse("value is NULL");
         const FramePlan p = s.plan(frame);
-        *value = planItem(p, s.scene(), s.readsGrids(), item);
+        *value = planItem(p, s.scene(), s.readsGrids(), enumValue(item));
         return NIMBUS_OK;
     });
 }
@@ -752,7 +764,7 @@ nimbus_status nimbus_set_output(nimbus_context* ctx, const char* pattern) {
 
 const char* nimbus_scene_string(nimbus_context* ctx, nimbus_scene_item item) {
     return guardedString(ctx, [&] {
-        ctx->sceneString = sceneItem(loadedSession(ctx), item);
+        ctx->sceneString = sceneItem(loadedSession(ctx), enumValue(item));
         return ctx->sceneString.c_str();
     });
 }
@@ -782,7 +794,7 @@ const char* nimbus_plan_warning(nimbus_context* ctx, int frame, int index) {
 nimbus_status nimbus_render_stat(nimbus_context* ctx, nimbus_stat item, double* value) {
     return guarded(ctx, [&] {
         if (!value) throw Misuse("value is NULL");
-        *value = statItem(ctx, item);
+        *value = statItem(ctx, enumValue(item));
         return NIMBUS_OK;
     });
 }
