@@ -143,8 +143,10 @@ leftover=$(find "$T/out" -name '.*tmp*' | head -3)
 [ -z "$leftover" ] || fail "the cancelled task left temp files: $leftover"
 
 scontrol requeue "$victim" || fail "scontrol requeue $victim"
-# a requeued job waits for a begin time (about two minutes) unless told otherwise
-scontrol update JobId="$victim" StartTime=now >/dev/null 2>&1
+# a requeued job waits for a begin time (about two minutes) unless told otherwise; not at once
+# either: slurmd refuses a job credential that is not newer, in whole seconds, than the
+# revocation of the cancelled run's ("Job credential revoked")
+scontrol update JobId="$victim" StartTime=now+3 >/dev/null 2>&1
 deadline=$((SECONDS + 240))
 while [ -n "$(squeue -h -j "$jid" 2>/dev/null)" ]; do
     [ $SECONDS -lt $deadline ] || fail "the array job did not finish within 240 s: $(squeue -j "$jid")"
