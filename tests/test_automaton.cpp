@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 
 #include <tbb/global_control.h>
 
@@ -328,6 +329,55 @@ TEST(AutomatonRegions, EllipsoidsDriftWithTheWindAgeAndExpire) {
         for (const RegionEllipsoid& e : s.ellipsoids) EXPECT_FALSE(e.radii == e0.radii);
 }
 
+TEST(AutomatonRegions, TheMotionHookReplacesTheUniformWind) {
+    AutomatonParams p;
+    p.res = {64, 16, 64};
+    p.adaptPeriod = 1000000;
+    // a sheared wind: 10 cells/s per unit height along x, and t seen by the hook
+    static double seenT = -1.0;
+    p.motion = [](vec3 c, double t, const void* user) {
+        seenT = t;
+        return vec3(c.y * *static_cast<const float*>(user), 0.0f, 0.0f);
+    };
+    const float shear = 10.0f;
+    p.motionUser = &shear;
+    AutomatonState s = initialState(p);
+    std::vector<RegionEllipsoid> before = s.ellipsoids;
+    s.step = 4;
+    updateEllipsoids(s, p);
+    EXPECT_NEAR(seenT, 3.0 * p.dt, 1e-9); // the start of step 3 -> 4
+    int kept = 0;
+    for (const RegionEllipsoid& e0 : before)
+        for (const RegionEllipsoid& e : s.ellipsoids)
+            if (e.radii == e0.radii && e.lifetime == e0.lifetime) {
+                ++kept;
+                EXPECT_NEAR(e.centre.x, e0.centre.x + e0.centre.y * shear * p.dt, 1e-3f);
+                EXPECT_EQ(e.centre.z, e0.centre.z);
+            }
+    EXPECT_GE(kept, int(before.size()) - 1);
+}
+
+TEST(AutomatonParamsCheck, RejectsUnusableParameters) {
+    EXPECT_STREQ(validate(AutomatonParams{}), "");
+    auto bad = [](auto change) {
+        AutomatonParams p;
+        change(p);
+        return std::string(validate(p));
+    };
+    EXPECT_NE(bad([](AutomatonParams& p) { p.res.y = 0; }).find("res"), std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) { p.dt = 0.0f; }).find("dt"), std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) { p.pHum = 1.5f; }).find("pHum"), std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) { p.pExt = NAN; }).find("pExt"), std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) { p.wind.x = INFINITY; }).find("wind"), std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) {
+                  p.minEllipsoids = 9, p.maxEllipsoids = 3;
+              }).find("minEllipsoids"),
+              std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) { p.layerHi = 1.5f; }).find("layer"), std::string::npos);
+    EXPECT_NE(bad([](AutomatonParams& p) { p.lifeMean = -1.0f; }).find("lifeMean"),
+              std::string::npos);
+}
+
 // --- stable cover ---
 
 namespace {
@@ -395,6 +445,7 @@ TEST(AutomatonDeterminism, StateAtStepEqualsSteppingAndIgnoresThreadCount) {
     }
     EXPECT_EQ(one, s);
     EXPECT_EQ(two, s);
+    EXPECT_EQ(stateAtStep(p, 57, stateAtStep(p, 20)), s); // resumed from a checkpoint
     p.seed = 2;
     EXPECT_FALSE(stateAtStep(p, 57) == s);
 }
@@ -434,24 +485,28 @@ TEST(AutomatonDensity, DensityBetweenStepsIsTheLerp) {
     AutomatonParams p;
     p.res = {96, 16, 64};
     p.sizeMean = 14.0f;
-    p.cloudDensity = 6;
-    Simulation sim(p);
-    DensityGrid d, a, b;
-    std::vector<std::uint8_t> scratch;
-    for (double t : {3.23, 3.27, 0.0, 1.05}) { // forward, within a step, back to the start
-        sim.densityAt(t, d);
-        const double u = t / double(p.dt);
-        const auto n0 = std::uint64_t(std::floor(u));
-        smoothDensity(stateAtStep(p, n0).bits, a, scratch);
-        smoothDensity(stateAtStep(p, n0 + 1).bits, b, scratch);
-        const float s = float(u - double(n0));
-        ASSERT_EQ(d.v.size(), a.v.size());
-        size_t differ = 0;
-        for (size_t i = 0; i < a.v.size(); ++i) {
-            ASSERT_NEAR(d.v[i], (1.0f - s) * a.v[i] + s * b.v[i], 1e-6f) << "t=" << t;
-            differ += a.v[i] != b.v[i];
+    p.regionMargin = 8.0f; // most ellipsoids inside this small volume
+    p.cloudDensity = 10;
+    for (std::uint64_t every : {0, 10}) { // no checkpoints; one every 10 steps
+        Simulation sim(p, every);
+        DensityGrid d, a, b;
+        std::vector<std::uint8_t> scratch;
+        // forward, within a step, back to the start, back between checkpoints
+        for (double t : {3.23, 3.27, 0.0, 2.05, 1.55}) {
+            sim.densityAt(t, d);
+            const double u = t / double(p.dt);
+            const auto n0 = std::uint64_t(std::floor(u));
+            smoothDensity(stateAtStep(p, n0).bits, a, scratch);
+            smoothDensity(stateAtStep(p, n0 + 1).bits, b, scratch);
+            const float s = float(u - double(n0));
+            ASSERT_EQ(d.v.size(), a.v.size());
+            size_t differ = 0;
+            for (size_t i = 0; i < a.v.size(); ++i) {
+                ASSERT_NEAR(d.v[i], (1.0f - s) * a.v[i] + s * b.v[i], 1e-6f) << "t=" << t;
+                differ += a.v[i] != b.v[i];
+            }
+            if (t > 1.0) EXPECT_GT(differ, 0u) << "t=" << t; // the steps differ: a real lerp
         }
-        if (t > 1.0) EXPECT_GT(differ, 0u) << "t=" << t; // the steps differ: a real lerp
     }
 }
 

@@ -261,9 +261,11 @@ AutomatonState initialState(const AutomatonParams& p) {
 }
 
 void updateEllipsoids(AutomatonState& s, const AutomatonParams& p) {
-    const std::uint64_t n = s.step; // the step just completed
+    const std::uint64_t n = s.step;                // the step just completed
+    const double t = double(n - 1) * double(p.dt); // the start of the step just completed
     for (RegionEllipsoid& e : s.ellipsoids) {
-        e.centre += p.wind * p.dt;
+        const vec3 v = p.motion ? p.motion(e.centre, t, p.motionUser) : p.wind;
+        e.centre += v * p.dt;
         e.age += p.dt;
     }
     std::erase_if(s.ellipsoids, [&](const RegionEllipsoid& e) {
@@ -305,11 +307,42 @@ void step(AutomatonState& s, const AutomatonParams& p, Workspace& ws) {
     updateEllipsoids(s, p);
 }
 
-AutomatonState stateAtStep(const AutomatonParams& p, std::uint64_t n) {
-    AutomatonState s = initialState(p);
+AutomatonState stateAtStep(const AutomatonParams& p, std::uint64_t n,
+                           const AutomatonState& checkpoint) {
+    AutomatonState s = checkpoint;
     Workspace ws;
     while (s.step < n) step(s, p, ws);
     return s;
+}
+
+AutomatonState stateAtStep(const AutomatonParams& p, std::uint64_t n) {
+    return stateAtStep(p, n, initialState(p));
+}
+
+const char* validate(const AutomatonParams& p) {
+    if (p.res.x < 1 || p.res.y < 1 || p.res.z < 1) return "res: every size must be >= 1";
+    if (double(p.res.x) * p.res.y * p.res.z > 4.0e9) return "res: more than 4e9 cells";
+    if (!(p.dt > 0.0f) || !std::isfinite(p.dt)) return "dt must be finite and > 0";
+    if (!std::isfinite(p.wind.x) || !std::isfinite(p.wind.y) || !std::isfinite(p.wind.z))
+        return "wind must be finite";
+    for (float q : {p.pHum, p.pAct, p.pExt})
+        if (!(q >= 0.0f && q <= 1.0f)) return "pHum, pAct and pExt must lie in [0, 1]";
+    if (p.minEllipsoids < 0 || p.maxEllipsoids < p.minEllipsoids || p.maxEllipsoids > 100000)
+        return "need 0 <= minEllipsoids <= maxEllipsoids <= 100000";
+    if (p.cloudDensity < 0) return "cloudDensity must be >= 0";
+    if (!(p.targetCover >= 0.0f && p.targetCover <= 1.0f) || !(p.coverTolerance >= 0.0f))
+        return "targetCover must lie in [0, 1], coverTolerance >= 0";
+    if (!(p.sizeMean > 0.0f) || !(p.sizeVar >= 0.0f) || !std::isfinite(p.sizeMean + p.sizeVar))
+        return "sizeMean must be > 0, sizeVar >= 0 (finite)";
+    if (!(p.heightRatio > 0.0f) || !std::isfinite(p.heightRatio)) return "heightRatio must be > 0";
+    if (!(p.lifeMean > 0.0f) || !(p.lifeVar >= 0.0f) || !std::isfinite(p.lifeMean + p.lifeVar))
+        return "lifeMean must be > 0, lifeVar >= 0 (finite)";
+    if (!(p.shrinkTime >= 0.0f) || !std::isfinite(p.shrinkTime)) return "shrinkTime must be >= 0";
+    if (!(p.regionMargin >= 0.0f) || !std::isfinite(p.regionMargin))
+        return "regionMargin must be >= 0";
+    if (!(p.layerLo >= 0.0f && p.layerLo <= p.layerHi && p.layerHi <= 1.0f))
+        return "need 0 <= layerLo <= layerHi <= 1";
+    return "";
 }
 
 void smoothDensity(const CellBits& b, DensityGrid& out, std::vector<std::uint8_t>& scratch) {
@@ -425,13 +458,18 @@ void blockMaxima(const DensityGrid& d, int block, int apron, BlockMaxima& out) {
     });
 }
 
-Simulation::Simulation(const AutomatonParams& p) : p_(p), state_(initialState(p)) {}
+Simulation::Simulation(const AutomatonParams& p, std::uint64_t checkpointEvery)
+    : p_(p), state_(initialState(p)), checkpointEvery_(checkpointEvery) {
+    checkpoints_.push_back(state_);
+}
 
 void Simulation::advanceTo(std::uint64_t n) {
     if (n == 0) n = 1;
     if (state_.step == n && havePrev_) return;
-    if (state_.step > n) {
-        state_ = initialState(p_);
+    if (state_.step > n - 1) { // back in time: from the last checkpoint at or before n - 1
+        size_t k = checkpointEvery_ ? size_t((n - 1) / checkpointEvery_) : 0;
+        k = std::min(k, checkpoints_.size() - 1);
+        state_ = checkpoints_[k];
         havePrev_ = false;
     }
     bool curValid = havePrev_; // cur_ holds state_.step's grid
@@ -444,6 +482,9 @@ void Simulation::advanceTo(std::uint64_t n) {
         }
         step(state_, p_, ws_);
         curValid = false;
+        if (checkpointEvery_ && state_.step % checkpointEvery_ == 0 &&
+            state_.step / checkpointEvery_ == checkpoints_.size())
+            checkpoints_.push_back(state_);
     }
     smoothDensity(state_.bits, cur_, smoothScratch_);
     havePrev_ = true;
