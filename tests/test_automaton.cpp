@@ -284,6 +284,10 @@ TEST(AutomatonRegions, WeightIsOneAtTheCentreAndZeroOutside) {
                 const float expect = regionFalloff(glm::dot(d, d));
                 ASSERT_NEAR(w.w[w.index(x, y, z)] / 65535.0f, expect, 1.0f / 65535.0f)
                     << x << "," << y << "," << z;
+                if (w.w[w.index(x, y, z)] > 0) { // flagged for the stochastic rules
+                    const size_t word = (size_t(z) * 16 + y) * 1 + size_t(x >> 6);
+                    ASSERT_TRUE((w.inside[word] >> (x & 63)) & 1) << x << "," << y << "," << z;
+                }
             }
     // shrinking before expiry: half the shrink time left, half the radii
     e.age = 97.5f;

@@ -160,14 +160,22 @@ void regionWeights(const std::vector<RegionEllipsoid>& ellipsoids, float shrinkT
                     const int x1 = std::min(bx.hi.x, int(std::ceil(bx.c.x + half - 0.5f)));
                     std::uint16_t* row = &out.w[out.index(0, y, z)];
                     std::uint64_t* bits = &out.inside[(size_t(z) * res.y + y) * W];
-                    for (int x = x0; x <= x1; ++x) {
-                        const float dx = (float(x) + 0.5f - bx.c.x) * bx.inv.x;
-                        const float f = regionFalloff(dx * dx + dyz);
-                        const auto q = std::uint16_t(f * 65535.0f + 0.5f);
-                        if (q > row[x]) {
-                            row[x] = q;
-                            bits[x >> 6] |= std::uint64_t(1) << (x & 63);
-                        }
+                    if (x0 > x1) continue;
+                    const float ox = 0.5f - bx.c.x;
+                    for (int x = x0; x <= x1; ++x) { // branch-free: vectorises
+                        const float dx = (float(x) + ox) * bx.inv.x;
+                        const float d2 = std::min(1.0f, dx * dx + dyz);
+                        const float f = (1.0f - d2) * (1.0f - d2); // regionFalloff
+                        row[x] = std::max(row[x], std::uint16_t(f * 65535.0f + 0.5f));
+                    }
+                    // `inside` may flag a few cells of weight 0 at the ends: they draw numbers
+                    // that change nothing (every probability there is 0, extinction is pExt)
+                    for (int wd = x0 >> 6; wd <= x1 >> 6; ++wd) {
+                        const int a = std::max(x0, wd * 64) - wd * 64;
+                        const int e = std::min(x1, wd * 64 + 63) - wd * 64;
+                        const std::uint64_t hiMask =
+                            e == 63 ? ~std::uint64_t(0) : (std::uint64_t(1) << (e + 1)) - 1;
+                        bits[wd] |= hiMask & ~((std::uint64_t(1) << a) - 1);
                     }
                 }
             }
@@ -359,10 +367,21 @@ void smoothDensity(const CellBits& b, DensityGrid& out, std::vector<std::uint8_t
         for (size_t i = 0; i < size_t(W) * ny; ++i) any |= c[i];
         sliceEmpty[z] = any == 0;
     }
+    // the x pass 8 cells at a time: 10 bits (x - 1 .. x + 8) -> 8 bytes b(x-1) + 2 b(x) + b(x+1)
+    static const std::vector<std::uint64_t> table = [] {
+        std::vector<std::uint64_t> t(1024);
+        for (unsigned i = 0; i < 1024; ++i)
+            for (unsigned k = 0; k < 8; ++k) {
+                const unsigned v = ((i >> k) & 1) + 2 * ((i >> (k + 1)) & 1) + ((i >> (k + 2)) & 1);
+                t[i] |= std::uint64_t(v) << (8 * k);
+            }
+        return t;
+    }();
+    const size_t stride = size_t(W) * 64; // x-pass rows padded to whole words
     // pass 1 (per z slice): x then y, into scratch as 0..16
     tbb::parallel_for(tbb::blocked_range<int>(0, nz), [&](const tbb::blocked_range<int>& r) {
-        std::vector<std::uint8_t> xs(slice + nx, 0); // the last row: zeros (outside)
-        const std::uint8_t* zero = &xs[slice];
+        std::vector<std::uint8_t> xs(stride * (ny + 1), 0); // the last row: zeros (outside)
+        const std::uint8_t* zero = &xs[stride * ny];
         for (int z = r.begin(); z < r.end(); ++z) {
             std::uint8_t* s = &scratch[slice * z];
             if (sliceEmpty[z]) {
@@ -371,26 +390,30 @@ void smoothDensity(const CellBits& b, DensityGrid& out, std::vector<std::uint8_t
             }
             for (int y = 0; y < ny; ++y) {
                 const std::uint64_t* c = &b.cld[b.rowWord(y, z)];
-                std::uint8_t* o = &xs[size_t(y) * nx];
+                std::uint8_t* o = &xs[size_t(y) * stride];
                 bool rowEmpty = true;
                 for (int w = 0; w < W; ++w) rowEmpty &= c[w] == 0;
                 if (rowEmpty) {
                     std::memset(o, 0, size_t(nx));
                     continue;
                 }
-                int prev = 0, cur = int(c[0] & 1);
-                for (int x = 0; x < nx; ++x) {
-                    const int xn = x + 1;
-                    const int next = xn < nx ? int((c[xn >> 6] >> (xn & 63)) & 1) : 0;
-                    o[x] = std::uint8_t(prev + 2 * cur + next);
-                    prev = cur;
-                    cur = next;
+                for (int w = 0; w < W; ++w) {
+                    const std::uint64_t v = c[w];
+                    const std::uint64_t left = w > 0 ? c[w - 1] >> 63 : 0;
+                    const std::uint64_t right = w + 1 < W ? c[w + 1] & 1 : 0;
+                    // bit 0: x - 1, bits 1..64: the word, bit 65: x + 64 (as two halves)
+                    for (int k = 0; k < 8; ++k) {
+                        const std::uint64_t lo = k == 0 ? left : (v >> (8 * k - 1)) & 1;
+                        const std::uint64_t hi = k == 7 ? right : (v >> (8 * k + 8)) & 1;
+                        const std::uint64_t idx = lo | (((v >> (8 * k)) & 0xFF) << 1) | (hi << 9);
+                        std::memcpy(o + size_t(w) * 64 + size_t(k) * 8, &table[idx], 8);
+                    }
                 }
             }
             for (int y = 0; y < ny; ++y) {
-                const std::uint8_t* m = &xs[size_t(y) * nx];
-                const std::uint8_t* d = y > 0 ? &xs[size_t(y - 1) * nx] : zero;
-                const std::uint8_t* u = y + 1 < ny ? &xs[size_t(y + 1) * nx] : zero;
+                const std::uint8_t* m = &xs[size_t(y) * stride];
+                const std::uint8_t* d = y > 0 ? &xs[size_t(y - 1) * stride] : zero;
+                const std::uint8_t* u = y + 1 < ny ? &xs[size_t(y + 1) * stride] : zero;
                 std::uint8_t* o = s + size_t(y) * nx;
                 for (int x = 0; x < nx; ++x) o[x] = std::uint8_t(2 * m[x] + d[x] + u[x]);
             }

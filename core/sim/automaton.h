@@ -122,7 +122,8 @@ struct AutomatonState {
 };
 
 /// Per-cell weight w in [0, 1] of the region ellipsoids, quantised to 16 bits (0..65535), x
-/// fastest; `inside` is the bit field (CellBits layout) of the cells whose weight is not 0.
+/// fastest; `inside` is a bit field (CellBits layout) holding every cell whose weight is not 0
+/// (and possibly a few of weight 0 next to them).
 struct RegionWeights {
     ivec3 res{0};
     std::vector<std::uint16_t> w;
