@@ -5,6 +5,7 @@
 //                              controls: one full simulation step (sim::step)
 //   (c) BM_AutomatonSmoothed  + smoothing of cld into the float density
 //   (d) BM_AutomatonComplete  + the 8^3 block maxima (apron 1): a complete update
+//   BM_AutomatonStateAtStep/n  stateAtStep(n) from the seed (the cost of determinism)
 // items_per_second is steps (updates) per second. Run from the build dir:
 //   ./tests/nimbus_bench --benchmark_filter=Automaton
 #include <benchmark/benchmark.h>
@@ -66,5 +67,21 @@ void BM_AutomatonComplete(benchmark::State& state) {
     runStages(state, 3, "(d) (c) + 8^3 block maxima: complete update");
 }
 BENCHMARK(BM_AutomatonComplete)->UseRealTime();
+
+/// Determinism's price: the state at step n re-simulated from the seed (n full steps).
+void BM_AutomatonStateAtStep(benchmark::State& state) {
+    const AutomatonParams p;
+    const auto n = std::uint64_t(state.range(0));
+    for (auto _ : state) {
+        AutomatonState s = stateAtStep(p, n);
+        benchmark::DoNotOptimize(s.cover);
+    }
+    state.SetLabel("stateAtStep(n = arg) from the seed");
+}
+BENCHMARK(BM_AutomatonStateAtStep)
+    ->Arg(100)
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 } // namespace
