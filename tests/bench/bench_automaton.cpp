@@ -5,10 +5,13 @@
 //                              controls: one full simulation step (sim::step)
 //   (c) BM_AutomatonSmoothed  + smoothing of cld into the float density
 //   (d) BM_AutomatonComplete  + the 8^3 block maxima (apron 1): a complete update
-//   BM_AutomatonStateAtStep/n  stateAtStep(n) from the seed (the cost of determinism)
-// items_per_second is steps (updates) per second. Run from the build dir:
+//   BM_AutomatonStateAtStep/2/n  stateAtStep(n) from the seed (the cost of determinism)
+// The first argument is the TBB thread count (1 or 2); items_per_second is steps (updates) per
+// second. Run from the build dir:
 //   ./tests/nimbus_bench --benchmark_filter=Automaton
 #include <benchmark/benchmark.h>
+
+#include <tbb/global_control.h>
 
 #include "core/sim/automaton.h"
 
@@ -21,8 +24,14 @@ const AutomatonState& warmState() {
     return s;
 }
 
+tbb::global_control threads(const benchmark::State& state) {
+    return tbb::global_control(tbb::global_control::max_allowed_parallelism,
+                               size_t(state.range(0)));
+}
+
 void BM_AutomatonGrowth(benchmark::State& state) {
     AutomatonState s = warmState();
+    const auto t = threads(state);
     std::vector<std::uint64_t> scratch;
     for (auto _ : state) {
         growthStep(s.bits, scratch);
@@ -31,12 +40,13 @@ void BM_AutomatonGrowth(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations());
     state.SetLabel("(a) growth only");
 }
-BENCHMARK(BM_AutomatonGrowth)->UseRealTime();
+BENCHMARK(BM_AutomatonGrowth)->Arg(1)->Arg(2)->UseRealTime();
 
 /// Stages: 1 = full step, 2 = + smoothing, 3 = + block maxima.
 void runStages(benchmark::State& state, int stages, const char* label) {
     const AutomatonParams p;
     AutomatonState s = warmState();
+    const auto t = threads(state);
     Workspace ws;
     DensityGrid d;
     std::vector<std::uint8_t> scratch;
@@ -56,22 +66,23 @@ void runStages(benchmark::State& state, int stages, const char* label) {
 void BM_AutomatonRegions(benchmark::State& state) {
     runStages(state, 1, "(b) step with region weights + stochastic rules");
 }
-BENCHMARK(BM_AutomatonRegions)->UseRealTime();
+BENCHMARK(BM_AutomatonRegions)->Arg(1)->Arg(2)->UseRealTime();
 
 void BM_AutomatonSmoothed(benchmark::State& state) {
     runStages(state, 2, "(c) (b) + smoothing");
 }
-BENCHMARK(BM_AutomatonSmoothed)->UseRealTime();
+BENCHMARK(BM_AutomatonSmoothed)->Arg(1)->Arg(2)->UseRealTime();
 
 void BM_AutomatonComplete(benchmark::State& state) {
     runStages(state, 3, "(d) (c) + 8^3 block maxima: complete update");
 }
-BENCHMARK(BM_AutomatonComplete)->UseRealTime();
+BENCHMARK(BM_AutomatonComplete)->Arg(1)->Arg(2)->UseRealTime();
 
 /// Determinism's price: the state at step n re-simulated from the seed (n full steps).
 void BM_AutomatonStateAtStep(benchmark::State& state) {
     const AutomatonParams p;
-    const auto n = std::uint64_t(state.range(0));
+    const auto t = threads(state);
+    const auto n = std::uint64_t(state.range(1));
     for (auto _ : state) {
         AutomatonState s = stateAtStep(p, n);
         benchmark::DoNotOptimize(s.cover);
