@@ -69,9 +69,9 @@ void refStochastic(RefState& s, const RegionWeights& w, const AutomatonParams& p
     for (size_t i = 0; i < s.hum.size(); ++i) {
         const std::uint64_t h = cellHash(p.seed, step, i);
         const std::uint32_t q = w.w[i];
-        if (s.cld[i] && uniformExt(h) < scaledThreshold(tE, 65535u - q)) s.cld[i] = 0;
-        if (uniformHum(h) < scaledThreshold(tH, q)) s.hum[i] = 1;
-        if (uniformAct(h) < scaledThreshold(tA, q)) s.act[i] = 1;
+        if (s.cld[i] && fires(uniformExt(h), tE, 65535u - q)) s.cld[i] = 0;
+        if (fires(uniformHum(h), tH, q)) s.hum[i] = 1;
+        if (fires(uniformAct(h), tA, q)) s.act[i] = 1;
     }
 }
 

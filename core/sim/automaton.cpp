@@ -207,10 +207,9 @@ void stochasticStep(CellBits& b, const RegionWeights& rw, const AutomatonParams&
                         const std::uint64_t h = fmix64(key ^ (cell * 0x9E3779B97F4A7C15ULL));
                         const std::uint32_t q = rw.w[cell];
                         const std::uint64_t bit = std::uint64_t(1) << i;
-                        if ((cld & bit) && uniformExt(h) < scaledThreshold(tExt, 65535u - q))
-                            em |= bit;
-                        if (uniformHum(h) < scaledThreshold(tHum, q)) hm |= bit;
-                        if (uniformAct(h) < scaledThreshold(tAct, q)) am |= bit;
+                        if ((cld & bit) && fires(uniformExt(h), tExt, 65535u - q)) em |= bit;
+                        if (fires(uniformHum(h), tHum, q)) hm |= bit;
+                        if (fires(uniformAct(h), tAct, q)) am |= bit;
                     }
                     b.cld[row + w] = cld & ~em;
                     b.hum[row + w] |= hm;

@@ -141,11 +141,13 @@ vec3 currentRadii(const RegionEllipsoid& e, float shrinkTime);
 
 /// Counter-based hash of (seed, step, cell): the random bits of one cell in one step.
 std::uint64_t cellHash(std::uint64_t seed, std::uint64_t step, std::uint64_t cell);
-/// A probability as a 21-bit threshold: an event fires when its 21-bit uniform is below it.
+/// A probability as a 21-bit threshold thr = round(p 2^21).
 std::uint32_t probabilityThreshold(float p);
-/// Threshold of p x w16 / 65535 (exact integer arithmetic).
-inline std::uint32_t scaledThreshold(std::uint32_t thr, std::uint32_t w16) {
-    return std::uint32_t((std::uint64_t(thr) * w16 + 32767u) / 65535u);
+/// Whether an event of threshold thr scaled by the weight w16 / 65535 fires for the 21-bit
+/// uniform u: u 65535 < thr w16 (exact integers, no division), probability
+/// ceil(thr w16 / 65535) / 2^21.
+inline bool fires(std::uint32_t u, std::uint32_t thr, std::uint32_t w16) {
+    return std::uint64_t(u) * 65535u < std::uint64_t(thr) * w16;
 }
 /// The three 21-bit uniforms of a cell hash: humidity, activation, extinction.
 inline std::uint32_t uniformHum(std::uint64_t h) {
