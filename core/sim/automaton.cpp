@@ -418,7 +418,8 @@ void smoothDensity(const CellBits& b, DensityGrid& out, std::vector<std::uint8_t
                 const std::uint8_t* d = y > 0 ? &xs[size_t(y - 1) * stride] : zero;
                 const std::uint8_t* u = y + 1 < ny ? &xs[size_t(y + 1) * stride] : zero;
                 std::uint8_t* o = s + size_t(y) * nx;
-                for (int x = 0; x < nx; ++x) o[x] = std::uint8_t(2 * m[x] + d[x] + u[x]);
+                const int n = nx; // a local bound: the byte stores may alias the captured one
+                for (int x = 0; x < n; ++x) o[x] = std::uint8_t(2 * m[x] + d[x] + u[x]);
             }
         }
     });
