@@ -87,11 +87,11 @@ void BM_AutomatonStateAtStep(benchmark::State& state) {
         AutomatonState s = stateAtStep(p, n);
         benchmark::DoNotOptimize(s.cover);
     }
-    state.SetLabel("stateAtStep(n = arg) from the seed");
+    state.SetLabel("stateAtStep(n = second arg) from the seed");
 }
 BENCHMARK(BM_AutomatonStateAtStep)
-    ->Arg(100)
-    ->Arg(1000)
+    ->Args({2, 100})
+    ->Args({2, 1000})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
