@@ -15,6 +15,7 @@ PACKAGES=(
   gnuplot-nox                                            # nimbus converge --plot
   clang libclang-rt-14-dev                               # tests: libFuzzer, ASan, UBSan (tests/fuzz)
   python3 python3-numpy                                  # examples/python (ctypes host of libnimbus.so)
+  slurm-wlm munge                                        # tests/farm: a real Slurm for examples/farm
 )
 
 missing=()
