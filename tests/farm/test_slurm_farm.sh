@@ -167,9 +167,13 @@ waitEnded() { # task
   done
   timeout 5 scontrol -o show job "${job}_$1" | grep -oE 'JobState=[A-Z_]+|ExitCode=[0-9:]+' | tr '\n' ' '
 }
-requeue() { # task: back to pending, and eligible now (Slurm delays a requeued job by default)
+# Requeue a task: back to pending. Slurm delays a requeued job by about two minutes; it is
+# made eligible 3 s from now instead, not at once: slurmd refuses to launch a job whose
+# credential is not newer (in whole seconds) than the revocation of its killed run's.
+requeue() {
   timeout 10 scontrol requeue "${job}_$1" || fail "scontrol requeue ${job}_$1 failed"
-  timeout 10 scontrol update JobId="${job}_$1" StartTime=now || fail "scontrol update StartTime failed"
+  timeout 10 scontrol update JobId="${job}_$1" StartTime=now+3 ||
+    fail "scontrol update StartTime failed"
 }
 
 waitSecondFrame 1 5
@@ -180,6 +184,9 @@ say "task 1 SIGKILLed (pid $pid) during frame 5: $st"
 [[ $st == *JobState=FAILED*ExitCode=0:9* ]] || fail "task 1 after SIGKILL: $st"
 [ -e "$T/out/f.0004.exr" ] || fail "frame 4 (finished before the kill) is missing"
 for f in 5 6; do [ ! -e "$T/out/f.000$f.exr" ] || fail "frame $f exists after a kill during frame 5"; done
+# whatever else the kill left must not pass for a frame: hidden, and not ending in .exr
+odd=$(find "$T/out" -mindepth 1 ! -name 'f.000[1-4].exr' \( ! -name '.*' -o -name '*.exr' \))
+[ -z "$odd" ] || fail "the SIGKILL left files a compositor could take for frames: $odd"
 requeue 1
 
 waitSecondFrame 2 8
