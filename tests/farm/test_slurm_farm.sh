@@ -156,7 +156,7 @@ waitSecondFrame() { # task, its second frame
     [ $SECONDS -lt $deadline ] || fail "task $1 did not reach its second frame in 120 s"
     sleep 0.05
   done
-  sleep 0.1
+  sleep 0.05
   ! grep -q "^frame $2: .* -> " "$log" || fail "task $1 finished frame $2 before the kill: frames too fast"
 }
 waitEnded() { # task
