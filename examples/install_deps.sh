@@ -15,7 +15,8 @@ PACKAGES=(
   gnuplot-nox                                            # nimbus converge --plot
   clang libclang-rt-14-dev                               # tests: libFuzzer, ASan, UBSan (tests/fuzz)
   python3 python3-numpy                                  # examples/python (ctypes host of libnimbus.so)
-  slurm-wlm munge                                        # tests/farm: a real Slurm for examples/farm
+  slurm-wlm munge                                        # tests: the farm test on a real Slurm scheduler
+  blender                                                # plugin/blender: the add-on's headless tests (Blender 3.4, ~60 packages)
 )
 
 missing=()

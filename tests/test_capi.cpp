@@ -332,6 +332,143 @@ TEST(CApi, RenderWriteGivesTheCommandsExr) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// what a host of frame sequences needs (the `nimbus render` command is one)
+
+// One load with overrides (replacing the context's), threads and an output pattern that are not
+// overrides, and the scene's strings; the scene hash changes with the text and with an override
+// that may change pixels, not with threads or the output pattern.
+TEST(CApi, LoadWithOverridesThreadsOutputAndSceneStrings) {
+    TempDir dir("capi");
+    const std::string path = (dir / "scene.toml").string();
+    writeText(path, tinyScene("[output]\npath = \"" + (dir / "a.####.exr").string() +
+                              "\"\npreview = \"p.####.png\"\n"));
+    Ctx c;
+    const char* widen[] = {"camera.width=30", "render.step=0.3"};
+    ASSERT_EQ(nimbus_load_file_with(c, path.c_str(), widen, 2), NIMBUS_OK) << c.error();
+    int w = 0;
+    ASSERT_EQ(nimbus_plan_int(c, 3, NIMBUS_PLAN_WIDTH, &w), NIMBUS_OK);
+    EXPECT_EQ(w, 30);
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_PATH)), path);
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_FRAMES)), "3");
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_PREVIEW_PATTERN)), "p.####.png");
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_OUTPUT_SPACE)), "ACEScg");
+    EXPECT_FALSE(std::string(nimbus_scene_string(c, NIMBUS_SCENE_WORKING_SPACE)).empty());
+    EXPECT_FALSE(std::string(nimbus_scene_string(c, NIMBUS_SCENE_COLOR_CONFIG)).empty());
+    const std::string hash = nimbus_scene_string(c, NIMBUS_SCENE_HASH);
+    EXPECT_EQ(hash.size(), 16u);
+    EXPECT_EQ(hash.find_first_not_of("0123456789abcdef"), std::string::npos) << hash;
+    // threads and the output pattern are not overrides: same hash, same overrides
+    ASSERT_EQ(nimbus_set_threads(c, 1), NIMBUS_OK) << c.error();
+    ASSERT_EQ(nimbus_set_output(c, (dir / "b.####.exr").string().c_str()), NIMBUS_OK);
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_HASH)), hash);
+    EXPECT_EQ(std::string(nimbus_output_path(c, 3)), (dir / "b.0003.exr").string());
+    EXPECT_EQ(nimbus_set_output(c, "b.png"), NIMBUS_BAD_INPUT);
+    EXPECT_TRUE(contains(c.error(), "must end in .exr"));
+    // pixel-neutral overrides leave the hash alone; the same overrides give the same hash
+    const char* neutral[] = {"camera.width=30", "render.step=0.3", "render.threads=1",
+                             "output.preview=\"q.####.png\""};
+    ASSERT_EQ(nimbus_load_file_with(c, path.c_str(), neutral, 4), NIMBUS_OK) << c.error();
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_HASH)), hash);
+    // the output pattern survives a load
+    EXPECT_EQ(std::string(nimbus_output_path(c, 3)), (dir / "b.0003.exr").string());
+    ASSERT_EQ(nimbus_set_output(c, nullptr), NIMBUS_OK) << c.error();
+    EXPECT_EQ(std::string(nimbus_output_path(c, 3)), (dir / "a.0003.exr").string());
+    // an override that changes pixels changes it; so does the text
+    ASSERT_EQ(nimbus_set(c, "sun.intensity=3.0"), NIMBUS_OK) << c.error();
+    EXPECT_NE(std::string(nimbus_scene_string(c, NIMBUS_SCENE_HASH)), hash);
+    ASSERT_EQ(nimbus_load_file_with(c, path.c_str(), widen, 2), NIMBUS_OK);
+    EXPECT_EQ(std::string(nimbus_scene_string(c, NIMBUS_SCENE_HASH)), hash);
+    writeText(path, tinyScene("# an edit\n"));
+    ASSERT_EQ(nimbus_load_file_with(c, path.c_str(), widen, 2), NIMBUS_OK);
+    EXPECT_NE(std::string(nimbus_scene_string(c, NIMBUS_SCENE_HASH)), hash);
+    // a bad override: refused with its message, the scene and its overrides stay
+    const char* bad[] = {"camera.widht=3"};
+    EXPECT_EQ(nimbus_load_file_with(c, path.c_str(), bad, 1), NIMBUS_BAD_INPUT);
+    EXPECT_TRUE(contains(c.error(), "camera.widht"));
+    ASSERT_EQ(nimbus_plan_int(c, 3, NIMBUS_PLAN_WIDTH, &w), NIMBUS_OK);
+    EXPECT_EQ(w, 30);
+    EXPECT_EQ(nimbus_load_file_with(c, path.c_str(), nullptr, 1), NIMBUS_BAD_INPUT);
+    EXPECT_EQ(nimbus_set_threads(c, -2), NIMBUS_BAD_INPUT);
+}
+
+// nimbus_output_check: absent, current after a write, stale (with the reason) after an edit of
+// the scene, for another frame number, another resolution; the statistics of the last render.
+TEST(CApi, OutputCheckAndRenderStatistics) {
+    TempDir dir("capi");
+    const std::string path = (dir / "scene.toml").string();
+    writeText(path, tinyScene("[output]\npath = \"" + (dir / "f.####.exr").string() + "\"\n"));
+    Ctx c;
+    ASSERT_EQ(nimbus_load_file(c, path.c_str()), NIMBUS_OK) << c.error();
+    int state = -1;
+    const char* why = nullptr;
+    ASSERT_EQ(nimbus_output_check(c, 3, nullptr, &state, &why), NIMBUS_OK) << c.error();
+    EXPECT_EQ(state, NIMBUS_OUTPUT_ABSENT);
+    double seconds = -1.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_SECONDS, &seconds), NIMBUS_OK);
+    EXPECT_EQ(seconds, 0.0); // no render yet
+    ASSERT_EQ(nimbus_prepare(c, 3), NIMBUS_OK) << c.error();
+    ASSERT_EQ(nimbus_render_write(c, 3, nullptr), NIMBUS_OK) << c.error();
+    double lookups = 0.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_SECONDS, &seconds), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_LOOKUPS, &lookups), NIMBUS_OK);
+    EXPECT_GT(seconds, 0.0);
+    EXPECT_GT(lookups, 0.0);
+    EXPECT_EQ(nimbus_render_stat(c, nimbus_stat(99), &seconds), NIMBUS_BAD_INPUT);
+    const std::string out = nimbus_output_path(c, 3);
+    EXPECT_EQ(io::readExr(out).attributes.at("nimbus/sceneHash"),
+              std::string(nimbus_scene_string(c, NIMBUS_SCENE_HASH)));
+    ASSERT_EQ(nimbus_output_check(c, 3, nullptr, &state, &why), NIMBUS_OK);
+    EXPECT_EQ(state, NIMBUS_OUTPUT_CURRENT);
+    EXPECT_STREQ(why, "");
+    // another frame's file
+    ASSERT_EQ(nimbus_output_check(c, 4, out.c_str(), &state, &why), NIMBUS_OK);
+    EXPECT_EQ(state, NIMBUS_OUTPUT_STALE);
+    EXPECT_TRUE(contains(why, "it is frame 3, not 4"));
+    // another resolution
+    ASSERT_EQ(nimbus_set(c, "camera.width=12"), NIMBUS_OK);
+    ASSERT_EQ(nimbus_output_check(c, 3, nullptr, &state, &why), NIMBUS_OK);
+    EXPECT_EQ(state, NIMBUS_OUTPUT_STALE);
+    EXPECT_TRUE(contains(why, "it is 24x14, not 12x14"));
+    ASSERT_EQ(nimbus_clear_overrides(c), NIMBUS_OK);
+    // the scene edited
+    writeText(path,
+              tinyScene("[output]\npath = \"" + (dir / "f.####.exr").string() + "\"\n# edited\n"));
+    ASSERT_EQ(nimbus_load_file(c, path.c_str()), NIMBUS_OK) << c.error();
+    ASSERT_EQ(nimbus_output_check(c, 3, nullptr, &state, &why), NIMBUS_OK);
+    EXPECT_EQ(state, NIMBUS_OUTPUT_STALE);
+    EXPECT_TRUE(contains(why, "rendered from another scene text or other settings"));
+    // not an EXR at all
+    writeText(out, "not an image");
+    ASSERT_EQ(nimbus_output_check(c, 3, nullptr, &state, &why), NIMBUS_OK);
+    EXPECT_EQ(state, NIMBUS_OUTPUT_STALE);
+    EXPECT_TRUE(contains(why, "cannot be read"));
+    EXPECT_EQ(nimbus_output_check(c, 3, nullptr, nullptr, &why), NIMBUS_BAD_INPUT);
+}
+
+// Plan warnings by index, and their misuse.
+TEST(CApi, PlanWarningsByIndex) {
+    Ctx c;
+    ASSERT_EQ(nimbus_load_string(c, tinyScene().c_str(), "scene.toml"), NIMBUS_OK) << c.error();
+    ASSERT_EQ(nimbus_set(c, "render.step=1e-9"), NIMBUS_OK) << c.error();
+    ASSERT_EQ(nimbus_set(c, "render.step_growth=0"), NIMBUS_OK) << c.error();
+    int n = 0;
+    ASSERT_EQ(nimbus_plan_int(c, 3, NIMBUS_PLAN_WARNINGS, &n), NIMBUS_OK);
+    ASSERT_GE(n, 1);
+    for (int i = 0; i < n; ++i) {
+        const char* w = nimbus_plan_warning(c, 3, i);
+        ASSERT_NE(w, nullptr) << c.error();
+        EXPECT_GT(std::strlen(w), 10u);
+    }
+    EXPECT_EQ(nimbus_plan_warning(c, 3, n), nullptr);
+    EXPECT_EQ(nimbus_last_error_code(c), NIMBUS_BAD_INPUT);
+    int stale = -1;
+    const int frames[] = {3};
+    EXPECT_EQ(nimbus_remove_stale_temp_files(c, frames, 1, &stale), NIMBUS_OK) << c.error();
+    EXPECT_EQ(stale, 0);
+    EXPECT_EQ(nimbus_remove_stale_temp_files(c, nullptr, 1, &stale), NIMBUS_BAD_INPUT);
+}
+
+// ---------------------------------------------------------------------------------------------
 // progress and cancellation
 
 namespace {

@@ -74,6 +74,20 @@ static vec3 sunSource(vec3 sigmaS, vec3 sigmaT, float rho, float tauC, float L) 
     return q;
 }
 
+static vec3 boundaryResistance(vec3 r) {
+    return glm::min(r, vec3(kDiffusionMaxBoundaryResistance));
+}
+
+/// A voxel's first-scattered sun light Q V raises its own fluence by Q V / (sum of its face
+/// conductances): at most (kDiffusionMaxBoundaryResistance + 2) E in a voxel lit through a face
+/// toward empty space. A voxel whose neighbours on all six faces hold density can still see the sun
+/// through an edge or a corner of the light volume's interpolation (its tau toward the sun that of
+/// its own half path); many mean free paths thick, its faces' conductances vanish and its fluence
+/// grew with sigma_t (4e5 E at density x1e6). Its source is limited to what would raise its
+/// fluence to that of a sunlit boundary voxel; where conductances are large (voxels of a few mean
+/// free paths or thinner) the limit is never reached.
+constexpr float kSunFluenceLimit = kDiffusionMaxBoundaryResistance + 2.0f;
+
 DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>& rho,
                                const std::vector<float>& tauSun, const DiffusionParams& p) {
     DiffusionVolume dv;
@@ -116,9 +130,11 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                   z = int(i / (size_t(res.x) * res.y));
         // h / 2D = 1.5 h sigma_t' per axis
         const vec3 sTr = sigmaTr * rho[i];
-        vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f);
-        if (sun)
-            rhs += p.sunIrradiance * sunSource(p.sigma_s, sigmaT, rho[i], tauSun[i], sunPath) * V;
+        vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f), sunQ(0.0f);
+        if (sun) {
+            sunQ = p.sunIrradiance * sunSource(p.sigma_s, sigmaT, rho[i], tauSun[i], sunPath) * V;
+            rhs += sunQ;
+        }
         const ivec3 q(x, y, z);
         for (int f = 0; f < 6; ++f) {
             const int a = f / 2, b = (a + 1) % 3, cc = (a + 2) % 3;
@@ -136,12 +152,15 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
             } else {
                 // Marshak: no light comes back from empty space but the sky's
                 c.nb[f] = -1;
-                const vec3 Gb = A / (ri + vec3(2.0f));
+                const vec3 Gb = A / (boundaryResistance(ri) + vec3(2.0f));
                 diag += Gb;
                 rhs += Gb * skyFace[f];
                 c.G[f] = vec3(0.0f);
             }
         }
+        // the first-scattered sun light, limited to what raises the voxel's own fluence by
+        // kSunFluenceLimit E (subtracting 0 where the limit is not reached keeps rhs exact)
+        if (sun) rhs -= glm::max(vec3(0.0f), sunQ - kSunFluenceLimit * p.sunIrradiance * diag);
         c.invDiag = 1.0f / diag;
         c.rhs = rhs;
     });
@@ -210,7 +229,8 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                     if (j < 0) continue;
                     // the neighbour's face toward this voxel has the opposite normal
                     const vec3 L = skyFace[f ^ 1];
-                    const vec3 r = 1.5f * geo.voxel[a] * sigmaTr * rho[cells[j].idx];
+                    const vec3 r =
+                        boundaryResistance(1.5f * geo.voxel[a] * sigmaTr * rho[cells[j].idx]);
                     sum += L + 2.0f * (phi[j] - L) / (r + vec3(2.0f));
                     ++count;
                 }

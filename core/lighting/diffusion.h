@@ -34,6 +34,15 @@
 
 namespace nimbus {
 
+/// The diffusion resistance h / 2D = 1.5 h sigma_t' between a voxel's centre and a face toward
+/// empty space is taken at most this: that of two transport mean free paths. The sun's first
+/// scattering, which the voxel's unknown stands for, happens within a mean free path or so of the
+/// lit surface, and so does the escape of the light scattered there; half a voxel many mean free
+/// paths thick held that light behind a resistance growing with sigma_t h, and the fluence with it
+/// (radiance 6,490 for a sun of irradiance 3 at density x1e6, docs/stress.md). Voxels thinner
+/// than two transport mean free paths, the usual case, are unchanged.
+constexpr float kDiffusionMaxBoundaryResistance = 3.0f;
+
 struct DiffusionParams {
     vec3 sigma_s{1.0f}, sigma_a{0.0f};   ///< per unit density, density scale folded in
     float g = 0.0f;                      ///< mean cosine of the phase function

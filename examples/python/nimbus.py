@@ -139,7 +139,7 @@ def _load(path):
 
 
 def version(library=None):
-    """The library's version string, e.g. "0.1.0"."""
+    """The library's version string, e.g. "0.2.0"."""
     return _load(library or library_path()).nimbus_version().decode()
 
 
@@ -193,10 +193,14 @@ class Context:
             self._raise(status)
 
     def _raise(self, status=None):
+        raise self._error(status)
+
+    def _error(self, status=None):
+        """The context's last error as an exception (read before the next call clears it)."""
         lib, c = self._lib, self._ctx
         if status is None:
             status = lib.nimbus_last_error_code(c)
-        raise _ERRORS.get(status, NimbusError)(
+        return _ERRORS.get(status, NimbusError)(
             status, (lib.nimbus_last_error(c) or b"").decode(errors="replace"),
             (lib.nimbus_last_error_file(c) or b"").decode(errors="replace"),
             lib.nimbus_last_error_line(c))
@@ -288,12 +292,17 @@ class Context:
 
         cb = _PROGRESS(trampoline)
         self._check(self._lib.nimbus_set_progress(self._live(), cb, None))
+        failure = None
         try:
             status = call()
+            if status != OK:  # taken now: removing the callback below clears the error
+                failure = self._error(status)
         finally:
             self._lib.nimbus_set_progress(self._live(), _PROGRESS(), None)
         if raised:
             raise raised[0]
+        if failure is not None:
+            raise failure
         return status
 
     def render(self, frame=None, aovs=(), progress=None):

@@ -148,6 +148,16 @@ class NimbusModule(unittest.TestCase):
                 ctx.render(progress=boom)
             self.assertEqual(ctx.render().shape, (14, 96, 4))
 
+    def test_a_failed_render_with_progress_keeps_its_message(self):
+        missing = os.path.join(self.dir, "no_such_file.vdb")
+        with nimbus.Context() as ctx:
+            ctx.load_string(TINY.split("[field]")[0] + '[field]\nkind = "vdb"\npath = "%s"\n'
+                            % missing, "vdb.toml")
+            for progress in (None, lambda done, total: False):
+                with self.assertRaises(nimbus.BadInput) as e:
+                    ctx.render(progress=progress)
+                self.assertIn("no_such_file.vdb", e.exception.message)
+
     def test_render_write(self):
         out = os.path.join(self.dir, "frame.exr")
         with nimbus.Context() as ctx:

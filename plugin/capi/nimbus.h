@@ -103,7 +103,7 @@ extern "C" {
  * a host built against a header of major version M needs a library of major version M and a
  * minor version at least this header's. */
 #define NIMBUS_VERSION_MAJOR 0
-#define NIMBUS_VERSION_MINOR 1
+#define NIMBUS_VERSION_MINOR 2
 #define NIMBUS_VERSION_PATCH 0
 
 /** What a call did; the values are the `nimbus` command's exit codes. */
@@ -284,6 +284,104 @@ NIMBUS_API const char* nimbus_last_error(const nimbus_context* ctx);
 NIMBUS_API const char* nimbus_last_error_file(const nimbus_context* ctx);
 /** The 1-based line of the last error in that file (0 when unknown, e.g. an override). */
 NIMBUS_API int nimbus_last_error_line(const nimbus_context* ctx);
+
+/* ---- for hosts of sequences (`nimbus render` is one: docs/farm_cli.md) ---- */
+
+/** Strings about the loaded scene (nimbus_scene_string()). */
+typedef enum nimbus_scene_item {
+    NIMBUS_SCENE_PATH = 0,            /**< the scene file's path (the name of scene text) */
+    NIMBUS_SCENE_FRAMES = 1,          /**< its frame spec (`frames`, e.g. "1-24") */
+    NIMBUS_SCENE_OUTPUT_PATTERN = 2,  /**< output.path as writes use it (nimbus_set_output()) */
+    NIMBUS_SCENE_PREVIEW_PATTERN = 3, /**< output.preview ("" when none) */
+    NIMBUS_SCENE_OUTPUT_SPACE = 4,    /**< output.color_space */
+    NIMBUS_SCENE_WORKING_SPACE = 5,   /**< the scene-linear space frames render in */
+    NIMBUS_SCENE_COLOR_CONFIG = 6,    /**< which OCIO configuration is in use, in words */
+    /** The scene hash that every frame written carries as its `nimbus/sceneHash` attribute:
+     * 16 hex digits of FNV-1a (64 bit) over the Nimbus version, the colour configuration, the
+     * scene text and the overrides that may change pixels (docs/farm_cli.md says exactly
+     * which). Frames of the same scene text and overrides have the same hash; the frame number
+     * is not in it (frames carry it as `nimbus/frame`). */
+    NIMBUS_SCENE_HASH = 7
+} nimbus_scene_item;
+
+/** Statistics of the last render on the context (nimbus_render_stat()). */
+typedef enum nimbus_stat {
+    NIMBUS_STAT_SECONDS = 0,              /**< wall-clock seconds of the render (not the write) */
+    NIMBUS_STAT_BAKE_SECONDS = 1,         /**< noise baking charged to the frame */
+    NIMBUS_STAT_MAJORANT_SECONDS = 2,     /**< majorant grids and the instance query */
+    NIMBUS_STAT_INTEGRATE_SECONDS = 3,    /**< marching or path tracing the pixels */
+    NIMBUS_STAT_LIGHT_VOLUME_SECONDS = 4, /**< the per-frame light grids */
+    NIMBUS_STAT_LIGHT_GRID_MB = 5,        /**< their memory, MiB */
+    NIMBUS_STAT_DIFFUSION_SECONDS = 6,    /**< the multiple-scattering grid */
+    NIMBUS_STAT_PHOTON_SECONDS = 7,       /**< photons of the sun */
+    NIMBUS_STAT_SKY_VOLUME_SECONDS = 8,   /**< the single-scattered sky's integrals */
+    NIMBUS_STAT_SKY_VOLUME_MB = 9,        /**< their memory, MiB */
+    NIMBUS_STAT_LOOKUPS = 10,             /**< density lookups, all rays */
+    NIMBUS_STAT_SHADOW_LOOKUPS = 11,      /**< of them, on shadow rays */
+    NIMBUS_STAT_MAJORANT_EMPTY_FRACTION = 12, /**< fraction of majorant cells that are empty */
+    NIMBUS_STAT_MAJORANT_USED = 13,           /**< 1 when march skipped space with that grid */
+    NIMBUS_STAT_BAKED_NOISE = 14,             /**< 1 when the plan baked the noise */
+    NIMBUS_STAT_NON_FINITE = 15               /**< non-finite pixels replaced by 0 */
+} nimbus_stat;
+
+/** What nimbus_output_check() found at a frame's output path. */
+typedef enum nimbus_output_state {
+    NIMBUS_OUTPUT_ABSENT = 0,  /**< no file there */
+    NIMBUS_OUTPUT_CURRENT = 1, /**< a complete frame of this scene: rendering it again would
+                                    write the same pixels */
+    NIMBUS_OUTPUT_STALE = 2    /**< a file that is not that (the reason says why) */
+} nimbus_output_state;
+
+/**
+ * Loads the scene file at `path` with exactly the `n` overrides `assignments` (each as
+ * nimbus_set() takes it), in one load: they replace the context's overrides when the load
+ * succeeds. Unlike nimbus_set() before a load, a key of the file's own field kind needs no
+ * `field.kind=...` first. `assignments` may be NULL when n is 0. Otherwise as
+ * nimbus_load_file().
+ */
+NIMBUS_API nimbus_status nimbus_load_file_with(nimbus_context* ctx, const char* path,
+                                               const char* const* assignments, int n);
+/** Sets render.threads for the loaded scene and every later load (0 = every core, -1 = the
+ * scene's own). Not an override: it changes no pixel, is not in the frames' `overrides`
+ * metadata and not in the scene hash. */
+NIMBUS_API nimbus_status nimbus_set_threads(nimbus_context* ctx, int threads);
+/** Replaces output.path (an EXR path pattern with frame tokens, ending in .exr) for the loaded
+ * scene and every later load; NULL goes back to the scene's own. Not an override (not in the
+ * scene hash). NIMBUS_BAD_INPUT for a path not ending in .exr. */
+NIMBUS_API nimbus_status nimbus_set_output(nimbus_context* ctx, const char* pattern);
+/** A string about the loaded scene (see ::nimbus_scene_item); NULL on failure. Owned by the
+ * context. */
+NIMBUS_API const char* nimbus_scene_string(nimbus_context* ctx, nimbus_scene_item item);
+/** Reads frame `frame`'s VDB grids (what a render of the frame does first, and keeps them for
+ * it), so that errors in them come before the render and the frame's plan (warnings included)
+ * is made with them. */
+NIMBUS_API nimbus_status nimbus_prepare(nimbus_context* ctx, int frame);
+/** Warning `index` (0-based, below NIMBUS_PLAN_WARNINGS) of frame `frame`'s plan, one line;
+ * NULL on failure. Owned by the context. */
+NIMBUS_API const char* nimbus_plan_warning(nimbus_context* ctx, int frame, int index);
+/** One statistic (see ::nimbus_stat) of the last render on the context that finished, also
+ * when its write failed; 0 before any. */
+NIMBUS_API nimbus_status nimbus_render_stat(nimbus_context* ctx, nimbus_stat item, double* value);
+/**
+ * Checks the file at `path` (NULL: nimbus_output_path(frame)) for `--resume`: `*state` is
+ * NIMBUS_OUTPUT_CURRENT when it opens as an EXR, is a Nimbus frame numbered `frame`, has the
+ * scene's resolution and exactly the channels its output writes, and carries the scene's hash
+ * (NIMBUS_SCENE_HASH) in `nimbus/sceneHash`; NIMBUS_OUTPUT_STALE with the first reason that
+ * fails in `*why` ("it is 64x36, not 32x18", "it was rendered from another scene or other
+ * settings (scene hash ... , now ...)"); NIMBUS_OUTPUT_ABSENT when there is no file. `why` may
+ * be NULL; the string is owned by the context ("" unless stale).
+ */
+NIMBUS_API nimbus_status nimbus_output_check(nimbus_context* ctx, int frame, const char* path,
+                                             int* state, const char** why);
+/** Removes the temp files that writes of these frames' outputs (EXR and preview) by processes
+ * of this host which no longer run left behind (a SIGKILLed render); `*removed` (may be NULL)
+ * gets how many. Temp files of running processes and other hosts stay. */
+NIMBUS_API nimbus_status nimbus_remove_stale_temp_files(nimbus_context* ctx, const int* frames,
+                                                        int n, int* removed);
+/** Unlinks the temp file of every write in flight in this process (nimbus_render_write() on
+ * any context), so that a write stopped by a signal leaves nothing behind; that write then
+ * fails with NIMBUS_IO. Async-signal-safe: for a SIGINT/SIGTERM handler (with nimbus_cancel()). */
+NIMBUS_API void nimbus_discard_writes(void);
 
 #ifdef __cplusplus
 }

@@ -4,11 +4,13 @@
 /// libnimbus.so with hidden visibility and a version script (nimbus.map) exporting nimbus_*.
 #include "plugin/capi/nimbus.h"
 
+#include <cstring>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -20,7 +22,9 @@
 #include <vector>
 
 #include "plugin/host/session.h"
+#include "plugin/io/atomic_file.h"
 #include "plugin/io/frames.h"
+#include "plugin/io/image_output.h"
 #include "plugin/io/scene_file.h"
 
 #ifndef NIMBUS_VERSION
@@ -56,7 +60,14 @@ struct nimbus_context {
     bool messageLost = false;
 
     std::vector<std::string> warnings; ///< taken from sessions, not yet returned
-    std::string explainText, outputPathText, warningsText;
+    std::string explainText, outputPathText, warningsText, sceneString, planWarningText, whyText;
+
+    int threads = -1;                  ///< nimbus_set_threads (-1: the scene's)
+    std::optional<std::string> output; ///< nimbus_set_output
+    /// The last render's statistics (nimbus_render_stat).
+    RenderStats stats;
+    double seconds = 0.0;
+    bool bakedNoise = false;
 };
 
 namespace {
@@ -170,10 +181,11 @@ void takeWarnings(nimbus_context* ctx, host::Session& s) {
 nimbus_status loadInto(nimbus_context* ctx, bool fromFile, const std::string& source,
                        const std::string& name, const std::vector<std::string>& overrides) {
     auto next = std::make_unique<host::Session>();
-    const host::Status st =
-        fromFile ? next->load(source, overrides) : next->loadString(source, name, overrides);
+    const host::Status st = fromFile ? next->load(source, overrides, ctx->threads)
+                                     : next->loadString(source, name, overrides, ctx->threads);
     takeWarnings(ctx, *next);
     if (!st.ok()) return setError(ctx, st);
+    if (ctx->output) next->file().output.path = *ctx->output;
     ctx->session = std::move(next);
     ctx->fromFile = fromFile;
     ctx->source = source;
@@ -245,6 +257,9 @@ nimbus_status renderFrame(nimbus_context* ctx, int frame, const AovSet* aovs, Fr
     const auto t0 = std::chrono::steady_clock::now();
     const host::Status st = s.render(frame, fb, stats, progress, &ctx->cancel, &plan);
     seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ctx->stats = stats;
+    ctx->seconds = seconds;
+    ctx->bakedNoise = plan.bakeNoise;
     takeWarnings(ctx, s);
     if (!st.ok()) return setError(ctx, st);
     return NIMBUS_OK;
@@ -342,7 +357,18 @@ nimbus_status renderWrite(nimbus_context* ctx, int frame, const char* path) {
     return NIMBUS_OK;
 }
 
-int planItem(const FramePlan& p, const SceneDesc& scene, bool readsGrids, nimbus_plan_item item) {
+/// The value a C caller passed for an enum parameter, read from its bytes: C lets any int
+/// arrive there, and in C++ loading a value outside the enumerators' range through the enum type
+/// is undefined (UBSan: "load of value 99, which is not a valid value for type
+/// 'nimbus_plan_item'"). The switches below take the int and refuse what they do not know.
+template <class E> int enumValue(const E& e) {
+    static_assert(sizeof(E) == sizeof(int), "the C ABI's enums are int-sized");
+    int v;
+    std::memcpy(&v, &e, sizeof v);
+    return v;
+}
+
+int planItem(const FramePlan& p, const SceneDesc& scene, bool readsGrids, int item) {
     switch (item) {
     case NIMBUS_PLAN_WIDTH:
         return scene.camera.width;
@@ -380,6 +406,137 @@ int planItem(const FramePlan& p, const SceneDesc& scene, bool readsGrids, nimbus
     throw Misuse("unknown plan item " + std::to_string(int(item)));
 }
 
+double statItem(const nimbus_context* ctx, int item) {
+    const RenderStats& st = ctx->stats;
+    switch (item) {
+    case NIMBUS_STAT_SECONDS:
+        return ctx->seconds;
+    case NIMBUS_STAT_BAKE_SECONDS:
+        return st.bakeSeconds;
+    case NIMBUS_STAT_MAJORANT_SECONDS:
+        return st.majorantSeconds;
+    case NIMBUS_STAT_INTEGRATE_SECONDS:
+        return st.integrateSeconds;
+    case NIMBUS_STAT_LIGHT_VOLUME_SECONDS:
+        return st.lightVolumeSeconds;
+    case NIMBUS_STAT_LIGHT_GRID_MB:
+        return double(st.lightVolumeVoxels + st.densityGridVoxels) * 4.0 / 1048576.0;
+    case NIMBUS_STAT_DIFFUSION_SECONDS:
+        return st.diffusionSeconds;
+    case NIMBUS_STAT_PHOTON_SECONDS:
+        return st.photonSeconds;
+    case NIMBUS_STAT_SKY_VOLUME_SECONDS:
+        return st.skyVolumeSeconds;
+    case NIMBUS_STAT_SKY_VOLUME_MB:
+        return double(st.skyVolumeBytes) / 1048576.0;
+    case NIMBUS_STAT_LOOKUPS:
+        return double(st.lookups());
+    case NIMBUS_STAT_SHADOW_LOOKUPS:
+        return double(st.shadowSamples);
+    case NIMBUS_STAT_MAJORANT_EMPTY_FRACTION:
+        return st.majorantEmptyFraction;
+    case NIMBUS_STAT_MAJORANT_USED:
+        return st.majorantUsed ? 1.0 : 0.0;
+    case NIMBUS_STAT_BAKED_NOISE:
+        return ctx->bakedNoise ? 1.0 : 0.0;
+    case NIMBUS_STAT_NON_FINITE:
+        return double(st.nonFinite);
+    }
+    throw Misuse("unknown statistic " + std::to_string(int(item)));
+}
+
+std::string sceneItem(host::Session& s, int item) {
+    switch (item) {
+    case NIMBUS_SCENE_PATH:
+        return s.file().path;
+    case NIMBUS_SCENE_FRAMES:
+        return s.file().frames;
+    case NIMBUS_SCENE_OUTPUT_PATTERN:
+        return s.file().output.path;
+    case NIMBUS_SCENE_PREVIEW_PATTERN:
+        return s.file().output.preview;
+    case NIMBUS_SCENE_OUTPUT_SPACE:
+        return s.file().output.colorSpace;
+    case NIMBUS_SCENE_WORKING_SPACE:
+        return s.workingSpace();
+    case NIMBUS_SCENE_COLOR_CONFIG:
+        return s.colors().description();
+    case NIMBUS_SCENE_HASH:
+        return s.sceneHash();
+    }
+    throw Misuse("unknown scene item " + std::to_string(int(item)));
+}
+
+/// --resume's check of `path` for `frame` (nimbus_output_check); `why` says why a file that is
+/// there is not current.
+nimbus_output_state checkOutput(host::Session& s, int frame, const std::string& path,
+                                std::string& why) {
+    why.clear();
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) return NIMBUS_OUTPUT_ABSENT;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        why = "it is not a regular file";
+        return NIMBUS_OUTPUT_STALE;
+    }
+    io::ExrImage img;
+    try {
+        img = io::readExr(path);
+    } catch (const std::bad_alloc&) {
+        throw;
+    } catch (const std::exception& e) {
+        why = std::string("it cannot be read (") + e.what() + ")";
+        return NIMBUS_OUTPUT_STALE;
+    }
+    const auto attr = [&](const char* name) -> const std::string* {
+        const auto it = img.attributes.find(name);
+        return it == img.attributes.end() ? nullptr : &it->second;
+    };
+    const std::string* frameAttr = attr("nimbus/frame");
+    if (!frameAttr) {
+        why = "it is not a Nimbus frame (no nimbus/frame attribute)";
+        return NIMBUS_OUTPUT_STALE;
+    }
+    if (*frameAttr != std::to_string(frame)) {
+        why = "it is frame " + *frameAttr + ", not " + std::to_string(frame);
+        return NIMBUS_OUTPUT_STALE;
+    }
+    const int width = s.scene().camera.width, height = s.scene().camera.height;
+    if (img.width != width || img.height != height) {
+        why = "it is " + std::to_string(img.width) + "x" + std::to_string(img.height) + ", not " +
+              std::to_string(width) + "x" + std::to_string(height);
+        return NIMBUS_OUTPUT_STALE;
+    }
+    // the channels the scene's output writes (plugin/io/image_output.h)
+    std::vector<std::string> want{"R", "G", "B", "A"};
+    if (s.file().output.aovs.depth) want.push_back("depth");
+    if (s.file().output.aovs.transmittance)
+        for (const char* c : {"transmittance.R", "transmittance.G", "transmittance.B"})
+            want.push_back(c);
+    std::vector<std::string> have = img.channels;
+    std::sort(want.begin(), want.end());
+    std::sort(have.begin(), have.end());
+    if (have != want) {
+        auto join = [](const std::vector<std::string>& v) {
+            std::string out;
+            for (const std::string& c : v) out += (out.empty() ? "" : " ") + c;
+            return out;
+        };
+        why = "its channels are " + join(have) + ", not " + join(want);
+        return NIMBUS_OUTPUT_STALE;
+    }
+    const std::string* hash = attr("nimbus/sceneHash");
+    if (!hash) {
+        why = "it carries no scene hash (nimbus/sceneHash; written by an older Nimbus)";
+        return NIMBUS_OUTPUT_STALE;
+    }
+    if (*hash != s.sceneHash()) {
+        why = "it was rendered from another scene text or other settings (scene hash " + *hash +
+              ", now " + s.sceneHash() + ")";
+        return NIMBUS_OUTPUT_STALE;
+    }
+    return NIMBUS_OUTPUT_CURRENT;
+}
+
 } // namespace
 
 extern "C" {
@@ -395,7 +552,7 @@ void nimbus_version_numbers(int* major, int* minor, int* patch) {
 }
 
 const char* nimbus_status_name(nimbus_status status) {
-    switch (status) {
+    switch (enumValue(status)) {
     case NIMBUS_OK:
         return "ok";
     case NIMBUS_INTERNAL:
@@ -480,7 +637,7 @@ nimbus_status nimbus_plan_int(nimbus_context* ctx, int frame, nimbus_plan_item i
         host::Session& s = loadedSession(ctx);
         if (!value) throw Misuse("value is NULL");
         const FramePlan p = s.plan(frame);
-        *value = planItem(p, s.scene(), s.readsGrids(), item);
+        *value = planItem(p, s.scene(), s.readsGrids(), enumValue(item));
         return NIMBUS_OK;
     });
 }
@@ -556,6 +713,123 @@ const char* nimbus_last_error_file(const nimbus_context* ctx) {
 
 int nimbus_last_error_line(const nimbus_context* ctx) {
     return ctx ? ctx->line : 0;
+}
+
+nimbus_status nimbus_load_file_with(nimbus_context* ctx, const char* path,
+                                    const char* const* assignments, int n) {
+    return guarded(ctx, [&] {
+        const std::string p = nonNull(path, "path");
+        if (n < 0 || (n > 0 && !assignments)) throw Misuse("assignments is NULL or n negative");
+        std::vector<std::string> overrides;
+        for (int i = 0; i < n; ++i) overrides.push_back(nonNull(assignments[i], "an assignment"));
+        return loadInto(ctx, true, p, p, overrides);
+    });
+}
+
+nimbus_status nimbus_set_threads(nimbus_context* ctx, int threads) {
+    return guarded(ctx, [&] {
+        if (threads < -1) throw Misuse("threads must be -1 (the scene's), 0 (every core) or more");
+        const int saved = ctx->threads;
+        ctx->threads = threads;
+        if (!ctx->session) return NIMBUS_OK;
+        const nimbus_status st =
+            loadInto(ctx, ctx->fromFile, ctx->source, ctx->name, ctx->overrides);
+        if (st != NIMBUS_OK) ctx->threads = saved;
+        return st;
+    });
+}
+
+nimbus_status nimbus_set_output(nimbus_context* ctx, const char* pattern) {
+    return guarded(ctx, [&] {
+        std::optional<std::string> next;
+        if (pattern) {
+            const std::string p = pattern;
+            if (p.size() < 4 || p.substr(p.size() - 4) != ".exr")
+                throw Misuse("output path \"" + p + "\" must end in .exr");
+            next = p;
+        }
+        if (ctx->session) {
+            if (next) {
+                ctx->session->file().output.path = *next;
+            } else if (ctx->output) {
+                // back to the scene's own: load it again
+                ctx->output.reset();
+                return loadInto(ctx, ctx->fromFile, ctx->source, ctx->name, ctx->overrides);
+            }
+        }
+        ctx->output = next;
+        return NIMBUS_OK;
+    });
+}
+
+const char* nimbus_scene_string(nimbus_context* ctx, nimbus_scene_item item) {
+    return guardedString(ctx, [&] {
+        ctx->sceneString = sceneItem(loadedSession(ctx), enumValue(item));
+        return ctx->sceneString.c_str();
+    });
+}
+
+nimbus_status nimbus_prepare(nimbus_context* ctx, int frame) {
+    return guarded(ctx, [&] {
+        host::Session& s = loadedSession(ctx);
+        const host::Status st = s.bind(frame);
+        takeWarnings(ctx, s);
+        if (!st.ok()) return setError(ctx, st);
+        return NIMBUS_OK;
+    });
+}
+
+const char* nimbus_plan_warning(nimbus_context* ctx, int frame, int index) {
+    return guardedString(ctx, [&] {
+        const FramePlan p = loadedSession(ctx).plan(frame);
+        if (index < 0 || size_t(index) >= p.warnings.size())
+            throw Misuse("plan warning " + std::to_string(index) + " of frame " +
+                         std::to_string(frame) + ": the plan has " +
+                         std::to_string(p.warnings.size()));
+        ctx->planWarningText = p.warnings[size_t(index)];
+        return ctx->planWarningText.c_str();
+    });
+}
+
+nimbus_status nimbus_render_stat(nimbus_context* ctx, nimbus_stat item, double* value) {
+    return guarded(ctx, [&] {
+        if (!value) throw Misuse("value is NULL");
+        *value = statItem(ctx, enumValue(item));
+        return NIMBUS_OK;
+    });
+}
+
+nimbus_status nimbus_output_check(nimbus_context* ctx, int frame, const char* path, int* state,
+                                  const char** why) {
+    return guarded(ctx, [&] {
+        host::Session& s = loadedSession(ctx);
+        if (!state) throw Misuse("state is NULL");
+        const std::string p = path ? std::string(path) : s.outputPath(frame);
+        *state = checkOutput(s, frame, p, ctx->whyText);
+        if (why) *why = ctx->whyText.c_str();
+        return NIMBUS_OK;
+    });
+}
+
+nimbus_status nimbus_remove_stale_temp_files(nimbus_context* ctx, const int* frames, int n,
+                                             int* removed) {
+    return guarded(ctx, [&] {
+        host::Session& s = loadedSession(ctx);
+        if (n < 0 || (n > 0 && !frames)) throw Misuse("frames is NULL or n negative");
+        std::vector<std::string> outs;
+        const std::string& preview = s.file().output.preview;
+        for (int i = 0; i < n; ++i) {
+            outs.push_back(s.outputPath(frames[i]));
+            if (!preview.empty()) outs.push_back(io::expandFramePattern(preview, frames[i]));
+        }
+        const std::size_t count = io::removeStaleTempFiles(outs);
+        if (removed) *removed = int(std::min<std::size_t>(count, 0x7fffffff));
+        return NIMBUS_OK;
+    });
+}
+
+void nimbus_discard_writes(void) {
+    io::removeInFlightTempFiles();
 }
 
 } // extern "C"

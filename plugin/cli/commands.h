@@ -18,6 +18,10 @@ inline constexpr int kExitIo = 3;
 inline constexpr int kExitNoMemory = 4;
 inline constexpr int kExitInterrupted = 130;
 
+/// After the first signal the command stops by itself (the renderer polls its cancel flag inside
+/// its loops); a watchdog ends the process with exit 130 if it is still running this long after.
+inline constexpr double kCancelGraceSeconds = 0.9;
+
 struct RenderOptions {
     std::string scene;
     std::string frames;
@@ -26,7 +30,8 @@ struct RenderOptions {
     int threads = -1; ///< -1: keep the scene's render.threads
     bool explain = false;
     bool resume = false;
-    std::string progress = "auto";
+    std::string progress = "auto"; ///< auto, bar, plain, json, none
+
     bool quiet = false;
 };
 
@@ -75,7 +80,8 @@ struct CalibrateOptions {
     std::string loadReference;
 };
 
-int runRender(const RenderOptions& o);
+/// `nimbus render` is not here: it is a host of libnimbus.so (render_host.cpp, built as
+/// libnimbus_render.so; plugin/cli/dispatch.h).
 struct BakeOptions {
     std::string scene;
     std::vector<std::string> overrides;

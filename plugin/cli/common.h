@@ -19,9 +19,6 @@ namespace nimbus::cli {
 
 /// Set by SIGINT/SIGTERM/SIGHUP once installSignalHandlers() ran.
 extern std::atomic<bool> gCancel;
-/// After the first signal the command stops by itself (the renderer polls gCancel inside its
-/// loops); a watchdog ends the process with exit 130 if it is still running this long after.
-constexpr double kCancelGraceSeconds = 0.9;
 void installSignalHandlers();
 
 double secondsSince(std::chrono::steady_clock::time_point t0);

@@ -57,8 +57,8 @@ extern "C" __attribute__((visibility("default"))) int nimbus_cli_command(int com
     try {
         testFaultAtStart();
         switch (Command(command)) {
-        case Command::Render:
-            return runRender(*static_cast<const RenderOptions*>(options));
+        case Command::Render: // libnimbus_render.so's nimbus_cli_render (main.cpp loads it)
+            break;
         case Command::Converge:
             return runConverge(*static_cast<const ConvergeOptions*>(options));
         case Command::Calibrate:

@@ -15,6 +15,11 @@ enum class Command : int { Render = 0, Converge, Calibrate, Bake, BenchVdb, Refe
 inline constexpr const char* kDispatchSymbol = "nimbus_cli_command";
 /// File name of the shared object, looked up beside the executable.
 inline constexpr const char* kCommandsLibrary = "libnimbus_commands.so";
+/// `render` is a host of libnimbus.so (the C ABI, plugin/capi/nimbus.h) in a shared object of
+/// its own that links that library and none of the internals (plugin/cli/render_host.cpp).
+inline constexpr const char* kRenderLibrary = "libnimbus_render.so";
+/// Its entry point: int nimbus_cli_render(const RenderOptions*).
+inline constexpr const char* kRenderSymbol = "nimbus_cli_render";
 
 } // namespace nimbus::cli
 

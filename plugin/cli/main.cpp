@@ -55,21 +55,22 @@ int run(cli::Command command, const void* options) {
         dir = self;
         dir = dir.substr(0, dir.find_last_of('/'));
     }
-    const std::string path = dir + "/" + cli::kCommandsLibrary;
+    const bool render = command == cli::Command::Render;
+    const std::string path = dir + "/" + (render ? cli::kRenderLibrary : cli::kCommandsLibrary);
     void* lib = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!lib) {
         std::fprintf(stderr, "nimbus: error: cannot load the commands (%s): %s\n", path.c_str(),
                      dlerror());
         return cli::kExitInternal;
     }
-    using Entry = int (*)(int, const void*);
-    auto entry = reinterpret_cast<Entry>(dlsym(lib, cli::kDispatchSymbol));
+    const char* symbol = render ? cli::kRenderSymbol : cli::kDispatchSymbol;
+    void* entry = dlsym(lib, symbol);
     if (!entry) {
-        std::fprintf(stderr, "nimbus: error: %s has no %s: %s\n", path.c_str(),
-                     cli::kDispatchSymbol, dlerror());
+        std::fprintf(stderr, "nimbus: error: %s has no %s: %s\n", path.c_str(), symbol, dlerror());
         return cli::kExitInternal;
     }
-    return entry(int(command), options);
+    if (render) return reinterpret_cast<int (*)(const void*)>(entry)(options);
+    return reinterpret_cast<int (*)(int, const void*)>(entry)(int(command), options);
 }
 
 [[noreturn]] void onTerminate() {
@@ -146,13 +147,18 @@ int mainImpl(int argc, char** argv) {
         ->check(CLI::Range(0, 1024));
     render->add_flag("--explain", ro.explain, "Print the plan of each frame and exit");
     render->add_flag("--resume", ro.resume,
-                     "Skip frames whose output already exists as a complete Nimbus EXR of the "
-                     "scene's resolution");
+                     "Skip frames whose output already exists as a complete Nimbus EXR of this "
+                     "frame, the scene's resolution and channels, and the same scene hash "
+                     "(nimbus/sceneHash: scene text and pixel-changing overrides); others are "
+                     "rendered again, and the log says why");
     render
         ->add_option("--progress", ro.progress,
                      "Progress display: auto (bar on a terminal, plain lines otherwise), bar, "
-                     "plain, none")
-        ->check(CLI::IsMember({"auto", "bar", "plain", "none"}));
+                     "plain, none, or json: one JSON object per line on stderr (events "
+                     "frame_start, progress, frame_done with seconds and peak_rss_mb, "
+                     "frame_skipped, frame_rerender, warning, error, note, done; "
+                     "docs/farm_cli.md)")
+        ->check(CLI::IsMember({"auto", "bar", "plain", "json", "none"}));
     render->add_flag("-q,--quiet", ro.quiet, "Only errors and warnings");
 
     cli::ConvergeOptions co;

@@ -1,8 +1,12 @@
 #include "plugin/host/session.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <new>
 #include <stdexcept>
 
@@ -72,7 +76,45 @@ std::string directoryOf(const std::string& path) {
     return std::filesystem::path(path).parent_path().string();
 }
 
+std::string readText(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// FNV-1a, 64 bit, continued from `h` over `text` and a separating NUL.
+std::uint64_t fnv1a(std::uint64_t h, const std::string& text) {
+    for (const unsigned char c : text) {
+        h ^= c;
+        h *= 0x100000001b3ull;
+    }
+    return h * 0x100000001b3ull; // the NUL: one more round with c = 0
+}
+
+/// The key of an override "section.key = value", without spaces.
+std::string overrideKey(const std::string& o) {
+    std::string k = o.substr(0, o.find('='));
+    k.erase(0, k.find_first_not_of(" \t"));
+    k.erase(k.find_last_not_of(" \t") + 1);
+    return k;
+}
+
 } // namespace
+
+std::string computeSceneHash(const std::string& text, const std::vector<std::string>& overrides,
+                             const std::string& colorConfig) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    h = fnv1a(h, "nimbus-scene-hash-1");
+    h = fnv1a(h, NIMBUS_VERSION);
+    h = fnv1a(h, colorConfig);
+    h = fnv1a(h, text);
+    const std::vector<std::string>& neutral = Session::pixelNeutralKeys();
+    for (const std::string& o : overrides)
+        if (std::find(neutral.begin(), neutral.end(), overrideKey(o)) == neutral.end())
+            h = fnv1a(h, o);
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
+    return hex;
+}
 
 Session::Session() = default;
 Session::~Session() = default;
@@ -90,6 +132,7 @@ Status Session::loadString(const std::string& text, const std::string& name,
 Status Session::loadString(const std::string& text, const std::string& name,
                            const std::vector<std::string>& overrides, int threads, bool fromFile) {
     file_.reset();
+    sceneHash_.clear();
     renderer_.reset();
     geometry_.reset();
     bindings_ = FrameBindings{};
@@ -130,7 +173,14 @@ Status Session::loadString(const std::string& text, const std::string& name,
         for (const std::string& w : warnings) warnings_.push_back("warning: " + w);
     }
     file_.emplace(std::move(f));
+    sceneHash_ = computeSceneHash(fromFile ? readText(name) : text, overrides, cs_->description());
     return Status::success();
+}
+
+const std::vector<std::string>& Session::pixelNeutralKeys() {
+    static const std::vector<std::string> keys{"frames",         "render.threads", "output.path",
+                                               "output.preview", "output.display", "output.view"};
+    return keys;
 }
 
 std::string Session::workingSpace() const {
@@ -234,6 +284,7 @@ Status Session::writeFrame(int frame, const Framebuffer& fb, io::ExrMetadata md,
     const io::OutputDesc& out = file_->output;
     const std::string ws = workingSpace();
     md.frame = frame;
+    if (md.sceneHash.empty()) md.sceneHash = sceneHash_;
     try {
         std::size_t bad = io::writeExr(outputPath(frame), fb, *cs_, ws, out.colorSpace, md);
         if (!out.preview.empty())

@@ -59,6 +59,11 @@ struct Status {
     static Status error(StatusCode code, std::string message, std::string file = {}, int line = 0);
 };
 
+/// The scene hash of Session::sceneHash() for scene `text` loaded with `overrides` under the
+/// colour configuration described by `colorConfig`.
+std::string computeSceneHash(const std::string& text, const std::vector<std::string>& overrides,
+                             const std::string& colorConfig);
+
 /// Called (serialised, from worker threads) after each finished tile.
 using ProgressFn = std::function<void(int tilesDone, int tilesTotal)>;
 
@@ -94,6 +99,13 @@ class Session {
     int firstFrame() const;
     /// Whether frames read grids (a VDB field or [[volume]] entries).
     bool readsGrids() const;
+    /// The scene hash that writeFrame() stores as `nimbus/sceneHash` and `--resume` compares:
+    /// 16 hex digits of FNV-1a 64 over the Nimbus version, the colour configuration's
+    /// description, the scene text and the overrides except those of kPixelNeutralKeys (in
+    /// order). Not the frame number, not --threads, not the output path. docs/farm_cli.md.
+    const std::string& sceneHash() const { return sceneHash_; }
+    /// Keys whose overrides change no pixel of a frame and stay out of sceneHash().
+    static const std::vector<std::string>& pixelNeutralKeys();
 
     /// Warnings collected since the last call, oldest first, each as the command line prints
     /// it after "nimbus: " (scene-file warnings carry their "file:line:col: warning:").
@@ -141,6 +153,7 @@ class Session {
     FrameBindings bindings_;
     std::optional<int> boundFrame_;
     std::vector<std::string> warnings_;
+    std::string sceneHash_;
 };
 
 } // namespace nimbus::host

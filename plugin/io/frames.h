@@ -56,7 +56,7 @@ bool patternHasFrameToken(const std::string& pattern);
 /// `-007`); a frame wider than the token is written in full (`##`, 1234 -> `1234`).
 /// A pattern without tokens is returned unchanged: whether that is an error depends on how many
 /// frames are rendered, which the caller knows (see patternHasFrameToken).
-/// @throws std::invalid_argument when a `$F` width is larger than 32.
+/// @throws std::invalid_argument when a `$F<N>` or `${F<N>}` width is larger than 32.
 std::string expandFramePattern(const std::string& pattern, int frame);
 
 } // namespace nimbus::io

@@ -130,6 +130,7 @@ std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, con
     spec.attribute("nimbus/seed", std::to_string(md.seed));
     spec.attribute("nimbus/renderTime", OIIO::TypeDesc::DOUBLE, &md.renderSeconds);
     spec.attribute("nimbus/frame", md.frame);
+    if (!md.sceneHash.empty()) spec.attribute("nimbus/sceneHash", md.sceneHash);
     if (bad > 0) spec.attribute("nimbus/nonFiniteReplaced", int(std::min<size_t>(bad, 0x7fffffff)));
     for (const auto& [key, value] : md.settings) spec.attribute("nimbus/settings/" + key, value);
 

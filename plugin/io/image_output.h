@@ -16,7 +16,8 @@
 ///   ColorSystem::chromaticities()), `nimbus/colorSpace` (canonical OCIO name of the output
 ///   space), `nimbus/ocioConfig` (ColorSystem::description()), `nimbus/version`, `nimbus/seed`
 ///   (decimal string: a uint32 does not fit an EXR int), `nimbus/renderTime` (double, seconds),
-///   `nimbus/frame` (int), `nimbus/nonFiniteReplaced` (int, only when > 0),
+///   `nimbus/frame` (int), `nimbus/sceneHash` (string, when given: docs/farm_cli.md),
+///   `nimbus/nonFiniteReplaced` (int, only when > 0),
 ///   `nimbus/settings/<key>` (string, one per settings entry), `Software` ("Nimbus <version>").
 /// All are listed by `oiiotool --info -v frame.exr`.
 #pragma once
@@ -44,6 +45,8 @@ struct ExrMetadata {
     uint32_t seed = 0;        ///< random seed of the frame
     double renderSeconds = 0; ///< wall-clock render time of the frame
     int frame = 0;            ///< frame number
+    /// `nimbus/sceneHash` when non-empty: what --resume compares (host::Session::sceneHash()).
+    std::string sceneHash;
 #ifdef NIMBUS_VERSION
     std::string version = NIMBUS_VERSION; ///< Nimbus version
 #else

@@ -2,7 +2,7 @@
 /// @brief libFuzzer harness: the frame-spec parser and the frame-pattern expander
 /// (plugin/io/frames.h). Input: a spec; its first byte also picks a frame for the pattern.
 /// Accepted outcomes are a sorted, duplicate-free, non-empty frame list within kMaxFrames, or
-/// std::invalid_argument (the pattern: only for a `$F` width above 32); anything else (a crash, a
+/// std::invalid_argument (the pattern: only for a `$F<N>` or `${F<N>}` width above 32); anything else (a crash, a
 /// sanitizer report, another exception) is a bug.
 #include <algorithm>
 #include <cstdint>
@@ -27,8 +27,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const std::string out = nimbus::io::expandFramePattern(spec, frame);
         if (!nimbus::io::patternHasFrameToken(spec) && out != spec) __builtin_trap();
     } catch (const std::invalid_argument&) {
-        // Documented only for a `$F` width above 32.
-        if (spec.find("$F") == std::string::npos) __builtin_trap();
+        // Documented only for a `$F<N>` or `${F<N>}` width above 32.
+        if (spec.find("$F") == std::string::npos && spec.find("${F") == std::string::npos)
+            __builtin_trap();
     }
     return 0;
 }
