@@ -2,7 +2,8 @@
 # A real Slurm scheduler rendering a sequence (issue 16, docs/farm.md): starts munged, slurmctld
 # and slurmd on this machine (one node, no systemd, everything in a temp folder), submits 12
 # frames as an array job of 4 tasks of 3 frames (examples/farm/slurm_render.sh), cancels one
-# task in the middle of a frame (scancel: SIGTERM) and requeues it, waits, and checks that every
+# task in the middle of a frame (scancel: SIGTERM) and SIGKILLs another's nimbus (no handler
+# runs), requeues both, waits, and checks that every
 # frame exists, is a valid EXR of the right size, that no temp file is left, that the requeued
 # task rendered exactly the frames its first run had not finished, and that every frame is
 # bit-identical to the same frame rendered locally. The daemons are shut down on every exit.
@@ -147,6 +148,38 @@ scontrol requeue "$victim" || fail "scontrol requeue $victim"
 # either: slurmd refuses a job credential that is not newer, in whole seconds, than the
 # revocation of the cancelled run's ("Job credential revoked")
 scontrol update JobId="$victim" StartTime=now+3 >/dev/null 2>&1
+
+# SIGKILL task 2's nimbus (frames 7-9) once it has finished a frame and started the next: no
+# handler runs (the OOM killer, a crash). The task fails (ExitCode 0:9); nothing it leaves may
+# pass for a frame; it is requeued like task 1.
+victim2="${jid}_2"
+log2="$T/log/task_2.log"
+deadline=$((SECONDS + 180))
+until [ -n "$(awk '/ -> /{d=1} d && /^frame [0-9]+\/[0-9]+ /{print; exit}' "$log2" 2>/dev/null)" ]; do
+    [ $SECONDS -lt $deadline ] || fail "task 2 started no second frame within 180 s: $(tail -5 "$log2" 2>/dev/null)"
+    sleep 0.05
+done
+pid2=$(pgrep -f -- "--frames 7-9 .*$T/out/") || fail "no nimbus process of task 2"
+kill -KILL $pid2
+for _ in $(seq 1 100); do
+    [ -z "$(squeue -h -j "$victim2" 2>/dev/null)" ] && break
+    sleep 0.2
+done
+st2=$(scontrol -o show job "$victim2" | grep -oE 'JobState=[A-Z_]+|ExitCode=[0-9:]+' | tr '\n' ' ')
+echo "task 2 SIGKILLed: $st2"
+[[ $st2 == *JobState=FAILED*ExitCode=0:9* ]] || fail "task 2 after SIGKILL: $st2"
+done_before2=$(grep "^frame [0-9]*: .* -> " "$log2" | sed 's/^frame \([0-9]*\):.*/\1/' | sort -n | tr '\n' ' ')
+for f in 7 8 9; do
+    out=$(printf "%s/out/f.%04d.exr" "$T" "$f")
+    if [ -e "$out" ] && ! echo " $done_before2 " | grep -q " $f "; then
+        fail "frame $f exists although task 2 was killed before finishing it"
+    fi
+done
+# whatever else is there must not pass for a frame: only hidden temp names, none ending in .exr
+odd=$(find "$T/out" -mindepth 1 \( ! -name '.*' -o -name '*.exr' \) ! -name 'f.[0-9][0-9][0-9][0-9].exr')
+[ -z "$odd" ] || fail "the SIGKILL left files that could pass for frames: $odd"
+scontrol requeue "$victim2" || fail "scontrol requeue $victim2"
+scontrol update JobId="$victim2" StartTime=now+3 >/dev/null 2>&1
 deadline=$((SECONDS + 240))
 while [ -n "$(squeue -h -j "$jid" 2>/dev/null)" ]; do
     [ $SECONDS -lt $deadline ] || fail "the array job did not finish within 240 s: $(squeue -j "$jid")"
@@ -177,6 +210,15 @@ expected=""
 for f in 4 5 6; do echo " $done_before " | grep -q " $f " || expected="$expected$f "; done
 [ "$rendered" = "$expected" ] || fail "the requeued task rendered '$rendered', expected '$expected'"
 echo "task 1: first run finished '$done_before', the requeued run skipped '$skipped' and rendered '$rendered'"
+restart2=$(awk '/restart 1\)/{p=1} p' "$log2")
+[ -n "$restart2" ] || fail "task 2 did not run again after the requeue: $(tail -5 "$log2")"
+skipped2=$(echo "$restart2" | grep "skipped (--resume)" | sed 's/^frame \([0-9]*\):.*/\1/' | sort -n | tr '\n' ' ')
+rendered2=$(echo "$restart2" | grep "^frame [0-9]*: .* -> " | sed 's/^frame \([0-9]*\):.*/\1/' | sort -n | tr '\n' ' ')
+[ "$skipped2" = "$done_before2" ] || fail "the requeued task 2 skipped '$skipped2', its killed run had finished '$done_before2'"
+expected2=""
+for f in 7 8 9; do echo " $done_before2 " | grep -q " $f " || expected2="$expected2$f "; done
+[ "$rendered2" = "$expected2" ] || fail "the requeued task 2 rendered '$rendered2', expected '$expected2'"
+echo "task 2: killed run finished '$done_before2', the requeued run skipped '$skipped2' and rendered '$rendered2'"
 
 # bit-identical to the same frames rendered locally in one process
 "$nimbus" render "$scene" --frames 1-12 "${size[@]}" -o "$T/local/f.####.exr" -q ||
