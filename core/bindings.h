@@ -22,6 +22,10 @@ struct GridBinding {
     std::shared_ptr<const void> owner; ///< keeps the grid's memory alive
     const void* grid = nullptr;        ///< a nanovdb::FloatGrid; null: no density
     Box bounds;                        ///< world bounds of the density (trilinear support)
+    /// Subtracted (in double) from the grid's world positions: the frame is rendered relative
+    /// to this point when it lies far from the origin (core/rebase.h). `bounds` is then in
+    /// that shifted space too.
+    glm::dvec3 shift{0.0};
 };
 
 /// Everything bound to one frame.

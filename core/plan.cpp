@@ -184,6 +184,15 @@ std::string FramePlan::explain() const {
     o << "frame " << frame << " (t = " << time << " s)\n";
     if (!refusal.empty()) o << "  refused: " << refusal << "\n";
     for (const std::string& w : warnings) o << "  warning: " << w << "\n";
+    if (rebased) {
+        char at[240];
+        std::snprintf(at, sizeof at,
+                      "  coordinates: rendered relative to (%.17g, %.17g, %.17g), %.3g units from "
+                      "the world origin (float positions there would resolve only %.3g units)\n",
+                      renderOrigin.x, renderOrigin.y, renderOrigin.z, originDistance,
+                      originDistance * std::ldexp(1.0, -23));
+        o << at;
+    }
     o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
       << noiseDecision << ")\n";
     o << "  march steps: " << stepDecision << "\n";

@@ -85,6 +85,11 @@ struct FramePlan {
     /// Settings that will make the frame absurdly slow (a step implying millions of steps per
     /// ray): printed by explain() and by the host before rendering.
     std::vector<std::string> warnings;
+    /// The frame is rendered translated by -renderOrigin because the field or the camera lies
+    /// far from the world origin (core/rebase.h, Renderer::plan); the picture is unchanged.
+    bool rebased = false;
+    glm::dvec3 renderOrigin{0.0};
+    double originDistance = 0.0; ///< how far the field or the camera lies from the origin
     std::string explain() const;
 };
 

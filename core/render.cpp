@@ -1,5 +1,7 @@
 #include "core/render.h"
 
+#include "core/rebase.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -72,7 +74,25 @@ Renderer::Renderer(const SceneDesc& scene) : scene_(scene) {
 }
 
 FramePlan Renderer::plan(int frame, const FrameBindings& bindings, const AovSet& aovs) const {
-    return planFrame(scene_, frame, bindings, aovs);
+    FramePlan p = planFrame(scene_, frame, bindings, aovs);
+    if (rebasedCopy_) return p;
+    Box bounds = scene_.field.homogeneous.box;
+    if (scene_.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
+    const double fine = std::min(double(p.step), double(maxComponent(bounds.extent())) / 64.0);
+    const Rebase r = chooseRebase(scene_, bindings, fine);
+    if (!r.active) {
+        if (!r.blocked.empty())
+            for (std::string& w : p.warnings)
+                if (w.find("from the origin") != std::string::npos)
+                    w += " (not translated automatically: the scene has " + r.blocked + ")";
+        return p;
+    }
+    FramePlan q =
+        planFrame(rebasedScene(scene_, r.origin), frame, rebasedBindings(bindings, r.origin), aovs);
+    q.rebased = true;
+    q.renderOrigin = r.origin;
+    q.originDistance = r.distance;
+    return q;
 }
 
 FramePlan Renderer::plan(int frame, const AovSet& aovs) const {
@@ -183,6 +203,12 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
 
 bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
                       RenderStats& stats, const RenderCallbacks& cb) {
+    if (plan.rebased && !rebasedCopy_) {
+        // the frame far from the origin, rendered translated (core/rebase.h)
+        Renderer near(rebasedScene(scene_, plan.renderOrigin));
+        near.rebasedCopy_ = true;
+        return near.render(plan, rebasedBindings(bindings, plan.renderOrigin), fb, stats, cb);
+    }
     const SceneDesc& s = scene_;
     const int threads = s.render.threads > 0 ? s.render.threads : tbb::task_arena::automatic;
     tbb::task_arena arena(threads);

@@ -90,6 +90,7 @@ class Renderer {
 
   private:
     SceneDesc scene_;
+    bool rebasedCopy_ = false; ///< this renderer already renders a translated frame
     std::mutex bakeMutex_;
     std::shared_ptr<const NoiseVolume> baseBake_, detailBake_;
 };

@@ -222,24 +222,37 @@ TEST(Stability, ExplainWarnsOfAbsurdStepsAndShowsRefusals) {
 // A scene far from the origin, where floats quantise positions to more than half a step, is
 // warned of (it renders shifted and blocky: `nimbus stress --filter camera/far`); the same
 // scene near the origin is not.
-TEST(Stability, ExplainWarnsOfAFieldFarFromTheOrigin) {
+// Far from the origin (core/rebase.h): a homogeneous field 1e7 units out is rendered translated
+// and --explain says where to; with a ground plane it cannot be translated exactly and the plan
+// warns, saying why; near the origin neither.
+TEST(Stability, ExplainSaysHowAFieldFarFromTheOriginIsRendered) {
     TempDir dir;
-    auto scene = [&](double x) {
-        const std::string path = (dir / ("far" + std::to_string(int(x > 0)) + ".toml")).string();
+    auto scene = [&](double x, bool ground) {
+        const std::string path =
+            (dir / ("far" + std::to_string(int(x > 0)) + std::to_string(int(ground)) + ".toml"))
+                .string();
         const std::string v = std::to_string(x);
         writeText(path, "[camera]\nposition = [" + v + ", 0.0, -100.0]\nlook_at = [" + v +
                             ", 0.0, 0.0]\n[field]\nkind = \"homogeneous\"\nbounds_min = [" +
                             std::to_string(x - 1.0) + ", -1.0, -1.0]\nbounds_max = [" +
-                            std::to_string(x + 1.0) + ", 1.0, 1.0]\n");
+                            std::to_string(x + 1.0) + ", 1.0, 1.0]\n" +
+                            (ground ? "[ground]\nenabled = true\nheight = -2.0\n" : ""));
         return path;
     };
-    CliRun r = runNimbus("render " + scene(1e7) + " --explain");
+    CliRun r = runNimbus("render " + scene(1e7, false) + " --explain");
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_TRUE(contains(r.output, "coordinates: rendered relative to (10000000, 0, 0), 1e+07 "
+                                   "units from the world origin"));
+    EXPECT_EQ(r.output.find("warning: the field or the camera"), std::string::npos) << r.output;
+    r = runNimbus("render " + scene(1e7, true) + " --explain");
     EXPECT_EQ(r.exitCode, 0) << r.output;
     EXPECT_TRUE(contains(r.output, "warning: the field or the camera lies 1e+07 units from the "
                                    "origin, where a float resolves only 1.19 units"));
-    r = runNimbus("render " + scene(0.0) + " --explain");
+    EXPECT_TRUE(contains(r.output, "(not translated automatically: the scene has surfaces"));
+    r = runNimbus("render " + scene(0.0, false) + " --explain");
     EXPECT_EQ(r.exitCode, 0) << r.output;
     EXPECT_EQ(r.output.find("from the origin"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("rendered relative to"), std::string::npos) << r.output;
 }
 
 // An empty --frames or -o is an error, not a silent fall-back to the scene's values.

@@ -18,14 +18,30 @@ const nanovdb::FloatGrid* nanoGrid(const void* g) {
     return static_cast<const nanovdb::FloatGrid*>(g);
 }
 
-/// World AABB of an index-space box through the grid's affine map.
-Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi) {
+/// World AABB of an index-space box through the grid's affine map, moved by -shift. Unshifted:
+/// the map's float arithmetic (as before shifts existed); shifted: in double, then rounded.
+Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi, glm::dvec3 shift) {
     Box b{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
+    const bool shifted = shift != glm::dvec3(0.0);
     for (int k = 0; k < 8; ++k) {
         const nanovdb::Vec3f c(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
-        const nanovdb::Vec3f w = g.indexToWorldF(c);
-        b.lo = glm::min(b.lo, vec3(w[0], w[1], w[2]));
-        b.hi = glm::max(b.hi, vec3(w[0], w[1], w[2]));
+        vec3 p;
+        if (shifted) {
+            const nanovdb::Vec3d w = g.indexToWorld(nanovdb::Vec3d(c[0], c[1], c[2]));
+            for (int a = 0; a < 3; ++a) p[a] = float(w[a] - shift[a]);
+        } else {
+            const nanovdb::Vec3f w = g.indexToWorldF(c);
+            p = vec3(w[0], w[1], w[2]);
+        }
+        b.lo = glm::min(b.lo, p);
+        b.hi = glm::max(b.hi, p);
+    }
+    if (shifted) {
+        // one float ulp outward: the rounding of the shifted corners must not clip the support
+        b.lo = glm::vec3(std::nextafter(b.lo.x, -INFINITY), std::nextafter(b.lo.y, -INFINITY),
+                         std::nextafter(b.lo.z, -INFINITY));
+        b.hi = glm::vec3(std::nextafter(b.hi.x, INFINITY), std::nextafter(b.hi.y, INFINITY),
+                         std::nextafter(b.hi.z, INFINITY));
     }
     return b;
 }
@@ -34,15 +50,12 @@ Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi) {
 
 vec3 gridVoxelSize(const GridBinding& b) {
     if (!b.grid) return vec3(0.0f);
-    const nanovdb::FloatGrid& g = *nanoGrid(b.grid);
-    const nanovdb::Vec3f o = g.indexToWorldF(nanovdb::Vec3f(0.0f));
+    // the lengths of the map's columns, in double: differences of world positions in float
+    // vanish far from the origin (1e7 units out a float resolves 1 unit, more than a voxel)
+    const double* m = nanoGrid(b.grid)->map().mMatD;
     vec3 size;
-    for (int a = 0; a < 3; ++a) {
-        nanovdb::Vec3f e(0.0f);
-        e[a] = 1.0f;
-        const nanovdb::Vec3f w = g.indexToWorldF(e) - o;
-        size[a] = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-    }
+    for (int a = 0; a < 3; ++a)
+        size[a] = float(std::sqrt(m[a] * m[a] + m[3 + a] * m[3 + a] + m[6 + a] * m[6 + a]));
     return size;
 }
 
@@ -52,7 +65,41 @@ GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b) {
     f.grid = b.grid;
     f.scale = v.density;
     f.serial = ++serials;
+    f.shift = b.shift;
+    if (const nanovdb::FloatGrid* g = nanoGrid(b.grid)) {
+        const nanovdb::Map& map = g->map();
+        for (int a = 0; a < 3; ++a)
+            f.origin[a] =
+                f.shift == glm::dvec3(0.0) ? map.mVecF[a] : float(map.mVecD[a] - f.shift[a]);
+    }
     return f;
+}
+
+GridBinding shiftedGrid(const GridBinding& b, glm::dvec3 shift) {
+    GridBinding r = b;
+    r.shift = b.shift + shift;
+    const nanovdb::FloatGrid* g = nanoGrid(b.grid);
+    if (!g) return r;
+    // the host's bounds (plugin/vdb/vdb_reader.cpp, vdb_field.cpp): the active voxels' index
+    // box grown by half a voxel through the map, padded by the length of a voxel's diagonal;
+    // here in double up to the shift, then rounded outward
+    const auto& ib = g->indexBBox();
+    if (ib.empty()) return r;
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (int k = 0; k < 8; ++k) {
+        nanovdb::Vec3d ijk;
+        for (int a = 0; a < 3; ++a) ijk[a] = (k >> a) & 1 ? ib.max()[a] + 0.5 : ib.min()[a] - 0.5;
+        const nanovdb::Vec3d w = g->indexToWorld(ijk);
+        lo = glm::min(lo, glm::dvec3(w[0], w[1], w[2]));
+        hi = glm::max(hi, glm::dvec3(w[0], w[1], w[2]));
+    }
+    const nanovdb::Vec3d v = g->voxelSize();
+    const double pad = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int a = 0; a < 3; ++a) {
+        r.bounds.lo[a] = std::nextafter(float(lo[a] - pad - r.shift[a]), -INFINITY);
+        r.bounds.hi[a] = std::nextafter(float(hi[a] + pad - r.shift[a]), INFINITY);
+    }
+    return r;
 }
 
 void GridField::forEachDensityNode(void (*fn)(void*, const Box&, float), void* ctx) const {
@@ -64,7 +111,7 @@ void GridField::forEachDensityNode(void (*fn)(void*, const Box&, float), void* c
     auto emit = [&](const nanovdb::Coord& o, int n, float m) {
         if (m <= 0.0f) return;
         const vec3 lo(float(o[0]) - 1.0f, float(o[1]) - 1.0f, float(o[2]) - 1.0f);
-        fn(ctx, worldBoxOf(*g, lo, lo + vec3(float(n) + 1.0f)), m * scale);
+        fn(ctx, worldBoxOf(*g, lo, lo + vec3(float(n) + 1.0f), shift), m * scale);
     };
     const auto* leaf = tree.getFirstLeaf();
     for (uint32_t i = 0; i < tree.nodeCount(0); ++i) emit(leaf[i].origin(), 8, leaf[i].maximum());
@@ -84,7 +131,7 @@ float GridField::density(vec3 p) const {
     // 2.3% of a coarse-step VDB frame)
     const nanovdb::Map& map = g->map();
     const float* m = map.mInvMatF;
-    const float d0 = p.x - map.mVecF[0], d1 = p.y - map.mVecF[1], d2 = p.z - map.mVecF[2];
+    const float d0 = p.x - origin.x, d1 = p.y - origin.y, d2 = p.z - origin.z;
     const nanovdb::Vec3f x(d0 * m[0] + d1 * m[1] + d2 * m[2], d0 * m[3] + d1 * m[4] + d2 * m[5],
                            d0 * m[6] + d1 * m[7] + d2 * m[8]);
     // one accessor per thread and grid: successive lookups along a ray mostly fall in the

@@ -14,6 +14,10 @@ struct GridField {
     const void* grid = nullptr; ///< a nanovdb::FloatGrid, kept alive by the scene's bindings
     float scale = 1.0f;         ///< multiplies the grid values
     std::uint64_t serial = 0;   ///< unique per field made: keys the per-thread accessors
+    /// the grid's index-to-world translation minus the binding's shift, rounded to float once
+    /// (equals the map's own float translation when nothing is shifted)
+    vec3 origin{0.0f};
+    glm::dvec3 shift{0.0}; ///< GridBinding::shift
 
     /// Density at world point p (p inside the field's bounds).
     float density(vec3 p) const;
@@ -29,5 +33,9 @@ vec3 gridVoxelSize(const GridBinding& b);
 
 /// A grid field of `v` over its loaded grid `b` (null grid: no density).
 GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b);
+
+/// `b` with its world positions moved by -shift, computed in double from the grid's own map
+/// (its bounds recomputed the same way, padded by one voxel as the host pads them).
+GridBinding shiftedGrid(const GridBinding& b, glm::dvec3 shift);
 
 } // namespace nimbus
