@@ -93,6 +93,12 @@ struct FramePlan {
     std::string explain() const;
 };
 
+/// What a frame mixes into its random seeds: its number, or 0 for every frame when the scene
+/// asks for the same noise in every frame (render.seed_per_frame = false).
+inline std::uint32_t frameSeedKey(const SceneDesc& s, const FramePlan& p) {
+    return s.render.seedPerFrame ? std::uint32_t(p.frame) : 0u;
+}
+
 /// Plans frame `frame` of the scene with what is bound to it (a VDB field's bounds size its
 /// majorant cell).
 FramePlan planFrame(const SceneDesc& scene, int frame, const FrameBindings& bindings,

@@ -320,7 +320,7 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             pp.eye = s.camera.position;
             pp.photons = s.render.photons;
             pp.maxDepth = s.render.maxDepth;
-            pp.seed = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(s.render.seed));
+            pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
             if (s.render.photonSkin > 0.0f) {
                 pp.sunTau = towardVolume;
                 pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);

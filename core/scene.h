@@ -330,6 +330,10 @@ struct RenderDesc {
     float inScatterStrength = 0.5f;
     Background background = Background::Sky;
     std::uint32_t seed = 0;
+    /// true: every frame draws its own random numbers from seed and its frame number (noise
+    /// changes from frame to frame: flicker on a static shot); false: every frame draws the same
+    /// ones (a static shot does not flicker; the noise stays as a fixed pattern). docs/temporal.md
+    bool seedPerFrame = true;
     int threads = 0; ///< 0 = all cores
     int tileSize = 16;
     float fps = 24.0f; ///< frame -> time: t = frame / fps

@@ -37,7 +37,7 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
             medium_.sigma_tr[c] > 0.0f ? medium_.sigma_sr[c] / medium_.sigma_tr[c] : 1.0f;
         kappa_[c] = std::sqrt(3.0f * std::max(0.0f, 1.0f - albedo));
     }
-    frameKey_ = pcg(std::uint32_t(plan.frame) ^ pcg(scene.render.seed));
+    frameKey_ = pcg(frameSeedKey(scene, plan) ^ pcg(scene.render.seed));
     if (plan.skySingle)
         for (int k = 0; k < plan.skyDirections; ++k) {
             skyDirs_.push_back(kern::fibonacciDirection(k, plan.skyDirections));

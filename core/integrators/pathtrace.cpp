@@ -40,7 +40,7 @@ PathContext::PathContext(const SceneDesc& scene, const FramePlan& plan, const Vo
     : s_(scene), plan_(plan), vols_(volumes), surfaces_(surfaces), camera_(scene.camera),
       medium_(Medium::fromDesc(scene.medium)), sunDepth_(sunDepth),
       sigmaTMin_(std::min(medium_.sigma_t.x, std::min(medium_.sigma_t.y, medium_.sigma_t.z))) {
-    frameKey_ = kern::pcg(std::uint32_t(plan.frame) ^ kern::pcg(scene.render.seed ^ 0x5bd1e995u));
+    frameKey_ = kern::pcg(frameSeedKey(scene, plan) ^ kern::pcg(scene.render.seed ^ 0x5bd1e995u));
     if (scene.sun.angularDiameter > 0.0f) {
         sunCosMax_ = std::cos(glm::radians(0.5f * scene.sun.angularDiameter));
         sunWeight_ = 2.0f / (1.0f + sunCosMax_);

@@ -333,6 +333,11 @@ void addRenderParams(std::vector<Param>& t) {
                           "Base random seed; every frame derives its own from it and the frame "
                           "number.",
                           &RenderDesc::seed));
+    t.push_back(ren.param("seed_per_frame", {},
+                          "true: each frame's noise differs (it flickers on a static shot and "
+                          "averages out in motion); false: every frame draws the same random "
+                          "numbers (no flicker, a fixed noise pattern). See docs/temporal.md.",
+                          &RenderDesc::seedPerFrame));
     t.push_back(ren.param("threads", closed(0, 1024), "Worker threads; 0 = all cores.",
                           &RenderDesc::threads));
     t.push_back(ren.param("tile_size", closed(4, 256), "Edge of the square render tiles (pixels).",
