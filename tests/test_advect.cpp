@@ -98,7 +98,7 @@ VelocityGrid rotationGrid(ivec3 res, GridFrame f, vec3 c, float omega, bool stag
     for (int z = 0; z < g.res.z; ++z)
         for (int y = 0; y < g.res.y; ++y)
             for (int x = 0; x < g.res.x; ++x) {
-                const vec3 i(float(x), float(y), float(z));
+                const vec3 i{float(x), float(y), float(z)};
                 vec3& v = g.v[g.index(x, y, z)];
                 if (!staggered) {
                     v = rotation(f.origin + (i + 0.5f) * h, c, omega, drift);
@@ -231,7 +231,9 @@ TEST(AdvectStability, NoNewExtremaNoNanAtCfl1To50) {
                     ASSERT_TRUE(std::isfinite(st.massAfter));
                 }
                 EXPECT_NEAR(cfl, target, 1e-3 * target);
-                if (s == AdvectScheme::MacCormack) EXPECT_GT(clamped, 0u); // the limiter worked
+                if (s == AdvectScheme::MacCormack) {
+                    EXPECT_GT(clamped, 0u); // the limiter worked
+                }
                 std::printf("[stability] %s %s CFL %.1f: range [%.4f, %.4f] of [%.4f, %.4f], "
                             "clamped %llu cells in 6 steps\n",
                             name(s), b == Boundary::Zero ? "zero" : "periodic", cfl, range(d).lo,
@@ -267,7 +269,9 @@ TEST(AdvectMass, UniformWindOnAPeriodicGridConservesMassUpToTheLimiter) {
                 EXPECT_LE(dm, st.clampedMass + 1e-6 * st.massBefore)
                     << name(s) << " CFL " << cfl << " step " << k;
                 worstExcess = std::max(worstExcess, (dm - st.clampedMass) / st.massBefore);
-                if (s == AdvectScheme::SemiLagrangian) EXPECT_EQ(st.clampedCells, 0u);
+                if (s == AdvectScheme::SemiLagrangian) {
+                    EXPECT_EQ(st.clampedCells, 0u);
+                }
             }
             std::printf("[mass] %s CFL %.1f: worst |dm|/m per step %.2e, beyond the clamps "
                         "%.2e\n",
