@@ -360,8 +360,10 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                         const size_t i = base + x;
                         const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
                         float v = c;
-                        if (!(v >= ws.lo[i])) v = ws.lo[i]; // a NaN c becomes lo
-                        if (v > ws.hi[i]) v = ws.hi[i];
+                        if (ap.limiter) {
+                            if (!(v >= ws.lo[i])) v = ws.lo[i]; // a NaN c becomes lo
+                            if (v > ws.hi[i]) v = ws.hi[i];
+                        }
                         if (!(v == c)) {
                             ++clamped;
                             clampMass += std::fabs(double(v) - double(c));

@@ -104,6 +104,9 @@ struct AdvectParams {
     /// substep. A uniform wind is traced in one substep (exact).
     float traceCfl = 1.0f;
     int maxTraceSubsteps = 64;
+    /// MacCormack only: clamp to the 8 source samples (Selle et al.'s limiter). Off only to
+    /// measure what the limiter does (the result may then leave the source range).
+    bool limiter = true;
 };
 
 /// What one step did.
