@@ -22,7 +22,7 @@ bool finite3(vec3 v) {
 
 /// Component c of a velocity grid, trilinear, at grid index position q (sample k at q = k),
 /// clamped to the samples (nearest edge outside).
-float gridComponent(const VelocityGrid& g, int c, vec3 q) {
+[[gnu::always_inline]] inline float gridComponent(const VelocityGrid& g, int c, vec3 q) {
     int i0[3], i1[3];
     float f[3];
     for (int a = 0; a < 3; ++a) {
@@ -42,7 +42,31 @@ float gridComponent(const VelocityGrid& g, int c, vec3 q) {
     return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
 }
 
-vec3 layered(const std::vector<WindLayer>& L, float y) {
+/// All three components of a centred grid at once (one set of indices and weights).
+[[gnu::always_inline]] inline vec3 gridVector(const VelocityGrid& g, vec3 q) {
+    int i0[3], i1[3];
+    float f[3];
+    for (int a = 0; a < 3; ++a) {
+        const int n = g.res[a];
+        float x = q[a];
+        x = x > 0.0f ? x : 0.0f; // also maps NaN to 0
+        x = std::min(x, float(n - 1));
+        i0[a] = int(x);
+        f[a] = x - float(i0[a]);
+        i1[a] = std::min(i0[a] + 1, n - 1);
+    }
+    auto at = [&](int x, int y, int z) { return g.v[g.index(x, y, z)]; };
+    auto lerp3 = [](vec3 a, vec3 b, float t) {
+        return vec3(lerp(a.x, b.x, t), lerp(a.y, b.y, t), lerp(a.z, b.z, t));
+    };
+    const vec3 c00 = lerp3(at(i0[0], i0[1], i0[2]), at(i1[0], i0[1], i0[2]), f[0]);
+    const vec3 c10 = lerp3(at(i0[0], i1[1], i0[2]), at(i1[0], i1[1], i0[2]), f[0]);
+    const vec3 c01 = lerp3(at(i0[0], i0[1], i1[2]), at(i1[0], i0[1], i1[2]), f[0]);
+    const vec3 c11 = lerp3(at(i0[0], i1[1], i1[2]), at(i1[0], i1[1], i1[2]), f[0]);
+    return lerp3(lerp3(c00, c10, f[1]), lerp3(c01, c11, f[1]), f[2]);
+}
+
+[[gnu::always_inline]] inline vec3 layered(const std::vector<WindLayer>& L, float y) {
     if (y <= L.front().altitude) return L.front().wind;
     if (y >= L.back().altitude) return L.back().wind;
     size_t k = 1;
@@ -70,17 +94,14 @@ struct Sampler {
         }
     }
 
-    vec3 operator()(vec3 p) const {
+    [[gnu::always_inline]] vec3 operator()(vec3 p) const {
         switch (f.kind) {
         case VelocityKind::Uniform:
             return f.uniform * invH;
         case VelocityKind::Layered:
             return layered(f.layers, origin.y + p.y * h) * invH;
         case VelocityKind::Centred: {
-            const vec3 q = p * gScale + gOff - 0.5f;
-            return vec3(gridComponent(*f.grid, 0, q), gridComponent(*f.grid, 1, q),
-                        gridComponent(*f.grid, 2, q)) *
-                   invH;
+            return gridVector(*f.grid, p * gScale + gOff - 0.5f) * invH;
         }
         case VelocityKind::Staggered: {
             const vec3 q = p * gScale + gOff;
@@ -96,7 +117,8 @@ struct Sampler {
 
 /// Position after following the velocity for time dt (negative: the backtrace) from p in n
 /// substeps; u0 is the velocity at p.
-vec3 trace(const Sampler& u, vec3 p, vec3 u0, float dt, int n, Backtrace bt) {
+[[gnu::always_inline]] inline vec3 trace(const Sampler& u, vec3 p, vec3 u0, float dt, int n,
+                                         Backtrace bt) {
     const float s = dt / float(n);
     for (int k = 0; k < n; ++k) {
         const vec3 k1 = k == 0 ? u0 : u(p);
@@ -120,8 +142,18 @@ vec3 trace(const Sampler& u, vec3 p, vec3 u0, float dt, int n, Backtrace bt) {
     return p;
 }
 
-int substeps(const VelocityField& f, const AdvectParams& ap, float cfl) {
-    if (f.kind == VelocityKind::Uniform || !(ap.traceCfl > 0.0f)) return 1;
+/// Whether one substep traces the characteristic exactly: a uniform wind, or a layered wind
+/// without vertical components (the altitude, hence the velocity, is constant along the path).
+bool exactInOneSubstep(const VelocityField& f) {
+    if (f.kind == VelocityKind::Uniform) return true;
+    if (f.kind != VelocityKind::Layered) return false;
+    for (const WindLayer& l : f.layers)
+        if (l.wind.y != 0.0f) return false;
+    return true;
+}
+
+int substeps(bool exact, const AdvectParams& ap, float cfl) {
+    if (exact || !(ap.traceCfl > 0.0f)) return 1;
     const float n = std::ceil(cfl / ap.traceCfl);
     if (!(n > 1.0f)) return 1;
     return n >= float(ap.maxTraceSubsteps) ? std::max(1, ap.maxTraceSubsteps) : int(n);
@@ -133,7 +165,7 @@ struct Axis {
     bool in0, in1;
 };
 
-Axis axis(float q, int n, Boundary b) {
+[[gnu::always_inline]] inline Axis axis(float q, int n, Boundary b) {
     Axis a;
     switch (b) {
     case Boundary::Periodic: {
@@ -240,7 +272,10 @@ vec3 velocityAt(const VelocityField& v, vec3 p) {
     return s(p);
 }
 
-float sampleDensity(const DensityGrid& d, vec3 p, Boundary b, float* lo, float* hi) {
+namespace {
+
+[[gnu::always_inline]] inline float sampleDensityImpl(const DensityGrid& d, vec3 p, Boundary b,
+                                                      float* lo, float* hi) {
     const Axis ax = axis(p.x - 0.5f, d.res.x, b), ay = axis(p.y - 0.5f, d.res.y, b),
                az = axis(p.z - 0.5f, d.res.z, b);
     auto at = [&](int x, bool vx, int y, bool vy, int z, bool vz) {
@@ -263,6 +298,12 @@ float sampleDensity(const DensityGrid& d, vec3 p, Boundary b, float* lo, float* 
     const float c0 = lerp(lerp(v000, v100, ax.f), lerp(v010, v110, ax.f), ay.f);
     const float c1 = lerp(lerp(v001, v101, ax.f), lerp(v011, v111, ax.f), ay.f);
     return lerp(c0, c1, az.f);
+}
+
+} // namespace
+
+float sampleDensity(const DensityGrid& d, vec3 p, Boundary b, float* lo, float* hi) {
+    return sampleDensityImpl(d, p, b, lo, hi);
 }
 
 double gridMass(const DensityGrid& d, const GridFrame& frame) {
@@ -288,6 +329,7 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     const int nx = res.x, ny = res.y, rows = res.y * res.z;
     const size_t cells = size_t(nx) * size_t(std::max(rows, 0));
     const Sampler u(vel, frame);
+    const bool exact = exactInOneSubstep(vel);
     const bool mac = ap.scheme == AdvectScheme::MacCormack;
     DensityGrid& dst = &in == &out ? ws.tmp : out;
     dst.res = res;
@@ -321,11 +363,11 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                 const vec3 u0 = u(p);
                 const float cfl = glm::length(u0) * adt;
                 cflMax = std::max(cflMax, cfl);
-                const int n = substeps(vel, ap, cfl);
+                const int n = substeps(exact, ap, cfl);
                 subMax = std::max(subMax, n);
                 const vec3 src = trace(u, p, u0, -dt, n, ap.backtrace);
                 float lo, hi;
-                const float v = sampleDensity(in, src, ap.boundary, &lo, &hi);
+                const float v = sampleDensityImpl(in, src, ap.boundary, &lo, &hi);
                 fwd.v[base + x] = v;
                 if (mac) {
                     ws.lo[base + x] = lo;
@@ -354,9 +396,10 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                     for (int x = 0; x < nx; ++x) {
                         const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
                         const vec3 u0 = u(p);
-                        const int n = substeps(vel, ap, glm::length(u0) * adt);
+                        const int n = substeps(exact, ap, glm::length(u0) * adt);
                         const vec3 dstPos = trace(u, p, u0, dt, n, ap.backtrace);
-                        const float back = sampleDensity(fwd, dstPos, ap.boundary);
+                        const float back =
+                            sampleDensityImpl(fwd, dstPos, ap.boundary, nullptr, nullptr);
                         const size_t i = base + x;
                         const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
                         float v = c;

@@ -101,7 +101,8 @@ struct AdvectParams {
     /// The characteristic (not the density) is traced in substeps of at most this many cells
     /// each, from the speed at the cell: ceil(CFL_cell / traceCfl) substeps, at most
     /// maxTraceSubsteps. The density is still sampled once per step (no extra diffusion). 0: one
-    /// substep. A uniform wind is traced in one substep (exact).
+    /// substep. A uniform wind, and a layered wind without vertical components, are traced in
+    /// one substep (exact: the velocity is constant along the path).
     float traceCfl = 1.0f;
     int maxTraceSubsteps = 64;
     /// MacCormack only: clamp to the 8 source samples (Selle et al.'s limiter). Off only to
