@@ -455,6 +455,39 @@ TEST_F(VdbCorrupt, AChildKilledByASignalIsReportedAsACrash) {
               smokeSpec().voxels.size());
 }
 
+// OpenVDB's warnings printed by the reading child reach the caller's stderr one line at a time,
+// naming the file, without log4cplus's terminal colours, and bounded in size.
+TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
+    const std::string p = write("smoke.vdb", {smokeSpec()});
+    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
+        // what OpenVDB 10 prints for a multi-buffer tree (Tree.h), colours included
+        std::fprintf(stderr, "\x1b[35m WARN: multi-buffer trees are no longer supported\n\x1b[0m");
+        std::fflush(stderr);
+    });
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
+    std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_TRUE(contains(err, "nimbus: openvdb (" + p +
+                                  "): WARN: multi-buffer trees are no longer supported\n"))
+        << err;
+    EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
+
+    // a child that writes a flood: 20 lines forwarded, then how many more
+    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
+        for (int i = 0; i < 1000; ++i)
+            std::fprintf(stderr, "line %d %s\n", i, std::string(500, 'x').c_str());
+        std::fflush(stderr);
+    });
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
+    err = testing::internal::GetCapturedStderr();
+    EXPECT_TRUE(contains(err, "): line 19 xxx")) << err.substr(0, 2000);
+    EXPECT_EQ(err.find("line 20 "), std::string::npos);
+    EXPECT_TRUE(contains(err, "... (") && contains(err, " more characters)"));
+    EXPECT_TRUE(contains(err, "more lines (509890 bytes in all)")) << err.substr(err.size() - 300);
+    EXPECT_LT(err.size(), 20000u);
+}
+
 TEST_F(VdbCorrupt, AHangingChildIsStoppedAtTheTimeLimit) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
     detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {

@@ -213,7 +213,7 @@ TEST_F(VdbRealFiles, GafferLevelSetIsRefusedUnlessConverted) {
     const std::string path = file("gaffer_sphere.vdb");
     std::string msg = loadError({.path = path, .gridName = "ls_sphere"});
     EXPECT_TRUE(contains(msg, "gaffer_sphere.vdb: grid \"ls_sphere\": is a level set"));
-    EXPECT_TRUE(contains(msg, "levelsetToFog"));
+    EXPECT_TRUE(contains(msg, "Set levelset_to_fog = true in the scene's [field]"));
     // The default grid name is not there: the message names the level set that is.
     msg = loadError({.path = path});
     EXPECT_TRUE(contains(msg, "ls_sphere (half)"));

@@ -223,7 +223,7 @@ TEST_F(VdbReader, GridClassesLevelSetRefusedUnknownAccepted) {
 
     std::string msg = loadError({.path = p, .gridName = "surface"});
     EXPECT_TRUE(contains(msg, "classes.vdb: grid \"surface\": is a level set"));
-    EXPECT_TRUE(contains(msg, "levelsetToFog"));
+    EXPECT_TRUE(contains(msg, "Set levelset_to_fog = true in the scene's [field]"));
     LoadedVdbGrid fog = loadVdbGrid({.path = p, .gridName = "surface", .levelsetToFog = true});
     EXPECT_EQ(fog.gridClass, "level set");
     EXPECT_LE(fog.maxValue, 1.0f);

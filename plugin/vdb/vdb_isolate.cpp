@@ -350,6 +350,30 @@ std::uint64_t physicalMemory() {
     return pages > 0 && size > 0 ? std::uint64_t(pages) * std::uint64_t(size) : (16ull << 30);
 }
 
+/// `s` without terminal escape sequences (OpenVDB's log4cplus layout colours its warnings:
+/// ESC [ 35 m ... ESC [ 0 m) and with other control characters but newlines made '?'.
+std::string withoutEscapes(const std::string& s) {
+    std::string out;
+    out.reserve(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        const unsigned char c = (unsigned char)s[i];
+        if (c == 0x1b) {
+            // CSI: ESC [ parameters/intermediates (0x20-0x3f) then one final byte (0x40-0x7e);
+            // any other escape: ESC and the byte after it
+            if (i + 1 < s.size() && s[i + 1] == '[') {
+                i += 2;
+                while (i < s.size() && (unsigned char)s[i] >= 0x20 && (unsigned char)s[i] < 0x40)
+                    ++i;
+            } else {
+                ++i;
+            }
+            continue;
+        }
+        out += c == '\n' || c == '\t' ? char(c) : c < 32 || c == 127 ? '?' : char(c);
+    }
+    return out;
+}
+
 /// The last lines the child wrote to its stdout/stderr (at most ~400 characters, one line,
 /// printable), for a crash message. "" when it wrote nothing.
 std::string logTail(int logFd) {
@@ -361,28 +385,55 @@ std::string logTail(int logFd) {
     const ssize_t n = pread(logFd, s.data(), s.size(), from);
     if (n <= 0) return "";
     s.resize(std::size_t(n));
+    s = withoutEscapes(s);
     while (!s.empty() && std::isspace((unsigned char)s.back())) s.pop_back();
-    for (char& c : s) {
-        if (c == '\n' || c == '\r' || c == '\t')
-            c = ' ';
-        else if ((unsigned char)c < 32 || c == 127)
-            c = '?';
-    }
+    for (char& c : s)
+        if (c == '\n' || c == '\t') c = ' ';
     return (from > 0 ? "..." : "") + s;
 }
 
-/// Copies what the child wrote to stdout/stderr to this process's stderr (a successful or
-/// refused load: the same output as reading in process would have given).
-void forwardLog(int logFd) {
+/// Copies what the child wrote to stdout/stderr (OpenVDB's warnings) to this process's stderr,
+/// as the same load in process would have printed it, but one line at a time prefixed
+/// "nimbus: openvdb (<file>): ", without OpenVDB's terminal colours, at most kForwardLines
+/// lines of at most kForwardLineChars characters (the child may write up to 16 MB).
+void forwardLog(int logFd, const std::string& path) {
+    constexpr int kForwardLines = 20;
+    constexpr std::size_t kForwardLineChars = 300;
     if (logFd < 0) return;
-    char buf[4096];
-    off_t at = 0;
-    for (;;) {
-        const ssize_t n = pread(logFd, buf, sizeof buf, at);
-        if (n <= 0) break;
-        if (!writeAll(STDERR_FILENO, buf, std::size_t(n))) break;
-        at += n;
+    struct stat st {};
+    if (fstat(logFd, &st) != 0 || st.st_size <= 0) return;
+    std::string text(std::size_t(std::min<off_t>(st.st_size, 64 << 10)), '\0');
+    const ssize_t n = pread(logFd, text.data(), text.size(), 0);
+    if (n <= 0) return;
+    text.resize(std::size_t(n));
+    text = withoutEscapes(text);
+    std::string out;
+    int lines = 0, more = 0;
+    std::size_t at = 0;
+    while (at < text.size()) {
+        std::size_t end = text.find('\n', at);
+        if (end == std::string::npos) end = text.size();
+        std::string line = text.substr(at, end - at);
+        at = end + 1;
+        const std::size_t b = line.find_first_not_of(" \t");
+        if (b == std::string::npos) continue;
+        line = line.substr(b);
+        while (!line.empty() && std::isspace((unsigned char)line.back())) line.pop_back();
+        if (lines == kForwardLines) {
+            ++more;
+            continue;
+        }
+        if (line.size() > kForwardLineChars)
+            line = line.substr(0, kForwardLineChars) + "... (" +
+                   std::to_string(line.size() - kForwardLineChars) + " more characters)";
+        out += "nimbus: openvdb (" + path + "): " + line + "\n";
+        ++lines;
     }
+    if (more > 0 || st.st_size > n)
+        out += "nimbus: openvdb (" + path + "): ... " +
+               (more > 0 ? std::to_string(more) + " more lines" : std::string("more")) +
+               (st.st_size > n ? " (" + std::to_string(st.st_size) + " bytes in all)" : "") + "\n";
+    writeAll(STDERR_FILENO, out.data(), out.size());
 }
 
 /// The child process as the parent sees it: reads its reply with a deadline, reaps it, and
@@ -677,7 +728,7 @@ LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
                        tail);
     }
 
-    forwardLog(log.fd);
+    forwardLog(log.fd, options.path);
     switch (ReplyKind(header.kind)) {
     case ReplyKind::VdbError:
         if (meta.find("out of memory") != std::string::npos)

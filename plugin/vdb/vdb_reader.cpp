@@ -610,8 +610,9 @@ LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool c
             if (!options.levelsetToFog) {
                 throw VdbError(ctx + "is a level set (a signed distance field of a surface, not "
                                      "a fog volume of densities); refusing to render distances "
-                                     "as density. Enable levelsetToFog to convert it to a fog "
-                                     "volume (inside = 1, as openvdb::tools::sdfToFogVolume does)");
+                                     "as density. Set levelset_to_fog = true in the scene's "
+                                     "[field] (or the [[volume]]) to convert it to a fog volume "
+                                     "(inside = 1, as openvdb::tools::sdfToFogVolume does)");
             }
             if (!(grid->background() > 0.0f)) {
                 throw VdbError(ctx + "is a level set whose background (" +
