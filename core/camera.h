@@ -17,6 +17,9 @@ struct Camera {
     explicit Camera(const CameraDesc& d) {
         origin = d.position;
         forward = glm::normalize(d.lookAt - d.position);
+        if (!(glm::length(forward) > 0.5f))
+            // the squared length overflowed a float (a target over ~1e19 away): in double
+            forward = vec3(glm::normalize(glm::dvec3(d.lookAt) - glm::dvec3(d.position)));
         right = glm::normalize(glm::cross(forward, d.up));
         up = glm::cross(right, forward);
         tanHalfY = std::tan(glm::radians(d.fovY) * 0.5f);

@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include "core/camera.h"
 #include "plugin/io/scene_file.h"
 #include "tests/test_util.h"
 
@@ -515,6 +516,22 @@ TEST(SceneFileRules, CameraUpParallelToView) {
 
     e = errorOf("[camera]\nup = [0, 0, 0]\n");
     EXPECT_TRUE(contains(e, "camera.up: expected a non-zero vector")) << e;
+}
+
+// Finite camera vectors whose difference (or its squared length) overflows a float: the error
+// says so, instead of blaming an up vector "parallel" to a NaN or zero direction.
+TEST(SceneFileRules, CameraVectorsPastAFloatAreBlamedForWhatTheyAre) {
+    std::string e = errorOf("[camera]\nposition = [3e38, 0, 0]\nlook_at = [-3e38, 0, 0]\n");
+    EXPECT_TRUE(startsWith(e, "test.toml:3:")) << e;
+    EXPECT_TRUE(contains(e, "lies 6e+38 units from camera.position")) << e;
+    EXPECT_TRUE(contains(e, "more than a float holds")) << e;
+    EXPECT_FALSE(contains(e, "parallel")) << e;
+    // 1e20 apart: fine for a float, its square is not; a valid camera that renders
+    SceneFile f =
+        parseSceneText("[camera]\nposition = [1e20, 0, 0]\nlook_at = [-1e20, 0, 0]\n", "test.toml");
+    const Camera cam(f.scene.camera);
+    EXPECT_NEAR(cam.forward.x, -1.0f, 1e-6f);
+    EXPECT_NEAR(glm::length(cam.right), 1.0f, 1e-6f);
 }
 
 TEST(SceneFileRules, SunPlacement) {

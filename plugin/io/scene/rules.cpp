@@ -1,6 +1,8 @@
 /// @file rules.cpp
 /// @brief The rules across keys of a scene file, each with its one-line doc for the reference
 ///        (see reader.h).
+#include <cstdio>
+#include <limits>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -32,8 +34,20 @@ const std::vector<Rule>& rules() {
         {"camera", "`look_at` must differ from `position`.",
          [](Staging& s, const Context& cx, Problems& pr) {
              const CameraDesc& c = s.file.scene.camera;
-             float scale = std::max(1.0f, glm::length(c.position));
-             if (glm::length(c.lookAt - c.position) > 1e-6f * scale) return;
+             // in double: the difference of two finite floats, and its length, may overflow one
+             const glm::dvec3 d = glm::dvec3(c.lookAt) - glm::dvec3(c.position);
+             const double len = glm::length(d);
+             if (!(len <= double(std::numeric_limits<float>::max()))) {
+                 char buf[64];
+                 std::snprintf(buf, sizeof buf, "%.3g", len);
+                 pr.add(locate(s, cx, {"camera.look_at", "camera.position"}),
+                        "camera.look_at " + formatVec(c.lookAt) + " lies " + buf +
+                            " units from camera.position " + formatVec(c.position) +
+                            ", more than a float holds (3.4e+38): bring them closer together");
+                 return;
+             }
+             const double scale = std::max(1.0, glm::length(glm::dvec3(c.position)));
+             if (len > 1e-6 * scale) return;
              pr.add(locate(s, cx, {"camera.look_at", "camera.position"}),
                     "camera.look_at " + formatVec(c.lookAt) +
                         " equals camera.position: the view direction is undefined");
@@ -41,13 +55,18 @@ const std::vector<Rule>& rules() {
         {"camera", "`up` must not be parallel to the view direction `look_at - position`.",
          [](Staging& s, const Context& cx, Problems& pr) {
              const CameraDesc& c = s.file.scene.camera;
-             vec3 d = c.lookAt - c.position;
-             if (glm::length(d) == 0.0f || glm::length(c.up) == 0.0f) return; // reported above
-             float sine = glm::length(glm::cross(glm::normalize(d), glm::normalize(c.up)));
-             if (sine > 1e-3f) return;
+             const glm::dvec3 d = glm::dvec3(c.lookAt) - glm::dvec3(c.position);
+             const double len = glm::length(d);
+             // reported above: no direction, or one past a float
+             if (len == 0.0 || !(len <= double(std::numeric_limits<float>::max())) ||
+                 glm::length(glm::dvec3(c.up)) == 0.0)
+                 return;
+             const glm::dvec3 f = d / len;
+             const double sine = glm::length(glm::cross(f, glm::normalize(glm::dvec3(c.up))));
+             if (sine > 1e-3) return;
              pr.add(locate(s, cx, {"camera.up", "camera.look_at", "camera.position"}),
                     "camera.up " + formatVec(c.up) + " is parallel to the view direction " +
-                        formatVec(glm::normalize(d)) +
+                        formatVec(vec3(f)) +
                         " (look_at - position); choose an up vector across it");
          }},
         {"sun",
