@@ -174,7 +174,12 @@ TEST(Stability, BadAllocFromAWorkerIsOutOfMemory) {
     const CliRun r = runNimbus("render " + kScene + kSmall + " -o " + (d / "f.####.exr").string(),
                                "NIMBUS_TEST_FAULT=bad-alloc");
     EXPECT_EQ(r.exitCode, 4) << r.output;
-    EXPECT_TRUE(contains(r.output, "out of memory"));
+    // what the frame allocates and how far the process had got, not just "out of memory"
+    EXPECT_TRUE(contains(r.output, "frame 1: out of memory while rendering it; its plan "
+                                   "allocates"))
+        << r.output;
+    EXPECT_TRUE(contains(r.output, "MB of frame buffer")) << r.output;
+    EXPECT_TRUE(contains(r.output, "MB at its peak: lower the resolution")) << r.output;
 }
 
 // An exception on a thread that cannot pass it on reaches std::terminate: the last-resort

@@ -10,6 +10,8 @@
 #include <new>
 #include <stdexcept>
 
+#include <sys/resource.h>
+
 #include "core/tracking/volumes.h"
 #include "plugin/geom/embree_geometry.h"
 #include "plugin/io/frames.h"
@@ -234,6 +236,31 @@ Status Session::bind(int frame) {
     return Status::success();
 }
 
+namespace {
+
+/// The message for a std::bad_alloc during frame `frame`: what its plan allocates and where
+/// the process stood, so that the user knows what to make smaller.
+std::string outOfMemoryWhileRendering(int frame, const FramePlan& p, int width, int height) {
+    rusage ru{};
+    const double peakMb = getrusage(RUSAGE_SELF, &ru) == 0 ? double(ru.ru_maxrss) / 1024.0 : 0.0;
+    const double mb = 1.0 / 1048576.0;
+    const double image = double(width) * double(height) *
+                         (4.0 + (p.aovs.transmittance ? 3.0 : 0.0) + (p.aovs.depth ? 1.0 : 0.0)) *
+                         sizeof(float);
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "frame %d: out of memory while rendering it; its plan allocates %.3g MB of "
+                  "light-volume grids, %.3g MB of sky volume and %.3g MB of frame buffer (%dx%d) "
+                  "beside the field, and the process had reached %.0f MB at its peak: lower the "
+                  "resolution or coarsen render.light_volume_cell and render.majorant_cell "
+                  "(nimbus render --explain shows the plan)",
+                  frame, p.lightGridBytes * mb, p.skyVolumeBytes * mb, image * mb, width, height,
+                  peakMb);
+    return buf;
+}
+
+} // namespace
+
 FramePlan Session::plan(int frame, const AovSet& aovs) {
     if (boundFrame_ == frame) return renderer().plan(frame, bindings_, aovs);
     FrameBindings unbound;
@@ -262,7 +289,9 @@ Status Session::render(int frame, Framebuffer& fb, RenderStats& stats, const Pro
     try {
         complete = renderer().render(p, bindings_, fb, stats, cb);
     } catch (const std::bad_alloc&) {
-        return Status::error(StatusCode::no_memory, "out of memory");
+        return Status::error(StatusCode::no_memory,
+                             outOfMemoryWhileRendering(frame, p, file_->scene.camera.width,
+                                                       file_->scene.camera.height));
     }
     if (!complete || (cancel && cancel->load())) {
         // no io::removeInFlightTempFiles() here: a render writes no file, and that registry is
