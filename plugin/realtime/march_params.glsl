@@ -85,6 +85,7 @@ struct RtMarchParams {
     int pixelSamples;
     int filterKind;     // FILTER_* (core/kernels/pixel.glsl)
     float filterWidth;
+    int sampleIndex;    // the pixel sample a pass adds (RT_MULTISAMPLE: one pass per sample)
 };
 
 // Sky kinds (values = the SkyKind enum of core/scene.h).

@@ -272,19 +272,25 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, 
         return false;
     }
     const int w = s.camera.width, h = s.camera.height;
+    const std::size_t n = std::size_t(w) * std::size_t(h);
     fb.resize(w, h, p.aovs);
     gl::glErrors(); // drop stale errors
     const auto t0 = Clock::now();
-    const RtMarchParams P = marchParams(s, p);
-    const gl::StorageBuffer params(sizeof P, &P);
-    const gl::StorageBuffer pixels(std::size_t(w) * std::size_t(h) * 8 * sizeof(float));
+    RtMarchParams P = marchParams(s, p);
+    const gl::StorageBuffer pixels(n * 12 * sizeof(float));
     const std::uint32_t zero = 0;
     const gl::StorageBuffer counters(sizeof zero, &zero);
-    params.bind(0);
     pixels.bind(1);
     counters.bind(2);
-    program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
-    std::vector<float> out(std::size_t(w) * std::size_t(h) * 8);
+    // one pass per pixel sample (march_pass.glsl, main)
+    const int passes = f.multisample ? P.pixelSamples : 1;
+    for (int k = 0; k < passes; ++k) {
+        P.sampleIndex = k;
+        const gl::StorageBuffer params(sizeof P, &P);
+        params.bind(0);
+        program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+    }
+    std::vector<float> out(n * 12);
     pixels.read(out.data(), out.size() * sizeof(float));
     std::uint32_t bad = 0;
     counters.read(&bad, sizeof bad);
@@ -294,13 +300,27 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, 
         if (error) *error = "GL error during the march pass: " + e;
         return false;
     }
+    // the weighted sums to pixels, as MarchContext::renderPixel finishes a pixel
     stats.nonFinite = bad;
-    for (std::size_t i = 0; i < std::size_t(w) * std::size_t(h); ++i) {
-        for (int c = 0; c < 4; ++c) fb.rgba[4 * i + std::size_t(c)] = out[8 * i + std::size_t(c)];
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* q = &out[12 * i];
+        float rgba[4] = {q[0], q[1], q[2], q[3]};
+        float T[3] = {q[4], q[5], q[6]};
+        const float wSum = q[7];
+        if (wSum > 0.0f && f.multisample) {
+            for (float& v : rgba) v /= wSum;
+            for (float& v : T) v /= wSum;
+        }
+        const float depth = q[9] > 0.0f ? (f.multisample ? q[8] / q[9] : q[8]) : 0.0f;
+        if (!(std::isfinite(rgba[0]) && std::isfinite(rgba[1]) && std::isfinite(rgba[2]) &&
+              std::isfinite(rgba[3]))) {
+            ++stats.nonFinite;
+            for (float& v : rgba) v = 0.0f;
+        }
+        for (int c = 0; c < 4; ++c) fb.rgba[4 * i + std::size_t(c)] = rgba[c];
         if (fb.aovs.transmittance)
-            for (int c = 0; c < 3; ++c)
-                fb.transmittance[3 * i + std::size_t(c)] = out[8 * i + 4 + std::size_t(c)];
-        if (fb.aovs.depth) fb.depth[i] = out[8 * i + 7];
+            for (int c = 0; c < 3; ++c) fb.transmittance[3 * i + std::size_t(c)] = T[c];
+        if (fb.aovs.depth) fb.depth[i] = depth;
     }
     return true;
 }
