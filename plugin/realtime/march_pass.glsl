@@ -143,6 +143,7 @@ RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pix
     if (rtIntersectBox(o, d, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) {
         RtSchedule s = rtSchedule(P.step, P.stepGrowth);
         int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
+        // (the step loops end by their condition, without break or continue)
         bool marching = true;
         for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
             float tA = max(rtScheduleT(s, float(n)), tIn);
@@ -150,42 +151,43 @@ RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pix
             if (!(tB > tA)) {
                 marching = tA < tOut;
             } else {
-            float t = tA + jitter * (tB - tA);
-            float dt = tB - tA;
-            vec3 p = o + d * t;
-            float rho = cumulusDensity(C, p);
-            if (rho > 0.0f) {
-            vec3 S = vec3(0.0f);
+                float t = tA + jitter * (tB - tA);
+                float dt = tB - tA;
+                vec3 p = o + d * t;
+                float rho = cumulusDensity(C, p);
+                if (rho > 0.0f) {
+                    vec3 S = vec3(0.0f);
 #if RT_SUN
-            float tau = rtDensityIntegral(C, p, sunDir, pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
-            vec3 sun = vec3(0.0f);
-            float weight = 1.0f;
-            float extinction = 1.0f;
-            PhaseParams octavePhase = phase;
-            for (int i = 0; i < P.octaves; i++) {
-                sun += octaveSun(vec3(phaseEval(octavePhase, cosTheta)), sigmaT, tau, weight,
-                                 extinction);
-                weight *= P.octaveContribution;
-                extinction *= P.octaveExtinction;
-                octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
-            }
-            S += rtXyz(P.sunIrradiance) * sun *
-                 inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
-                                 P.inScatterStrength);
+                    float tau = rtDensityIntegral(C, p, sunDir,
+                                                  pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
+                    vec3 sun = vec3(0.0f);
+                    float weight = 1.0f;
+                    float extinction = 1.0f;
+                    PhaseParams octavePhase = phase;
+                    for (int i = 0; i < P.octaves; i++) {
+                        sun += octaveSun(vec3(phaseEval(octavePhase, cosTheta)), sigmaT, tau,
+                                         weight, extinction);
+                        weight *= P.octaveContribution;
+                        extinction *= P.octaveExtinction;
+                        octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
+                    }
+                    S += rtXyz(P.sunIrradiance) * sun *
+                         inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
+                                         P.inScatterStrength);
 #endif
 #if RT_AMBIENT
-            // the sky ambient, occluded by height (MarchContext::skyInScatter, Olajos 2016)
-            float span = max(hi.y - lo.y, 1e-20f);
-            float h = clamp((p.y - lo.y) / span, 0.0f, 1.0f);
-            S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
+                    // the sky ambient, occluded by height (MarchContext::skyInScatter)
+                    float span = max(hi.y - lo.y, 1e-20f);
+                    float h = clamp((p.y - lo.y) / span, 0.0f, 1.0f);
+                    S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
 #endif
-            marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
-            if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
-                depth = t;
-                depthSet = true;
-            }
-            marching = rtMaxComponent(T) >= P.epsilon;
-            }
+                    marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
+                    if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
+                        depth = t;
+                        depthSet = true;
+                    }
+                    marching = rtMaxComponent(T) >= P.epsilon;
+                }
             }
         }
     }
