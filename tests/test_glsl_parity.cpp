@@ -16,7 +16,7 @@
 #include "core/kernels/enum_mirrors.h"
 #include "core/kernels/kernels.h"
 #include "core/kernels/source.h"
-#include "tests/gl/gl_compute.h"
+#include "plugin/realtime/gl_compute.h"
 #include "tests/gl/kernel_parity.h"
 
 using namespace nimbus;
@@ -1420,10 +1420,7 @@ std::vector<std::string> parityCaseNames() {
 
 /// The process's GL context, made on first use; null with *error when EGL fails.
 gl::ComputeContext* glContext(std::string* error) {
-    static std::string failure;
-    static const std::unique_ptr<gl::ComputeContext> context = gl::ComputeContext::create(&failure);
-    *error = failure;
-    return context.get();
+    return gl::ComputeContext::shared(error);
 }
 
 std::string readFile(const std::string& path) {

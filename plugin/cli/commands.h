@@ -126,7 +126,19 @@ struct StressOptions {
     std::string filter; ///< run only the cases whose name contains this
 };
 
+/// `nimbus rt`: the scene's frames on the GPU through the GLSL march pass (rt.cpp,
+/// plugin/realtime/rt_march.h, docs/realtime.md).
+struct RtOptions {
+    std::string scene;
+    std::string frames; ///< default: the scene's
+    std::vector<std::string> overrides;
+    std::string output; ///< EXR path pattern; default: the scene's output.path
+    bool explain = false;
+    bool quiet = false;
+};
+
 int runConverge(const ConvergeOptions& o);
+int runRt(const RtOptions& o);
 int runStress(const StressOptions& o);
 int runBenchVdb(const BenchVdbOptions& o);
 int runBake(const BakeOptions& o);

@@ -69,6 +69,8 @@ extern "C" __attribute__((visibility("default"))) int nimbus_cli_command(int com
             return runBenchVdb(*static_cast<const BenchVdbOptions*>(options));
         case Command::Stress:
             return runStress(*static_cast<const StressOptions*>(options));
+        case Command::Rt:
+            return runRt(*static_cast<const RtOptions*>(options));
         case Command::Reference:
             std::cout << nimbus::io::sceneFileReference();
             return kExitOk;

@@ -506,6 +506,21 @@ int mainImpl(int argc, char** argv) {
         "  nimbus stress --quick\n"
         "  nimbus stress --filter stiff/ --csv stiff.csv");
 
+    cli::RtOptions to; // `nimbus rt`: plugin/cli/rt.cpp
+    auto* rt = app.add_subcommand(
+        "rt", "Render the frames of a scene on the GPU (the GLSL march pass over a headless "
+              "OpenGL 4.5 context; Mesa llvmpipe without a GPU) to the same EXR files as render; "
+              "refuses (exit 2) what the GPU path does not support yet, naming the key "
+              "(docs/realtime.md)");
+    rt->add_option("scene", to.scene, "Scene file (TOML)")->required();
+    rt->add_option("-f,--frames", to.frames, "Frames to render (default: the scene's `frames`)");
+    rt->add_option("-s,--set", to.overrides, "Override a scene value (as for render)")
+        ->allow_extra_args(false);
+    rt->add_option("-o,--output", to.output, "EXR path pattern (default: the scene's output.path)");
+    rt->add_flag("--explain", to.explain,
+                 "Print the plan of each frame and what the shader is compiled with, and exit");
+    rt->add_flag("-q,--quiet", to.quiet, "Only errors and warnings");
+
     auto* reference = app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
 
     try {
@@ -516,8 +531,9 @@ int mainImpl(int argc, char** argv) {
     }
 
     // an empty value given on purpose is a mistake, not a request for the scene's value
-    for (auto [cmd, opt] : {std::pair{render, "--frames"}, std::pair{render, "--output"},
-                            std::pair{bake, "--frames"}, std::pair{bake, "--output"}})
+    for (auto [cmd, opt] :
+         {std::pair{render, "--frames"}, std::pair{render, "--output"}, std::pair{bake, "--frames"},
+          std::pair{bake, "--output"}, std::pair{rt, "--frames"}, std::pair{rt, "--output"}})
         if (*cmd && cmd->count(opt) && cmd->get_option(opt)->as<std::string>().empty()) {
             std::fprintf(stderr, "nimbus: error: %s: %s is empty\n", cmd->get_name().c_str(), opt);
             return cli::kExitBadInput;
@@ -575,6 +591,7 @@ int mainImpl(int argc, char** argv) {
     }
     if (*bench) return run(cli::Command::BenchVdb, &vo);
     if (*stress) return run(cli::Command::Stress, &so);
+    if (*rt) return run(cli::Command::Rt, &to);
     if (*reference) return run(cli::Command::Reference, nullptr);
     return 0;
 }

@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "core/kernels/source.h"
-#include "tests/gl/gl_compute.h"
+#include "plugin/realtime/gl_compute.h"
 
 namespace nimbus::parity {
 namespace {

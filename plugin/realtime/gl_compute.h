@@ -1,7 +1,7 @@
 /// @file gl_compute.h
 /// @brief Headless OpenGL compute: an EGL context without a window, compute programs, shader
-///        storage buffers, dispatch and read-back. Test support today; written so that a
-///        real-time port can take it over (it may move to plugin/realtime).
+///        storage buffers, dispatch and read-back. Used by the real-time renderer
+///        (plugin/realtime/rt_march.h, `nimbus rt`) and by the kernel parity tests (tests/gl/).
 ///
 /// The context is OpenGL 4.5 core on EGL's surfaceless platform (EGL_PLATFORM_SURFACELESS_MESA,
 /// EGL_NO_CONFIG_KHR, no surface): no X server and no GPU needed, Mesa's llvmpipe runs it on the
@@ -33,6 +33,11 @@ class ComputeContext {
     /// Creates the context and makes it current; null on failure, with *error naming the EGL
     /// call that failed and the EGL error (e.g. "eglInitialize: EGL_NOT_INITIALIZED (0x3001)").
     static std::unique_ptr<ComputeContext> create(std::string* error);
+    /// The process's context, made (and made current) on first use and kept to the end of the
+    /// process; null with *error (the first failure's text) when it cannot be made. Parts of one
+    /// process that each need GL share this one: destroying a second context would terminate
+    /// the EGL display under the first.
+    static ComputeContext* shared(std::string* error);
     ~ComputeContext();
     ComputeContext(const ComputeContext&) = delete;
     ComputeContext& operator=(const ComputeContext&) = delete;

@@ -1,6 +1,6 @@
 /// @file gl_compute.cpp
 /// @brief Headless OpenGL compute over EGL (see gl_compute.h).
-#include "tests/gl/gl_compute.h"
+#include "plugin/realtime/gl_compute.h"
 
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -133,6 +133,13 @@ std::unique_ptr<ComputeContext> ComputeContext::create(std::string* error) {
     if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
         return eglFail("eglMakeCurrent(EGL_NO_SURFACE)");
     return c;
+}
+
+ComputeContext* ComputeContext::shared(std::string* error) {
+    static std::string failure;
+    static const std::unique_ptr<ComputeContext> context = create(&failure);
+    if (error) *error = failure;
+    return context.get();
 }
 
 ComputeContext::~ComputeContext() {

@@ -1,0 +1,116 @@
+/// @file rt.cpp
+/// @brief `nimbus rt`: the frames of a scene rendered on the GPU by the GLSL march pass
+/// (plugin/realtime/rt_march.h) over a headless OpenGL 4.5 context, written through the same
+/// output code as `nimbus render` (host::Session::writeFrame: the EXR with its metadata, the
+/// preview). A scene that uses what the GPU path does not support is refused with exit 2 and a
+/// message naming the key; there is no fallback to the CPU.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "plugin/cli/commands.h"
+#include "plugin/cli/common.h"
+#include "plugin/io/frames.h"
+#include "plugin/realtime/gl_compute.h"
+#include "plugin/realtime/rt_march.h"
+
+namespace nimbus::cli {
+
+int runRt(const RtOptions& o) {
+    host::Session session;
+    if (int rc = loadScene(o.scene, o.overrides, -1, session)) return rc;
+    if (!o.output.empty()) {
+        if (o.output.size() < 4 || o.output.substr(o.output.size() - 4) != ".exr") {
+            std::fprintf(stderr, "nimbus: error: rt: output path \"%s\" must end in .exr\n",
+                         clipped(o.output).c_str());
+            return kExitBadInput;
+        }
+        session.file().output.path = o.output;
+    }
+    std::vector<int> frames;
+    try {
+        frames = io::parseFrameSpec(o.frames.empty() ? session.file().frames : o.frames);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: error: rt: --frames: %s\n", e.what());
+        return kExitBadInput;
+    }
+    if (frames.size() > 1)
+        for (const std::string& p : {session.file().output.path, session.file().output.preview})
+            if (!p.empty() && !io::patternHasFrameToken(p)) {
+                std::fprintf(stderr,
+                             "nimbus: error: rt: %zu frames would all be written to \"%s\": add a "
+                             "frame token (%s)\n",
+                             frames.size(), clipped(p).c_str(),
+                             std::string(io::framePatternSyntax()).c_str());
+                return kExitBadInput;
+            }
+
+    // every frame is checked before the first is rendered: a refusal costs no GPU time
+    const SceneDesc& scene = session.scene();
+    for (int frame : frames) {
+        const FramePlan plan = session.plan(frame);
+        const std::vector<rt::Unsupported> no = rt::unsupported(scene, plan);
+        if (!no.empty()) {
+            for (const rt::Unsupported& u : no)
+                std::fprintf(stderr, "nimbus: error: %s: %s (not supported by the GPU path: %s)\n",
+                             session.file().path.c_str(), u.key.c_str(), u.message.c_str());
+            return kExitBadInput;
+        }
+        if (o.explain) {
+            std::printf("%s%s  output: %s\n", plan.explain().c_str(),
+                        rt::explainMarch(scene, plan).c_str(), session.outputPath(frame).c_str());
+        }
+    }
+    if (o.explain) return kExitOk;
+
+    std::string error;
+    const auto contextStart = std::chrono::steady_clock::now();
+    std::unique_ptr<gl::ComputeContext> context = gl::ComputeContext::create(&error);
+    if (!context) {
+        std::fprintf(stderr,
+                     "nimbus: error: rt: no headless OpenGL 4.5 context (EGL surfaceless; on "
+                     "Debian: libegl1 libopengl0 libgl1-mesa-dri): %s\n",
+                     error.c_str());
+        return kExitInternal;
+    }
+    const std::string device = context->renderer();
+    if (!o.quiet)
+        std::printf("GPU: %s (context in %.3f s)\n", device.c_str(), secondsSince(contextStart));
+
+    rt::MarchPass pass;
+    for (int frame : frames) {
+        const FramePlan plan = session.plan(frame);
+        Framebuffer fb;
+        rt::MarchStats stats;
+        if (!pass.render(scene, plan, fb, stats, &error)) {
+            std::fprintf(stderr, "nimbus: error: rt: frame %d: %s\n", frame, error.c_str());
+            return kExitInternal;
+        }
+        io::ExrMetadata md;
+        md.settings = io::sceneSettings(session.file());
+        md.settings["scene"] = session.file().path;
+        md.settings["plan"] = plan.explain() + rt::explainMarch(scene, plan);
+        md.settings["renderer"] = "nimbus rt: the GLSL march pass on " + device;
+        md.seed = scene.render.seed;
+        md.renderSeconds = stats.frameSeconds;
+        // not the CPU's hash: `nimbus render --resume` renders a GPU frame again
+        md.sceneHash = "glsl-" + session.sceneHash();
+        const host::Status st = session.writeFrame(frame, fb, md, stats.nonFinite);
+        printWarnings(session);
+        if (int rc = report(st)) return rc;
+        if (!o.quiet)
+            std::printf("frame %d: %dx%d, %.4f s on the GPU%s -> %s\n", frame, fb.width, fb.height,
+                        stats.frameSeconds,
+                        stats.compileSeconds > 0.0
+                            ? (" (shader compiled in " + std::to_string(stats.compileSeconds) +
+                               " s before)")
+                                  .c_str()
+                            : "",
+                        session.outputPath(frame).c_str());
+    }
+    return kExitOk;
+}
+
+} // namespace nimbus::cli

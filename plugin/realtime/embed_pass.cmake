@@ -1,0 +1,36 @@
+# embed_pass.cmake: writes the C++ file that embeds the GLSL pass files of plugin/realtime
+# (plugin/realtime/pass_source.h). Run at build time by the custom command in the top-level
+# CMakeLists.txt:
+#   cmake -DDIR=<plugin/realtime> -DNAMES=<name,name,...> -DOUT=<generated .cpp> -P embed_pass.cmake
+# Every byte is written as a \xNN escape (as core/kernels/embed_kernels.cmake does), so no text
+# in a pass can end the literal early.
+
+foreach(_var DIR NAMES OUT)
+  if(NOT DEFINED ${_var})
+    message(FATAL_ERROR "embed_pass.cmake: -D${_var}=... is required")
+  endif()
+endforeach()
+
+string(REPLACE "," ";" _names "${NAMES}")
+set(_cpp "// Generated at build time by plugin/realtime/embed_pass.cmake: do not edit.\n")
+string(APPEND _cpp "#include \"plugin/realtime/pass_source.h\"\n\nnamespace nimbus::rt {\n\n")
+foreach(_n ${_names})
+  file(READ "${DIR}/${_n}.glsl" _hex HEX)
+  string(LENGTH "${_hex}" _len)
+  set(_lit "")
+  set(_at 0)
+  while(_at LESS _len)
+    string(SUBSTRING "${_hex}" ${_at} 48 _chunk)
+    string(REGEX REPLACE "([0-9a-f][0-9a-f])" "\\\\x\\1" _chunk "${_chunk}")
+    string(APPEND _lit "    \"${_chunk}\"\n")
+    math(EXPR _at "${_at} + 48")
+  endwhile()
+  if(_lit STREQUAL "")
+    set(_lit "    \"\"\n")
+  endif()
+  string(APPEND _cpp "namespace {\n// plugin/realtime/${_n}.glsl\nconstexpr char kText_${_n}[] =\n${_lit};\n}\n")
+  string(APPEND _cpp "std::string_view ${_n}Source() {\n"
+                     "    return std::string_view(kText_${_n}, sizeof(kText_${_n}) - 1);\n}\n\n")
+endforeach()
+string(APPEND _cpp "} // namespace nimbus::rt\n")
+file(WRITE "${OUT}" "${_cpp}")

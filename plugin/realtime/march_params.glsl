@@ -1,0 +1,142 @@
+// march_params.glsl: the parameter block of the GLSL march pass (plugin/realtime/march_pass.glsl),
+// written once in the kernels' GLSL/C++ subset (core/kernels/prelude.h): compiled as C++ by
+// plugin/realtime/march_params.h, which fills it from the scene and the frame plan, and as GLSL
+// after the embedded kernels, where the pass reads it from a shader storage buffer (std430).
+//
+// Layout rule, so that C++ and std430 agree byte for byte without padding: every vec4 member
+// comes first (std430 aligns a vec4 to 16 bytes; they sit at 0, 16, 32, ...), then 4-byte
+// scalars only (float, int, uint). No vec3 (12 bytes in C++, 16-aligned in std430), no bool,
+// no nested struct (a struct's std430 alignment is its largest member's). The kernel structs
+// (CumulusParams, PhaseParams) are rebuilt from it by rtCumulusParams and rtPhaseParams.
+
+struct RtMarchParams {
+    vec4 camOrigin;     // camera (core/camera.h): position
+    vec4 camForward;    // unit vectors of the view
+    vec4 camRight;
+    vec4 camUp;
+    vec4 boundsLo;      // the field's bounds: the box march walks
+    vec4 boundsHi;
+    vec4 sunDirection;  // toward the sun
+    vec4 sunIrradiance; // RGB, intensity folded in
+    vec4 sigmaS;        // per unit density, density scale folded in (core/media/medium.h)
+    vec4 sigmaT;
+    vec4 skyZenith;     // core/media/sky.h: uniform sky = zenith
+    vec4 skyHorizon;
+    vec4 skySphere;     // mean sky over the sphere times sky.ambient (skyMeans().sphere)
+    vec4 baseOffset;    // cumulus: wind * time
+    vec4 detailOffset;  // cumulus: (wind + detail wind) * time
+
+    // the cumulus layer (CloudLayer, core/kernels/cloud.glsl)
+    float layerBottom;
+    float layerTop;
+    float heightA;
+    float heightB;
+    float coverage;
+    float softness;
+    float erosion;
+    float towerSpacing;
+    float towerRadiusMin;
+    float towerRadiusMax;
+    float towerHeightMin;
+    float towerHeightMax;
+    float towerProbability;
+    float towerAnisotropy;
+    uint fieldSeed;
+    // the rest of CumulusParams
+    float fieldDensity;
+    float basePeriod;
+    int baseLattice;
+    int baseOctaves;
+    float detailPeriod;
+    int detailLattice;
+    int detailOctaves;
+
+    // the phase function (PhaseParams, core/kernels/phase.glsl)
+    int phaseKind;
+    float phaseG;
+    float phaseG2;
+    float phaseBlend;
+    float phaseAlpha;
+    float phaseDiameter;
+
+    // camera
+    float tanHalfY;
+    float aspect;
+    int width;
+    int height;
+
+    // march (core/integrators/march.cpp) and the frame plan
+    uint frameKey;      // pcg(frameSeedKey ^ pcg(render.seed))
+    int jitter;         // render.jitter
+    float epsilon;      // early exit below this transmittance
+    float step;         // plan.step: primary step schedule (core/tracking/step_schedule.h)
+    float stepGrowth;
+    float shadowStep;   // plan.shadowStep: shadow step schedule
+    float shadowGrowth;
+    int octaves;
+    float octaveContribution;
+    float octaveExtinction;
+    float octaveEccentricity;
+    int inScatter;      // INSCATTER_* (core/kernels/lighting.glsl)
+    float inScatterC;
+    float inScatterStrength;
+    int skyKind;        // RT_SKY_* below
+    float ambientGround; // MarchContext::kAmbientGround
+    int pixelSamples;
+    int filterKind;     // FILTER_* (core/kernels/pixel.glsl)
+    float filterWidth;
+    int sampleIndex;    // the pixel sample a pass adds (RT_MULTISAMPLE: one pass per sample)
+};
+
+// Sky kinds (values = the SkyKind enum of core/scene.h).
+const int RT_SKY_NONE = 0;
+const int RT_SKY_UNIFORM = 1;
+const int RT_SKY_GRADIENT = 2;
+
+// The cumulus kernel parameters of the block (cumulusParams() of core/fields/cumulus.cpp).
+NB_FN CumulusParams rtCumulusParams(IN(RtMarchParams) P) {
+    CumulusParams C;
+    C.layer.bottom = P.layerBottom;
+    C.layer.top = P.layerTop;
+    C.layer.heightA = P.heightA;
+    C.layer.heightB = P.heightB;
+    C.layer.coverage = P.coverage;
+    C.layer.softness = P.softness;
+    C.layer.erosion = P.erosion;
+    C.layer.towerSpacing = P.towerSpacing;
+    C.layer.towerRadiusMin = P.towerRadiusMin;
+    C.layer.towerRadiusMax = P.towerRadiusMax;
+    C.layer.towerHeightMin = P.towerHeightMin;
+    C.layer.towerHeightMax = P.towerHeightMax;
+    C.layer.towerProbability = P.towerProbability;
+    C.layer.towerAnisotropy = P.towerAnisotropy;
+    C.layer.seed = P.fieldSeed;
+    C.density = P.fieldDensity;
+    C.basePeriod = P.basePeriod;
+    C.baseLattice = P.baseLattice;
+    C.baseOctaves = P.baseOctaves;
+    C.detailPeriod = P.detailPeriod;
+    C.detailLattice = P.detailLattice;
+    C.detailOctaves = P.detailOctaves;
+    C.baseOffset = vec3(P.baseOffset.x, P.baseOffset.y, P.baseOffset.z);
+    C.detailOffset = vec3(P.detailOffset.x, P.detailOffset.y, P.detailOffset.z);
+    return C;
+}
+
+// The phase function of the block (phaseParams() of core/media/phase.h).
+NB_FN PhaseParams rtPhaseParams(IN(RtMarchParams) P) {
+    return makePhaseParams(P.phaseKind, P.phaseG, P.phaseG2, P.phaseBlend, P.phaseAlpha,
+                           P.phaseDiameter);
+}
+
+// Sky radiance toward direction d (skyRadiance() of core/media/sky.h: the host function is not
+// a kernel yet; this is the one copy on the GLSL side, checked against it by the image parity).
+NB_FN vec3 rtSkyRadiance(IN(RtMarchParams) P, vec3 d) {
+    vec3 zenith = vec3(P.skyZenith.x, P.skyZenith.y, P.skyZenith.z);
+    if (P.skyKind == RT_SKY_UNIFORM) return zenith;
+    if (P.skyKind == RT_SKY_GRADIENT) {
+        vec3 horizon = vec3(P.skyHorizon.x, P.skyHorizon.y, P.skyHorizon.z);
+        return mix(horizon, zenith, sqrt(clamp(d.y, 0.0f, 1.0f)));
+    }
+    return vec3(0.0f);
+}

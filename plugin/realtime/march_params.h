@@ -1,0 +1,37 @@
+/// @file march_params.h
+/// @brief The parameter block of the GLSL march pass (plugin/realtime/march_params.glsl) compiled
+/// as C++, and how the host fills it from a scene and its frame plan.
+///
+/// The block is defined once, in the kernels' GLSL/C++ subset; this header includes it inside
+/// namespace nimbus::kern after the kernels (core/kernels/kernels.h), so C++ and the shader
+/// share the struct, its layout (vec4 members first, then 4-byte scalars: std430 and C++ agree)
+/// and the functions that rebuild the kernel structs from it (rtCumulusParams, rtPhaseParams).
+#pragma once
+
+#include <cstddef>
+
+#include "core/kernels/kernels.h"
+#include "core/plan.h"
+#include "core/scene.h"
+
+namespace nimbus::kern {
+#include "plugin/realtime/march_params.glsl"
+} // namespace nimbus::kern
+
+namespace nimbus::rt {
+
+using kern::RtMarchParams;
+
+// the layout rule of march_params.glsl: std430 puts the vec4s at multiples of 16 and packs the
+// scalars after them; so does C++ when the vec4s come first and are 16 bytes each
+static_assert(sizeof(glm::vec4) == 16);
+static_assert(offsetof(RtMarchParams, detailOffset) == 14 * 16);
+static_assert(offsetof(RtMarchParams, layerBottom) == 15 * 16);
+static_assert(sizeof(RtMarchParams) % 4 == 0);
+
+/// The block for frame `plan` of `scene`: camera, field bounds, sun, medium (density scale
+/// folded in), sky, the cumulus layer at the plan's time, the phase function, the step
+/// schedules of the plan and the march settings. The scene's field must be a cumulus layer.
+RtMarchParams marchParams(const SceneDesc& scene, const FramePlan& plan);
+
+} // namespace nimbus::rt

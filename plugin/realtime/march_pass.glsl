@@ -1,0 +1,270 @@
+// march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
+// plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
+// RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE: only the features the scene uses are compiled
+// in), the embedded kernels (core/kernels/source.h), march_params.glsl, then this file.
+//
+// It is the CPU `march` integrator (core/integrators/march.cpp, MarchContext::renderPixel and
+// traceRay) for the subset rt_march.h lists, written with the same kernels and in the same
+// order of operations: pixel-centre rays of the same pinhole camera (core/camera.h), the same
+// hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
+// schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
+// cumulusDensity evaluated per sample, the sun's transmittance by a shadow march per sample,
+// phaseEval and the octaves (Wrenninge), inScatterFactor, the height-occluded sky ambient,
+// marchStep (Hillaire's energy-conserving step) and the early exit at transmittance < epsilon.
+// What it does not do: empty-space skipping (every step of the box is visited; the CPU's
+// majorant grid skips only samples of zero density, so the picture is the same), baked noise,
+// multiple-scattering grids, light volumes, surfaces.
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(std430, binding = 0) readonly buffer RtParamBlock { RtMarchParams P; };
+// per pixel, row-major from the top-left: the sums of main() below
+layout(std430, binding = 1) buffer RtPixels { float pixels[]; };
+// samples that were NaN or infinite (left out, as on the CPU; the host counts pixels)
+layout(std430, binding = 2) buffer RtCounters { uint nonFinite; };
+
+const float RT_FLOAT_MAX = 3.402823466e38f;
+const int RT_MAX_STEPS = 1048576; // a bound on any loop over steps (a GPU must not hang)
+
+// The step schedule of core/tracking/step_schedule.h: fixed steps dt0 up to tg = ceil(1 / growth)
+// dt0, then steps growing geometrically by (1 + growth).
+struct RtSchedule {
+    float dt0;
+    float growth;
+    float tg;
+    float logG;
+};
+
+RtSchedule rtSchedule(float step, float growth) {
+    RtSchedule s;
+    s.dt0 = step;
+    s.growth = growth;
+    s.tg = 0.0f;
+    s.logG = 0.0f;
+    if (growth > 0.0f) {
+        s.tg = ceil(1.0f / growth) * step;
+        s.logG = log(1.0f + growth);
+    }
+    return s;
+}
+
+float rtScheduleU(RtSchedule s, float t) {
+    if (s.growth <= 0.0f || t <= s.tg) return t / s.dt0;
+    return s.tg / s.dt0 + log(t / s.tg) / s.logG;
+}
+
+float rtScheduleT(RtSchedule s, float u) {
+    float ug = s.growth > 0.0f ? s.tg / s.dt0 : 0.0f;
+    if (s.growth <= 0.0f || u <= ug) return u * s.dt0;
+    return s.tg * exp((u - ug) * s.logG);
+}
+
+// intersectBox() of core/geometry.h (slabs, NaN-safe for direction components of 0).
+bool rtIntersectBox(vec3 o, vec3 d, vec3 lo, vec3 hi, float tmin, float tmax, out float t0,
+                    out float t1) {
+    t0 = tmin;
+    t1 = tmax;
+    for (int a = 0; a < 3; a++) {
+        float inv = 1.0f / d[a];
+        float tn = (lo[a] - o[a]) * inv;
+        float tf = (hi[a] - o[a]) * inv;
+        if (tn > tf) {
+            float x = tn;
+            tn = tf;
+            tf = x;
+        }
+        t0 = tn > t0 ? tn : t0;
+        t1 = tf < t1 ? tf : t1;
+        if (t0 > t1) return false;
+    }
+    return true;
+}
+
+vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
+
+float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
+float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
+
+// The density integral from p toward direction w (MarchContext::densityIntegral): a jittered
+// march on the shadow schedule from p (or from where the ray enters the box, when p lies outside
+// it), stopped once the transmittance is below 1e-5 in every channel.
+float rtDensityIntegral(CumulusParams C, vec3 p, vec3 w, uint rng) {
+    float jitter = P.jitter != 0 ? hashToUnit(pcg(rng)) : 0.5f;
+    float tauStop = 11.5f / max(rtMinComponent(rtXyz(P.sigmaT)), 1e-12f);
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+    float tIn, tOut;
+    if (!rtIntersectBox(p, w, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) return 0.0f;
+    vec3 o = p;
+    if (tIn > 0.0f) {
+        o = p + w * tIn;
+        if (!rtIntersectBox(o, w, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) return 0.0f;
+    }
+    RtSchedule s = rtSchedule(P.shadowStep, P.shadowGrowth);
+    float tau = 0.0f;
+    // one step early: float rounding of u(tIn) must not skip the first step (it is clipped away)
+    int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
+    bool marching = true;
+    for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
+        float tA = max(rtScheduleT(s, float(n)), tIn);
+        float tB = min(rtScheduleT(s, float(n + 1)), tOut);
+        if (tB > tA) {
+            float ts = tA + jitter * (tB - tA);
+            tau += cumulusDensity(C, o + w * ts) * (tB - tA);
+            marching = tau <= tauStop;
+        } else {
+            marching = tA < tOut;
+        }
+    }
+    return tau;
+}
+
+struct RtSample {
+    vec3 L;
+    vec3 T;
+    float alpha;
+    float depth;
+};
+
+// One camera ray (MarchContext::traceRay without surfaces or multiple-scattering grids).
+RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
+                    float jitter) {
+    vec3 sunDir = rtXyz(P.sunDirection);
+    float cosTheta = dot(d, sunDir);
+    vec3 sigmaS = rtXyz(P.sigmaS);
+    vec3 sigmaT = rtXyz(P.sigmaT);
+    vec3 L = vec3(0.0f);
+    vec3 T = vec3(1.0f);
+    float depth = 0.0f;
+    bool depthSet = false;
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+    float tIn, tOut;
+    if (rtIntersectBox(o, d, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) {
+        RtSchedule s = rtSchedule(P.step, P.stepGrowth);
+        int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
+        // (the step loops end by their condition, without break or continue)
+        bool marching = true;
+        for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
+            float tA = max(rtScheduleT(s, float(n)), tIn);
+            float tB = min(rtScheduleT(s, float(n + 1)), tOut);
+            if (!(tB > tA)) {
+                marching = tA < tOut;
+            } else {
+                float t = tA + jitter * (tB - tA);
+                float dt = tB - tA;
+                vec3 p = o + d * t;
+                float rho = cumulusDensity(C, p);
+                if (rho > 0.0f) {
+                    vec3 S = vec3(0.0f);
+#if RT_SUN
+                    float tau = rtDensityIntegral(C, p, sunDir,
+                                                  pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
+                    vec3 sun = vec3(0.0f);
+                    float weight = 1.0f;
+                    float extinction = 1.0f;
+                    PhaseParams octavePhase = phase;
+                    for (int i = 0; i < P.octaves; i++) {
+                        sun += octaveSun(vec3(phaseEval(octavePhase, cosTheta)), sigmaT, tau,
+                                         weight, extinction);
+                        weight *= P.octaveContribution;
+                        extinction *= P.octaveExtinction;
+                        octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
+                    }
+                    S += rtXyz(P.sunIrradiance) * sun *
+                         inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
+                                         P.inScatterStrength);
+#endif
+#if RT_AMBIENT
+                    // the sky ambient, occluded by height (MarchContext::skyInScatter)
+                    float span = max(hi.y - lo.y, 1e-20f);
+                    float h = clamp((p.y - lo.y) / span, 0.0f, 1.0f);
+                    S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
+#endif
+                    marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
+                    if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
+                        depth = t;
+                        depthSet = true;
+                    }
+                    marching = rtMaxComponent(T) >= P.epsilon;
+                }
+            }
+        }
+    }
+    RtSample r;
+    r.alpha = 1.0f - (T.x + T.y + T.z) / 3.0f;
+#if RT_BACKGROUND_SKY
+    L += T * rtSkyRadiance(P, d);
+    r.alpha = 1.0f;
+#endif
+    r.L = L;
+    r.T = T;
+    r.depth = depth;
+    return r;
+}
+
+// The ray through image position (px, py) in pixels (Camera::generate, core/camera.h).
+vec3 rtCameraDirection(float px, float py) {
+    float sx = (2.0f * px / float(P.width) - 1.0f) * P.tanHalfY * P.aspect;
+    float sy = (1.0f - 2.0f * py / float(P.height)) * P.tanHalfY;
+    return normalize(rtXyz(P.camForward) + sx * rtXyz(P.camRight) + sy * rtXyz(P.camUp));
+}
+
+bool rtFinite(vec3 v) {
+    return !(isnan(v.x) || isnan(v.y) || isnan(v.z) || isinf(v.x) || isinf(v.y) || isinf(v.z));
+}
+
+// One pass per pixel sample: with RT_MULTISAMPLE the host dispatches the pass once per sample
+// k = P.sampleIndex and the pass adds the sample, weighted by the filter, to the pixel's sums;
+// the host divides by the summed weights (MarchContext::renderPixel does both in one loop; a
+// loop over the samples around rtTraceRay inside the shader lost samples on Mesa 22.3.6's
+// llvmpipe: the loop stopped after 2 of 4 iterations at some pixels, PSNR 35.7 dB against the
+// CPU). Per pixel, 12 floats: sum w L (RGB), sum w alpha, sum w T (RGB), sum w, sum w depth,
+// sum of the weights of the samples with a depth, 2 unused.
+void main() {
+    int x = int(gl_GlobalInvocationID.x);
+    int y = int(gl_GlobalInvocationID.y);
+    if (x >= P.width || y >= P.height) return;
+    CumulusParams C = rtCumulusParams(P);
+    PhaseParams phase = rtPhaseParams(P);
+    vec3 origin = rtXyz(P.camOrigin);
+    uint pixelKey = pcg(uint(x) ^ pcg(uint(y) ^ pcg(P.frameKey)));
+    int i = 12 * (y * P.width + x);
+#if RT_MULTISAMPLE
+    // stratified over the filter's width, each sample weighted by the filter (renderPixel)
+    int k = P.sampleIndex;
+    int ns = max(1, P.pixelSamples);
+    uint key = pcg(pixelKey ^ pcg(uint(k) + 1u));
+    float ux = P.jitter != 0 ? hashToUnit(pcg(key ^ 0x1b873593u)) : 0.5f;
+    float uy = P.jitter != 0 ? hashToUnit(pcg(key ^ 0x85ebca6bu)) : 0.5f;
+    vec2 off = pixelSampleOffset(k, ns, ux, uy, P.filterWidth);
+    float w = pixelFilterWeight(P.filterKind, off.x, off.y, P.filterWidth);
+    if (!(w > 0.0f)) return;
+    float jitter = P.jitter != 0 ? hashToUnit(key) : 0.5f;
+    RtSample smp = rtTraceRay(
+        C, phase, origin, rtCameraDirection(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y),
+        key, jitter);
+    if (!rtFinite(smp.L)) {
+        atomicAdd(nonFinite, 1u);
+        return;
+    }
+#else
+    float w = 1.0f;
+    float jitter = P.jitter != 0 ? hashToUnit(pixelKey) : 0.5f;
+    RtSample smp = rtTraceRay(C, phase, origin,
+                              rtCameraDirection(float(x) + 0.5f, float(y) + 0.5f), pixelKey,
+                              jitter);
+#endif
+    pixels[i + 0] += w * smp.L.x;
+    pixels[i + 1] += w * smp.L.y;
+    pixels[i + 2] += w * smp.L.z;
+    pixels[i + 3] += w * smp.alpha;
+    pixels[i + 4] += w * smp.T.x;
+    pixels[i + 5] += w * smp.T.y;
+    pixels[i + 6] += w * smp.T.z;
+    pixels[i + 7] += w;
+    if (smp.depth > 0.0f) {
+        pixels[i + 8] += w * smp.depth;
+        pixels[i + 9] += w;
+    }
+}

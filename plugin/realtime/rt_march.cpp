@@ -1,0 +1,328 @@
+/// @file rt_march.cpp
+/// @brief The GLSL march pass: support check, parameter block, shader assembly, dispatch.
+#include "plugin/realtime/rt_march.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include "core/camera.h"
+#include "core/fields/cumulus.h"
+#include "core/integrators/march.h"
+#include "core/kernels/source.h"
+#include "core/media/medium.h"
+#include "core/media/phase.h"
+#include "core/media/sky.h"
+#include "core/tracking/volumes.h"
+#include "plugin/realtime/march_params.h"
+#include "plugin/realtime/pass_source.h"
+
+namespace nimbus::rt {
+
+static_assert(int(SkyKind::None) == kern::RT_SKY_NONE);
+static_assert(int(SkyKind::Uniform) == kern::RT_SKY_UNIFORM);
+static_assert(int(SkyKind::Gradient) == kern::RT_SKY_GRADIENT);
+static_assert(int(InScatter::None) == kern::INSCATTER_NONE);
+static_assert(int(InScatter::Olajos) == kern::INSCATTER_OLAJOS);
+static_assert(int(InScatter::Powder) == kern::INSCATTER_POWDER);
+static_assert(int(PixelFilter::Box) == kern::FILTER_BOX);
+static_assert(int(PixelFilter::Gaussian) == kern::FILTER_GAUSSIAN);
+static_assert(int(PixelFilter::BlackmanHarris) == kern::FILTER_BLACKMAN_HARRIS);
+
+namespace {
+
+const char* fieldKindWord(FieldKind k) {
+    switch (k) {
+    case FieldKind::Homogeneous:
+        return "homogeneous";
+    case FieldKind::Cumulus:
+        return "cumulus";
+    case FieldKind::Vdb:
+        return "vdb";
+    case FieldKind::Gardner:
+        return "gardner";
+    case FieldKind::Sdf:
+        return "sdf";
+    }
+    return "?";
+}
+
+glm::vec4 v4(vec3 v) {
+    return glm::vec4(v.x, v.y, v.z, 0.0f);
+}
+
+} // namespace
+
+std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
+    std::vector<Unsupported> out;
+    auto no = [&](std::string key, std::string message) {
+        out.push_back({std::move(key), std::move(message)});
+    };
+    const RenderDesc& r = s.render;
+    if (!p.refusal.empty()) no("render", "the frame plan refuses the frame: " + p.refusal);
+    if (p.pathtrace)
+        no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
+    if (s.field.kind != FieldKind::Cumulus)
+        no("field.kind", std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
+                             "\": the GLSL pass renders the procedural cumulus field only (VDB "
+                             "grids through PNanoVDB, SDF, Gardner and homogeneous fields are "
+                             "not ported yet)");
+    else if (s.field.cumulus.eval == NoiseEval::Baked)
+        no("field.evaluation",
+           "field.evaluation = \"baked\": the GLSL pass evaluates the noise per sample (baked "
+           "3D noise textures are not ported yet); use \"direct\" or \"auto\"");
+    if (!s.volumes.empty()) no("volume", "[[volume]] entries: the GLSL pass renders `field` alone");
+    if (p.instanced || !s.instances.empty())
+        no("instance",
+           "[[instance]] placements: the GLSL pass renders `field` once, untransformed");
+    if (s.ground.enabled) no("ground.enabled", "ground.enabled = true: no surfaces on the GPU yet");
+    if (!s.meshes.empty()) no("mesh", "[[mesh]] entries: no surfaces on the GPU yet");
+    if (!s.solids.empty()) no("solid", "[[solid]] entries: no SDF solids on the GPU yet");
+    if (p.diffusion || p.photons)
+        no("render.multiple_scattering",
+           std::string("render.multiple_scattering = \"") + (p.photons ? "photons" : "grid") +
+               "\": the multiple-scattering grids are not uploaded to the GPU yet; use \"none\" "
+               "(octaves and the sky ambient)");
+    if (p.lightVolume)
+        no("render.shadow", "render.shadow = \"volume\": the light-attenuation volume is not "
+                            "uploaded to the GPU yet; use \"march\"");
+    if (p.skySingle)
+        no("render.sky_scattering", "render.sky_scattering = \"single\": not on the GPU yet; use "
+                                    "\"ambient\"");
+    if (p.columnVolumes)
+        no("render.sky_occlusion", "render.sky_occlusion = \"column\": the column volumes are not "
+                                   "uploaded to the GPU yet; use \"height\"");
+    if (s.medium.phase == PhaseKind::MieTable && p.scatters)
+        no("medium.phase", "medium.phase = \"mie_table\": the Lorenz-Mie table is not uploaded "
+                           "as a texture yet (no HG stand-in); use \"mie_approx\"");
+    if (p.rebased)
+        no("camera.position",
+           "the field or the camera lies far from the origin and the CPU renders this frame "
+           "translated (core/rebase.h); the GLSL pass does not rebase yet");
+    (void)r;
+    return out;
+}
+
+MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
+    MarchFeatures f;
+    f.sun = p.shadows && p.scatters;
+    f.ambient = p.ambient && !p.diffusion && !p.skySingle;
+    f.backgroundSky = s.render.background == Background::Sky;
+    f.multisample = s.render.pixelSamples > 1;
+    return f;
+}
+
+std::string MarchFeatures::defines() const {
+    std::string d;
+    d += std::string("#define RT_SUN ") + (sun ? "1" : "0") + "\n";
+    d += std::string("#define RT_AMBIENT ") + (ambient ? "1" : "0") + "\n";
+    d += std::string("#define RT_BACKGROUND_SKY ") + (backgroundSky ? "1" : "0") + "\n";
+    d += std::string("#define RT_MULTISAMPLE ") + (multisample ? "1" : "0") + "\n";
+    return d;
+}
+
+std::string marchShaderSource(const MarchFeatures& f) {
+    // source-string numbers in compiler messages: 1..K the kernels (core/kernels/source.h),
+    // K + 1 march_params.glsl, K + 2 march_pass.glsl
+    const std::size_t k = kern::kernelSources().size();
+    std::string s = "#version 430\n" + f.defines() + kern::glslLibrary();
+    s += "#line 1 " + std::to_string(k + 1) + "\n";
+    s += march_paramsSource();
+    s += "\n#line 1 " + std::to_string(k + 2) + "\n";
+    s += march_passSource();
+    return s;
+}
+
+RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p) {
+    RtMarchParams P{};
+    const Camera cam(s.camera);
+    P.camOrigin = v4(cam.origin);
+    P.camForward = v4(cam.forward);
+    P.camRight = v4(cam.right);
+    P.camUp = v4(cam.up);
+    P.tanHalfY = cam.tanHalfY;
+    P.aspect = cam.aspect;
+    P.width = cam.width;
+    P.height = cam.height;
+
+    const CumulusDesc& c = s.field.cumulus;
+    P.boundsLo = v4(c.bounds.lo);
+    P.boundsHi = v4(c.bounds.hi);
+    const kern::CumulusParams C = cumulusParams(c, p.time);
+    P.layerBottom = C.layer.bottom;
+    P.layerTop = C.layer.top;
+    P.heightA = C.layer.heightA;
+    P.heightB = C.layer.heightB;
+    P.coverage = C.layer.coverage;
+    P.softness = C.layer.softness;
+    P.erosion = C.layer.erosion;
+    P.towerSpacing = C.layer.towerSpacing;
+    P.towerRadiusMin = C.layer.towerRadiusMin;
+    P.towerRadiusMax = C.layer.towerRadiusMax;
+    P.towerHeightMin = C.layer.towerHeightMin;
+    P.towerHeightMax = C.layer.towerHeightMax;
+    P.towerProbability = C.layer.towerProbability;
+    P.towerAnisotropy = C.layer.towerAnisotropy;
+    P.fieldSeed = C.layer.seed;
+    P.fieldDensity = C.density;
+    P.basePeriod = C.basePeriod;
+    P.baseLattice = C.baseLattice;
+    P.baseOctaves = C.baseOctaves;
+    P.detailPeriod = C.detailPeriod;
+    P.detailLattice = C.detailLattice;
+    P.detailOctaves = C.detailOctaves;
+    P.baseOffset = v4(C.baseOffset);
+    P.detailOffset = v4(C.detailOffset);
+
+    P.sunDirection = v4(s.sun.direction);
+    P.sunIrradiance = v4(s.sun.irradiance);
+    const Medium m = Medium::fromDesc(s.medium);
+    P.sigmaS = v4(m.sigma_s);
+    P.sigmaT = v4(m.sigma_t);
+    const kern::PhaseParams ph = phaseParams(s.medium);
+    P.phaseKind = ph.kind;
+    P.phaseG = ph.g;
+    P.phaseG2 = ph.g2;
+    P.phaseBlend = ph.blend;
+    P.phaseAlpha = ph.alpha;
+    P.phaseDiameter = ph.diameter;
+
+    P.skyKind = int(s.sky.kind);
+    P.skyZenith = v4(s.sky.zenith);
+    P.skyHorizon = v4(s.sky.horizon);
+    P.skySphere = v4(skyMeans(s.sky).sphere);
+    P.ambientGround = MarchContext::kAmbientGround;
+
+    const RenderDesc& r = s.render;
+    P.frameKey = kern::pcg(frameSeedKey(s, p) ^ kern::pcg(r.seed));
+    P.jitter = r.jitter ? 1 : 0;
+    P.epsilon = r.epsilon;
+    P.step = p.step;
+    P.stepGrowth = r.stepGrowth;
+    P.shadowStep = p.shadowStep;
+    P.shadowGrowth = r.shadowGrowth;
+    P.octaves = r.octaves;
+    P.octaveContribution = r.octaveContribution;
+    P.octaveExtinction = r.octaveExtinction;
+    P.octaveEccentricity = r.octaveEccentricity;
+    P.inScatter = int(r.inScatter);
+    P.inScatterC = r.inScatterC;
+    P.inScatterStrength = r.inScatterStrength;
+    P.pixelSamples = std::max(1, r.pixelSamples);
+    P.filterKind = int(r.filter);
+    P.filterWidth = r.filterWidth;
+    return P;
+}
+
+std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
+    std::ostringstream o;
+    const std::vector<Unsupported> no = unsupported(s, p);
+    if (!no.empty()) {
+        for (const Unsupported& u : no) o << "  GPU: not supported: " << u.message << "\n";
+        return o.str();
+    }
+    const MarchFeatures f = marchFeatures(s, p);
+    std::string defs = f.defines();
+    for (char& ch : defs)
+        if (ch == '\n') ch = ';';
+    o << "  GPU shader: #version 430, " << defs << " the kernels";
+    for (const kern::KernelSource& k : kern::kernelSources()) o << " " << k.name;
+    o << ", plugin/realtime/march_params.glsl, march_pass.glsl\n";
+    o << "  GPU field: cumulus, noise evaluated per sample ("
+      << (p.bakeNoise ? "the CPU plan would bake it; the GPU does not" : "as the CPU plan")
+      << "), noise octaves " << s.field.cumulus.baseOctaves << " (base) / "
+      << s.field.cumulus.detailOctaves << " (detail)\n";
+    o << "  GPU march: steps " << p.step << " (growth " << s.render.stepGrowth << "), shadow "
+      << p.shadowStep << " (growth " << s.render.shadowGrowth
+      << "); no empty-space skipping (every step in the field's box)\n";
+    o << "  GPU lighting: " << (f.sun ? "sun by a shadow march per sample, " : "no sun, ")
+      << s.render.octaves << " octave(s), phase kind " << phaseParams(s.medium).kind
+      << (f.ambient ? ", sky ambient (height occlusion)" : ", no sky ambient")
+      << (f.backgroundSky ? ", sky background" : ", transparent background")
+      << "; multiple-scattering grids: none\n";
+    o << "  GPU pixels: " << s.render.pixelSamples << " sample(s) per pixel\n";
+    return o.str();
+}
+
+MarchPass::MarchPass() = default;
+MarchPass::~MarchPass() = default;
+
+bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, MarchStats& stats,
+                       std::string* error) {
+    using Clock = std::chrono::steady_clock;
+    const std::vector<Unsupported> no = unsupported(s, p);
+    if (!no.empty()) {
+        if (error) *error = no.front().message;
+        return false;
+    }
+    const MarchFeatures f = marchFeatures(s, p);
+    std::unique_ptr<gl::ComputeProgram>& program = programs_[f.key()];
+    stats.compileSeconds = 0.0;
+    if (!program) {
+        const auto t0 = Clock::now();
+        program = std::make_unique<gl::ComputeProgram>(marchShaderSource(f));
+        stats.compileSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    if (!program->valid()) {
+        if (error) *error = "the march shader does not compile: " + program->log();
+        programs_.erase(f.key());
+        return false;
+    }
+    const int w = s.camera.width, h = s.camera.height;
+    const std::size_t n = std::size_t(w) * std::size_t(h);
+    fb.resize(w, h, p.aovs);
+    gl::glErrors(); // drop stale errors
+    const auto t0 = Clock::now();
+    RtMarchParams P = marchParams(s, p);
+    const gl::StorageBuffer pixels(n * 12 * sizeof(float));
+    const std::uint32_t zero = 0;
+    const gl::StorageBuffer counters(sizeof zero, &zero);
+    pixels.bind(1);
+    counters.bind(2);
+    // one pass per pixel sample (march_pass.glsl, main)
+    const int passes = f.multisample ? P.pixelSamples : 1;
+    for (int k = 0; k < passes; ++k) {
+        P.sampleIndex = k;
+        const gl::StorageBuffer params(sizeof P, &P);
+        params.bind(0);
+        program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+    }
+    std::vector<float> out(n * 12);
+    pixels.read(out.data(), out.size() * sizeof(float));
+    std::uint32_t bad = 0;
+    counters.read(&bad, sizeof bad);
+    stats.frameSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    const std::string e = gl::glErrors();
+    if (!e.empty()) {
+        if (error) *error = "GL error during the march pass: " + e;
+        return false;
+    }
+    // the weighted sums to pixels, as MarchContext::renderPixel finishes a pixel
+    stats.nonFinite = bad;
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* q = &out[12 * i];
+        float rgba[4] = {q[0], q[1], q[2], q[3]};
+        float T[3] = {q[4], q[5], q[6]};
+        const float wSum = q[7];
+        if (wSum > 0.0f && f.multisample) {
+            for (float& v : rgba) v /= wSum;
+            for (float& v : T) v /= wSum;
+        }
+        const float depth = q[9] > 0.0f ? (f.multisample ? q[8] / q[9] : q[8]) : 0.0f;
+        if (!(std::isfinite(rgba[0]) && std::isfinite(rgba[1]) && std::isfinite(rgba[2]) &&
+              std::isfinite(rgba[3]))) {
+            ++stats.nonFinite;
+            for (float& v : rgba) v = 0.0f;
+        }
+        for (int c = 0; c < 4; ++c) fb.rgba[4 * i + std::size_t(c)] = rgba[c];
+        if (fb.aovs.transmittance)
+            for (int c = 0; c < 3; ++c) fb.transmittance[3 * i + std::size_t(c)] = T[c];
+        if (fb.aovs.depth) fb.depth[i] = depth;
+    }
+    return true;
+}
+
+} // namespace nimbus::rt

@@ -1,0 +1,96 @@
+/// @file rt_march.h
+/// @brief The GLSL march pass: the CPU `march` integrator (core/integrators/march.h) on the GPU
+/// for the procedural cumulus field, one compute invocation per pixel, through the same kernels.
+///
+/// The shader is assembled at run time from text embedded at build time: `#version 430`, the
+/// frame's feature #defines (only the features the frame uses are compiled in: the sun's shadow
+/// marches, the sky ambient, the sky background, several samples per pixel), the kernels
+/// (core/kernels/source.h), plugin/realtime/march_params.glsl and march_pass.glsl.
+///
+/// Supported (unsupported() names every key that leaves it): field.kind = "cumulus" with its noise
+/// evaluated per sample (not field.evaluation = "baked"), one untransformed volume, no surfaces
+/// or solids, render.integrator = "march", render.multiple_scattering = "none" (the diffusion
+/// and photon grids are not uploaded), render.shadow = "march", the sky as the height-occluded
+/// ambient (render.sky_scattering = "ambient", render.sky_occlusion = "height"), every analytic
+/// phase function (isotropic, hg, dual_hg, draine, mie_approx; not the Mie table), octaves,
+/// every in-scatter model, jitter, pixel samples and filters, background sky or transparent,
+/// the transmittance and depth AOVs. Empty space is not skipped: every step in the field's box
+/// is taken (the CPU's majorant grid skips only samples whose density is 0).
+///
+/// @code
+///   auto context = gl::ComputeContext::create(&error);
+///   rt::MarchPass pass;
+///   if (!pass.render(scene, plan, fb, stats, &error)) ...
+/// @endcode
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/plan.h"
+#include "core/scene.h"
+#include "plugin/realtime/gl_compute.h"
+
+namespace nimbus::rt {
+
+/// A setting of the scene the GLSL pass cannot render yet: the scene-file key and why.
+struct Unsupported {
+    std::string key;     ///< e.g. "field.kind"
+    std::string message; ///< e.g. "field.kind = \"vdb\": the GLSL pass renders ... only"
+};
+
+/// Every setting of `scene` (and of its frame plan) that the GLSL pass does not support; empty
+/// when it renders the frame as `march` would.
+std::vector<Unsupported> unsupported(const SceneDesc& scene, const FramePlan& plan);
+
+/// The features a frame's shader is compiled with (#define RT_... 0/1).
+struct MarchFeatures {
+    bool sun = false;           ///< RT_SUN: sun light, a shadow march per sample
+    bool ambient = false;       ///< RT_AMBIENT: the sky ambient, occluded by height
+    bool backgroundSky = false; ///< RT_BACKGROUND_SKY: the sky behind the clouds
+    bool multisample = false;   ///< RT_MULTISAMPLE: render.pixel_samples > 1, filtered
+
+    /// The #define lines.
+    std::string defines() const;
+    /// One key for the program cache.
+    std::string key() const { return defines(); }
+};
+
+/// The features of frame `plan` of `scene`.
+MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan);
+
+/// The whole compute shader for `features`.
+std::string marchShaderSource(const MarchFeatures& features);
+
+/// What `--explain` prints about the GPU pass of a frame: the features, the kernels and pass
+/// files compiled in, and what is not done on the GPU.
+std::string explainMarch(const SceneDesc& scene, const FramePlan& plan);
+
+/// Timings and counters of one GPU frame.
+struct MarchStats {
+    double compileSeconds = 0.0; ///< compiling the program (0 when it was cached)
+    double frameSeconds = 0.0;   ///< parameter upload, dispatch, wait and read-back
+    std::uint64_t nonFinite = 0; ///< pixels or samples that were NaN/Inf (as RenderStats)
+};
+
+/// Renders frames with the GLSL march pass. Needs a current gl::ComputeContext; keeps one
+/// compiled program per feature set.
+class MarchPass {
+  public:
+    MarchPass();
+    ~MarchPass();
+    /// Renders frame `plan` of `scene` into fb (resized to the camera, the plan's AOVs). False
+    /// with *error when the frame is unsupported (the first unsupported() message), the shader
+    /// does not compile (its info log) or GL fails.
+    bool render(const SceneDesc& scene, const FramePlan& plan, Framebuffer& fb, MarchStats& stats,
+                std::string* error);
+
+  private:
+    std::map<std::string, std::unique_ptr<gl::ComputeProgram>> programs_;
+};
+
+} // namespace nimbus::rt
