@@ -751,6 +751,35 @@ TEST_F(VdbCorrupt, MetadataWhoseSizeDisagreesWithItsTypeIsRefusedBeforeOpenVdbRe
     }
 }
 
+// A bool metadata value is one byte that OpenVDB copies into a bool; a byte other than 0 or 1 is
+// not a valid bool, and reading it (GridBase::saveFloatAsHalf) is undefined: under ASan a string
+// was copied past its literal (docs/fuzzing.md, find 7). The structure scan refuses it first.
+TEST_F(VdbCorrupt, ABoolMetadataByteOtherThanZeroOrOneIsRefusedBeforeOpenVdbReadsIt) {
+    const std::string p = write("smoke.vdb", {smokeSpec()});
+    std::vector<char> bytes = bytesOf(p);
+    const std::string name = "is_saved_as_half_float";
+    auto at = std::search(bytes.begin(), bytes.end(), name.begin(), name.end());
+    ASSERT_NE(at, bytes.end()) << "the writer no longer stores is_saved_as_half_float";
+    // name, type length (4), "bool", size (4), value (1)
+    const std::size_t value = std::size_t(at - bytes.begin()) + name.size() + 4 + 4 + 4;
+    ASSERT_EQ(std::string(&bytes[value - 8], 4), "bool");
+    ASSERT_LE(static_cast<unsigned char>(bytes[value]), 1);
+    bytes[value] = char(170);
+    const std::string c = path("badbool.vdb");
+    writeBytesTo(c, bytes);
+    for (bool isolate : {false, true}) {
+        try {
+            loadVdbGrid({.path = c, .isolate = isolate});
+            ADD_FAILURE() << "loaded a file with an invalid bool (isolate " << isolate << ")";
+        } catch (const VdbError& e) {
+            EXPECT_TRUE(contains(e.what(), c + ": ")) << e.what();
+            EXPECT_TRUE(contains(e.what(), "corrupted file: metadata \"is_saved_as_half_float\" of "
+                                           "type bool holds the byte 170, not 0 or 1"))
+                << e.what();
+        }
+    }
+}
+
 TEST_F(VdbCorrupt, ACorruptedChunkSizeIsReportedWhetherOpenVdbCrashesOrRefusesIt) {
     // A negative size means "raw bytes follow": OpenVDB 10 reads 8 GB into a 2 KB leaf buffer
     // (up to the end of the file): a heap overflow. What it does next is undefined: it mostly

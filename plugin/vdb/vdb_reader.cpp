@@ -159,6 +159,16 @@ class StructureReader {
                           " claims " + std::to_string(bytes) + " bytes, its type takes " +
                           std::to_string(expected));
             }
+            if (type == "bool") {
+                // OpenVDB copies the byte into a bool: any byte but 0 and 1 is not a valid bool,
+                // and code reading it (GridBase::saveFloatAsHalf) is then undefined; ASan saw
+                // a string copied past its literal from such a flag (docs/fuzzing.md, find 7)
+                const auto b = pod<std::uint8_t>("a bool metadata value");
+                if (b > 1)
+                    corrupted("metadata \"" + printable(name) + "\" of type bool holds the byte " +
+                              std::to_string(b) + ", not 0 or 1");
+                continue;
+            }
             if (!wanted.empty() && name == wanted && type == "string" && bytes <= 4096) {
                 if (bytes > remaining()) truncated("a metadata value", bytes);
                 value.resize(bytes);
