@@ -115,6 +115,11 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
 Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, double* bakeSeconds,
                          const std::atomic<bool>* cancel) {
     if (bakeSeconds) *bakeSeconds = 0.0;
+    if (scene_.field.kind == FieldKind::Automaton) {
+        std::lock_guard<std::mutex> lock(automatonMutex_);
+        if (!automaton_) automaton_ = std::make_unique<AutomatonSequence>(scene_.field.automaton);
+        return makeField(scene_.field, plan.time, *automaton_);
+    }
     if (scene_.field.kind != FieldKind::Cumulus || !plan.bakeNoise)
         return makeField(scene_.field, plan.time, bindings.grid(0));
     {

@@ -93,6 +93,10 @@ class Renderer {
     bool rebasedCopy_ = false; ///< this renderer already renders a translated frame
     std::mutex bakeMutex_;
     std::shared_ptr<const NoiseVolume> baseBake_, detailBake_;
+    /// field.kind = "automaton": the simulation, kept between the frames of a sequence so that
+    /// frame f + 1 costs only the steps after frame f's (made on first use)
+    std::mutex automatonMutex_;
+    std::unique_ptr<AutomatonSequence> automaton_;
 };
 
 } // namespace nimbus
