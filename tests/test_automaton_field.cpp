@@ -117,10 +117,15 @@ TEST(AutomatonField, FrameAloneEqualsFrameInSequence) {
     for (int frame = 1; frame <= 7; ++frame) {
         ASSERT_TRUE(seq.render(seq.plan(frame), fb, st));
         if (frame == 7) seven = fb;
+        // the renderer keeps the simulation: frame 1 simulates from step 0 (3 s warm-up at
+        // 0.1 s: steps 0-31), each later frame only the step it moves past (0.42 per frame)
+        if (frame == 1) EXPECT_EQ(st.automatonSteps, 31u);
+        if (frame > 1) EXPECT_LE(st.automatonSteps, 1u) << "frame " << frame;
     }
     Renderer alone(s);
     Framebuffer lone;
     ASSERT_TRUE(alone.render(alone.plan(7), lone, st));
+    EXPECT_EQ(st.automatonSteps, 33u); // 3 s + 7 / 24 s: steps 0-32, then 33 for the lerp
     EXPECT_TRUE(sameBits(seven, lone)) << "frame 7 alone differs from frame 7 of 1-7";
     // going back in time (a checkpoint every 10 steps here) gives the lone frame 3 as well
     SceneDesc c = s;
@@ -176,9 +181,6 @@ TEST(AutomatonField, UniformWindMovesTheCentreOfMassByWindDt) {
         const double ex = m.x - m0.x - double(wind.x) * t, ez = m.z - m0.z - double(wind.z) * t;
         worst = std::max(worst, std::max(std::abs(ex), std::abs(ez)));
         worstMass = std::max(worstMass, std::abs(m.mass / m0.mass - 1.0));
-        if (frame % 12 == 0)
-            std::fprintf(stderr, "frame %d: mass %g, centre %.4f %.4f, error %.4f %.4f\n", frame,
-                         m.mass, m.x, m.z, ex, ez);
     }
     RecordProperty("worst_centre_error_cells", std::to_string(worst));
     RecordProperty("worst_relative_mass_change", std::to_string(worstMass));
