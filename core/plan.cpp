@@ -313,6 +313,16 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.automatonBytes = automatonBytes(a);
         const std::string problem = automatonProblem(a);
         if (!problem.empty()) p.refusal = "field.kind = \"automaton\": " + problem;
+        if (p.automatonSteps > kWarnAutomatonSteps) {
+            char buf[320];
+            std::snprintf(buf, sizeof buf,
+                          "field.kind = \"automaton\": this frame alone re-simulates %llu steps "
+                          "from the seed (field.warmup + the frame's time over field.sim_step; "
+                          "about 1.6 ms a step per 512 k cells measured): expect a slow first "
+                          "frame",
+                          (unsigned long long)p.automatonSteps);
+            p.warnings.push_back(buf);
+        }
     }
     p.sdfTrace =
         p.skipEmpty && s.render.sdfTrace && s.field.kind == FieldKind::Sdf && isPlaced(s, 0);

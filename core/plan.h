@@ -23,6 +23,10 @@ constexpr double kMaxGridCells = 134217728.0;
 /// Steps per ray past which the plan warns (march's primary or shadow step).
 constexpr double kWarnStepsPerRay = 1e6;
 
+/// Steps of the automaton from the seed past which the plan warns (a lone frame re-simulates
+/// them all).
+constexpr std::uint64_t kWarnAutomatonSteps = 50000;
+
 /// What one frame needs. Everything not named here is never built.
 struct FramePlan {
     int frame = 1;

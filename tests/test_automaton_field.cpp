@@ -230,6 +230,14 @@ TEST(AutomatonField, PlanBuildsTheSimulationOnlyForTheAutomaton) {
     c.field = cumulusField(Box{vec3(-5.0f), vec3(5.0f)}, 1, 1);
     EXPECT_FALSE(planFrame(c, 24).automaton);
     EXPECT_EQ(planFrame(c, 24).explain().find("automaton"), std::string::npos);
+    EXPECT_TRUE(p.warnings.empty());
+    SceneDesc slow = s;
+    slow.field.automaton.warmup = 3600.0f;
+    slow.field.automaton.simStep = 0.01f;
+    const FramePlan ps = planFrame(slow, 1);
+    ASSERT_EQ(ps.warnings.size(), 1u);
+    EXPECT_NE(ps.warnings[0].find("re-simulates 360005 steps"), std::string::npos)
+        << ps.warnings[0];
     SceneDesc big = s;
     big.field.automaton.res = ivec3(1024, 64, 1024);
     EXPECT_NE(planFrame(big, 1).refusal.find("the limit is 16777216"), std::string::npos)
