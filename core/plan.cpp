@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/fields/automaton_field.h"
 #include "core/fields/gardner.h"
 #include "core/fields/grid.h"
 #include "core/fields/sdf_cloud.h"
@@ -195,6 +196,17 @@ std::string FramePlan::explain() const {
     }
     o << "  field noise: " << (bakeNoise ? "baked tiles" : "direct evaluation") << " ("
       << noiseDecision << ")\n";
+    if (automaton) {
+        char sim[400];
+        std::snprintf(sim, sizeof sim,
+                      "  automaton: %d x %d x %d cells, simulation time %.4g s: steps 0 to %llu "
+                      "from the seed when rendered alone (a renderer continuing a sequence "
+                      "computes only the steps since its previous frame), the two bracketing "
+                      "steps smoothed, advected to the frame's time and lerped; %.1f MB\n",
+                      automatonRes.x, automatonRes.y, automatonRes.z, automatonSimTime,
+                      (unsigned long long)automatonSteps, automatonBytes / 1048576.0);
+        o << sim;
+    }
     o << "  march steps: " << stepDecision << "\n";
     o << "  empty-space skipping: "
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
@@ -291,6 +303,27 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     if (s.field.kind == FieldKind::Vdb) bounds = bindings.grid(0).bounds;
     if (s.field.kind == FieldKind::Gardner) bounds = gardnerBounds(s.field.gardner);
     if (s.field.kind == FieldKind::Sdf) bounds = sdfCloudBounds(s.field.sdf);
+    if (s.field.kind == FieldKind::Automaton) {
+        const AutomatonDesc& a = s.field.automaton;
+        bounds = a.bounds;
+        p.automaton = isPlaced(s, 0);
+        p.automatonRes = a.res;
+        p.automatonSteps = automatonStepsFor(a, p.time);
+        p.automatonSimTime = automatonSimTime(a, p.time);
+        p.automatonBytes = automatonBytes(a);
+        const std::string problem = automatonProblem(a);
+        if (!problem.empty()) p.refusal = "field.kind = \"automaton\": " + problem;
+        if (p.automatonSteps > kWarnAutomatonSteps) {
+            char buf[320];
+            std::snprintf(buf, sizeof buf,
+                          "field.kind = \"automaton\": this frame alone re-simulates %llu steps "
+                          "from the seed (field.warmup + the frame's time over field.sim_step; "
+                          "about 1.6 ms a step per 512 k cells measured): expect a slow first "
+                          "frame",
+                          (unsigned long long)p.automatonSteps);
+            p.warnings.push_back(buf);
+        }
+    }
     p.sdfTrace =
         p.skipEmpty && s.render.sdfTrace && s.field.kind == FieldKind::Sdf && isPlaced(s, 0);
     chooseSteps(s, bindings, p);
@@ -354,9 +387,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     checkBounds(s, bounds, p);
 
     if (s.field.kind != FieldKind::Cumulus) {
-        p.noiseDecision = s.field.kind == FieldKind::Gardner
-                              ? "Gardner's sine sums: nothing to bake"
-                              : "not a procedural field";
+        p.noiseDecision =
+            s.field.kind == FieldKind::Gardner     ? "Gardner's sine sums: nothing to bake"
+            : s.field.kind == FieldKind::Automaton ? "Dobashi's cellular automaton: nothing to bake"
+                                                   : "not a procedural field";
         return p;
     }
     const CumulusDesc& c = s.field.cumulus;

@@ -23,6 +23,10 @@ constexpr double kMaxGridCells = 134217728.0;
 /// Steps per ray past which the plan warns (march's primary or shadow step).
 constexpr double kWarnStepsPerRay = 1e6;
 
+/// Steps of the automaton from the seed past which the plan warns (a lone frame re-simulates
+/// them all).
+constexpr std::uint64_t kWarnAutomatonSteps = 50000;
+
 /// What one frame needs. Everything not named here is never built.
 struct FramePlan {
     int frame = 1;
@@ -79,6 +83,12 @@ struct FramePlan {
     bool skyNee = false;
     /// march: the densities at the light-volume grid's voxel centres (diffusion, photons)
     bool densityGrid = false;
+    /// field.kind = "automaton" (placed): the simulation is built (else nothing of it is)
+    bool automaton = false;
+    ivec3 automatonRes{0};
+    std::uint64_t automatonSteps = 0; ///< steps from the seed to the frame's state
+    double automatonSimTime = 0.0;    ///< seconds: warm-up + frame time
+    double automatonBytes = 0.0;      ///< the simulation's and the frame's grids
     /// Set when the frame cannot be rendered as configured (a grid past kMaxGridCells): the
     /// message names the key, the cells it would need and the limit. The host refuses the frame.
     std::string refusal;

@@ -115,6 +115,17 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
 Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, double* bakeSeconds,
                          const std::atomic<bool>* cancel) {
     if (bakeSeconds) *bakeSeconds = 0.0;
+    if (scene_.field.kind == FieldKind::Automaton) {
+        std::lock_guard<std::mutex> lock(automatonMutex_);
+        std::uint64_t before = 0;
+        if (automaton_)
+            before = automaton_->stepsComputed();
+        else
+            automaton_ = std::make_unique<AutomatonSequence>(scene_.field.automaton);
+        Field f = makeField(scene_.field, plan.time, *automaton_);
+        automatonLastSteps_ = automaton_->stepsComputed() - before;
+        return f;
+    }
     if (scene_.field.kind != FieldKind::Cumulus || !plan.bakeNoise)
         return makeField(scene_.field, plan.time, bindings.grid(0));
     {
@@ -143,8 +154,14 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
     vs.cancel = cancel;
     const bool fieldPlaced = isPlaced(s, 0);
     // a [field] no instance places is never built (no noise baked, no grid read)
+    const auto tField = std::chrono::steady_clock::now();
     vs.fields.push_back(fieldPlaced ? fieldFor(plan, bindings, &stats.bakeSeconds, cancel)
                                     : emptyField());
+    if (fieldPlaced && s.field.kind == FieldKind::Automaton) {
+        std::lock_guard<std::mutex> lock(automatonMutex_);
+        stats.automatonSteps = automatonLastSteps_;
+        stats.automatonSeconds = secondsSince(tField);
+    }
     for (size_t i = 0; i < s.volumes.size(); ++i)
         vs.fields.push_back(makeField(s.volumes[i].field, plan.time, bindings.grid(int(i) + 1)));
     const auto t0 = std::chrono::steady_clock::now();

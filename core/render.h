@@ -34,6 +34,11 @@ struct RenderStats {
     double majorantEmptyFraction = 0.0;
     bool majorantUsed = false; ///< march skips with it only when at least half its cells are empty
     double bakeSeconds = 0.0;  ///< noise baking charged to this frame (0 when reused)
+    /// field.kind = "automaton": simulation steps computed for this frame (all from step 0 for
+    /// a renderer's first frame, the steps since the previous frame after that) and the time
+    /// the frame's field took (steps, smoothing, advection, block maxima)
+    std::uint64_t automatonSteps = 0;
+    double automatonSeconds = 0.0;
     double majorantSeconds = 0.0; ///< majorant grids and the instance query
     double lightVolumeSeconds = 0.0;
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
@@ -93,6 +98,11 @@ class Renderer {
     bool rebasedCopy_ = false; ///< this renderer already renders a translated frame
     std::mutex bakeMutex_;
     std::shared_ptr<const NoiseVolume> baseBake_, detailBake_;
+    /// field.kind = "automaton": the simulation, kept between the frames of a sequence so that
+    /// frame f + 1 costs only the steps after frame f's (made on first use)
+    std::mutex automatonMutex_;
+    std::unique_ptr<AutomatonSequence> automaton_;
+    std::uint64_t automatonLastSteps_ = 0; ///< steps the last fieldFor computed
 };
 
 } // namespace nimbus

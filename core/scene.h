@@ -75,7 +75,7 @@ struct MediumDesc {
     std::shared_ptr<const MieTable> mieTable;
 };
 
-enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner, Sdf };
+enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner, Sdf, Automaton };
 enum class NoiseEval { Auto, Direct, Baked };
 
 /// A box of constant density (tests, fog layers).
@@ -180,6 +180,42 @@ struct SdfFieldDesc {
     float falloff = 0.25f; ///< width of the soft edge inside the surface (world units)
 };
 
+/// One row of the automaton's layered wind: the horizontal wind (world units / s) at world
+/// altitude y; linear between rows, the first / last row below / above the table.
+struct AutomatonWindRow {
+    float altitude = 0.0f;
+    vec3 wind{0.0f}; ///< y must be 0: the cells shift horizontally per layer (Dobashi 2000)
+};
+
+/// The most cells of an automaton grid (x y z): 2^24, 64 MB per float grid; the field keeps
+/// about six grids of floats and three bit fields.
+constexpr double kMaxAutomatonCells = 16777216.0;
+
+/// A cloud from Dobashi's cellular automaton (core/fields/automaton_field.h,
+/// core/sim/automaton.h): the grid of `res` cells spans `bounds`; the controls' defaults are
+/// those of sim::AutomatonParams (sizes in cells, times in seconds).
+struct AutomatonDesc {
+    ivec3 res{256, 32, 256};
+    Box bounds{vec3(-20.0f, 1.5f, -20.0f), vec3(20.0f, 4.5f, 20.0f)};
+    std::uint32_t seed = 1;
+    float simStep = 0.1f; ///< seconds per simulation step
+    float warmup = 10.0f; ///< seconds simulated before time 0 (the cover settles)
+    float density = 1.0f; ///< density of a fully cloudy smoothed cell
+    float pHum = 0.1f, pAct = 0.01f, pExt = 0.1f;
+    int ellipsoids = 24; ///< initial number of region ellipsoids (cloudDensity)
+    int minEllipsoids = 2, maxEllipsoids = 64;
+    float targetCover = 0.35f, coverTolerance = 0.05f;
+    int adaptPeriod = 10;
+    float sizeMean = 28.0f, sizeVar = 8.0f; ///< cells
+    float heightRatio = 0.35f;
+    float lifeMean = 40.0f, lifeVar = 15.0f, shrinkTime = 8.0f;
+    float regionMargin = 40.0f; ///< cells
+    float layerLo = 0.3f, layerHi = 0.6f;
+    bool startFull = false;
+    std::vector<AutomatonWindRow> wind; ///< empty: still air
+    int checkpointEvery = 100;          ///< steps between kept states (going back in time)
+};
+
 struct FieldDesc {
     FieldKind kind = FieldKind::Cumulus;
     VdbFieldDesc vdb;
@@ -187,6 +223,7 @@ struct FieldDesc {
     CumulusDesc cumulus;
     GardnerDesc gardner;
     SdfFieldDesc sdf;
+    AutomatonDesc automaton;
 };
 
 /// A further VDB volume beside `field` (scene file `[[volume]]`), referred to by name.

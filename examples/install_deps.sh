@@ -13,6 +13,7 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
   libegl-dev libopengl-dev libgl1-mesa-dri               # tests: GLSL parity on headless GL (llvmpipe)
   gnuplot-nox                                            # nimbus converge --plot
+  imagemagick fonts-dejavu-core                          # examples/automaton_preview.sh: contact sheet (montage), GIF
   clang libclang-rt-14-dev                               # tests: libFuzzer, ASan, UBSan (tests/fuzz)
   python3 python3-numpy                                  # examples/python (ctypes host of libnimbus.so)
   slurm-wlm munge                                        # tests: the farm test on a real Slurm scheduler

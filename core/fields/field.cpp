@@ -37,7 +37,20 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
     case FieldKind::Sdf:
         f.data = makeSdfCloudField(desc.sdf, f.box);
         break;
+    case FieldKind::Automaton:
+        f.box = desc.automaton.bounds;
+        f.data = makeAutomatonField(desc.automaton, time);
+        break;
     }
+    return f;
+}
+
+Field makeField(const FieldDesc& desc, float time, AutomatonSequence& sequence) {
+    if (desc.kind != FieldKind::Automaton) return makeField(desc, time);
+    Field f;
+    f.kind = FieldKind::Automaton;
+    f.box = desc.automaton.bounds;
+    f.data = makeAutomatonField(desc.automaton, time, &sequence);
     return f;
 }
 
@@ -62,6 +75,8 @@ float Field::density(vec3 p) const {
         return as<GardnerField>().density(p);
     case FieldKind::Sdf:
         return as<SdfCloudField>().density(p);
+    case FieldKind::Automaton:
+        return as<AutomatonField>().density(p);
     }
     return 0.0f;
 }
@@ -80,6 +95,8 @@ float Field::majorant(const Box& b) const {
         return as<GardnerField>().majorant(c);
     case FieldKind::Sdf:
         return as<SdfCloudField>().majorant(c);
+    case FieldKind::Automaton:
+        return as<AutomatonField>().majorant(c);
     }
     return 0.0f;
 }

@@ -3,7 +3,8 @@
 ///
 /// A Field is a tagged union of small per-kind structs (core/fields/<kind>.h) with one switch
 /// per verb (no virtual dispatch): a homogeneous box, the procedural cumulus layer of Olajos
-/// 2016, ch. 2, a NanoVDB grid and Gardner's textured ellipsoids. A Field is the state of one
+/// 2016, ch. 2, a NanoVDB grid, Gardner's textured ellipsoids, an SDF cloud and Dobashi's
+/// cellular automaton. A Field is the state of one
 /// frame: the wind offsets for that frame's time are folded in when it is made. Adding a kind = one
 /// file in core/fields, one alternative in Field::Kinds and one case per verb in field.cpp.
 #pragma once
@@ -11,6 +12,7 @@
 #include <memory>
 #include <variant>
 
+#include "core/fields/automaton_field.h"
 #include "core/fields/cumulus.h"
 #include "core/fields/gardner.h"
 #include "core/fields/grid.h"
@@ -22,8 +24,8 @@ namespace nimbus {
 
 struct Field {
     /// Alternatives in FieldKind order.
-    using Kinds =
-        std::variant<HomogeneousField, CumulusField, GridField, GardnerField, SdfCloudField>;
+    using Kinds = std::variant<HomogeneousField, CumulusField, GridField, GardnerField,
+                               SdfCloudField, AutomatonField>;
 
     FieldKind kind = FieldKind::Homogeneous;
     Box box; ///< bounds(): no density outside
@@ -60,6 +62,10 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
 Field makeField(const FieldDesc& desc, float time,
                 std::shared_ptr<const NoiseVolume> baseBake = nullptr,
                 std::shared_ptr<const NoiseVolume> detailBake = nullptr);
+
+/// An automaton field's frame from a simulation kept between frames (Renderer::fieldFor);
+/// the same bits as makeField(desc, time), which simulates from step 0.
+Field makeField(const FieldDesc& desc, float time, AutomatonSequence& sequence);
 
 /// A field without density (an unplaced or empty volume).
 Field emptyField();

@@ -8,11 +8,10 @@
 
 namespace nimbus::io::scene {
 
-const WordTable<FieldKind> kFieldKinds = {{"cumulus", FieldKind::Cumulus},
-                                          {"homogeneous", FieldKind::Homogeneous},
-                                          {"vdb", FieldKind::Vdb},
-                                          {"gardner", FieldKind::Gardner},
-                                          {"sdf", FieldKind::Sdf}};
+const WordTable<FieldKind> kFieldKinds = {
+    {"cumulus", FieldKind::Cumulus}, {"homogeneous", FieldKind::Homogeneous},
+    {"vdb", FieldKind::Vdb},         {"gardner", FieldKind::Gardner},
+    {"sdf", FieldKind::Sdf},         {"automaton", FieldKind::Automaton}};
 
 std::string fieldKindName(FieldKind k) {
     for (const auto& [name, e] : kFieldKinds)
@@ -43,6 +42,7 @@ const std::vector<Param>& registry() {
         addVdbParams(t);
         addGardnerParams(t);
         addSdfFieldParams(t);
+        addAutomatonParams(t);
         addGroundParams(t);
         addRenderParams(t);
         addOutputParams(t);

@@ -11,9 +11,10 @@ void addFieldParams(std::vector<Param>& t) {
     t.push_back(fld.param("kind", kFieldKinds,
                           "Density field: a procedural cumulus layer (Olajos 2016), a box of "
                           "constant density, a grid from a VDB file, a cloud of Gardner's "
-                          "textured ellipsoids (Gardner 1985), or a cloud sculpted from signed "
-                          "distance functions (the [[field.node]] tables). The other keys of "
-                          "[field] depend on it.",
+                          "textured ellipsoids (Gardner 1985), a cloud sculpted from signed "
+                          "distance functions (the [[field.node]] tables), or clouds grown by "
+                          "Dobashi's cellular automaton and carried by a layered wind (the "
+                          "[[field.wind]] tables). The other keys of [field] depend on it.",
                           &FieldDesc::kind));
 }
 

@@ -107,6 +107,7 @@ const std::vector<FieldSubTable>& fieldSubTables() {
              gardner(s).scatter.enabled = true;
              s.gardnerScatterWhere = w;
          }},
+        automatonWindTable(),
     };
     return table;
 }
@@ -158,6 +159,7 @@ const std::vector<Param>& fieldSubRegistry() {
                              "Width (x), height (y) and depth (z) of the box above `center` that "
                              "holds the cloud.",
                              &GardnerScatterDesc::extent));
+        addAutomatonSubParams(t);
         return t;
     }();
     return table;

@@ -106,7 +106,9 @@ const std::vector<Rule>& rules() {
         {"field", "`bounds_min` must be below `bounds_max` on every axis.",
          [](Staging& s, const Context& cx, Problems& pr) {
              const FieldDesc& f = s.file.scene.field;
-             const Box& b = f.kind == FieldKind::Cumulus ? f.cumulus.bounds : f.homogeneous.box;
+             const Box& b = f.kind == FieldKind::Cumulus     ? f.cumulus.bounds
+                            : f.kind == FieldKind::Automaton ? f.automaton.bounds
+                                                             : f.homogeneous.box;
              const char* axes = "xyz";
              for (int a = 0; a < 3; ++a) {
                  if (b.lo[a] < b.hi[a]) continue;
@@ -131,6 +133,31 @@ const std::vector<Rule>& rules() {
                         ": footprints may not be wider than the spacing (each tower lives in one "
                         "cell and only the neighbouring cells are searched); lower the radius or "
                         "raise the spacing");
+         }},
+        {"field",
+         "Automaton: `min_ellipsoids` may not exceed `max_ellipsoids`, and the `[[field.wind]]` "
+         "rows must be given in strictly increasing `altitude`.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             const AutomatonDesc& a = s.file.scene.field.automaton;
+             if (s.file.scene.field.kind != FieldKind::Automaton) return;
+             if (a.minEllipsoids > a.maxEllipsoids)
+                 pr.add(locate(s, cx, {"field.min_ellipsoids", "field.max_ellipsoids"}),
+                        "field.min_ellipsoids " + std::to_string(a.minEllipsoids) +
+                            " exceeds field.max_ellipsoids " + std::to_string(a.maxEllipsoids) +
+                            "; expected min <= max");
+             for (size_t i = 1; i < a.wind.size(); ++i) {
+                 if (a.wind[i].altitude > a.wind[i - 1].altitude) continue;
+                 const std::string label = "field.wind[" + std::to_string(i) + "]";
+                 auto it = s.given.find(label + ".altitude");
+                 const Where w = it != s.given.end()      ? it->second
+                                 : i < s.windWhere.size() ? s.windWhere[i]
+                                                          : locate(s, cx, {"field.kind"});
+                 pr.add(w, label + ".altitude " + formatFloat(a.wind[i].altitude) +
+                               " is not above field.wind[" + std::to_string(i - 1) + "].altitude " +
+                               formatFloat(a.wind[i - 1].altitude) +
+                               "; give the rows in strictly increasing altitude");
+                 return;
+             }
          }},
         {"field",
          "Gardner: the cloud needs at least one `[[field.ellipsoid]]` table or a "

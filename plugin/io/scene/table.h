@@ -145,6 +145,7 @@ struct Staging {
     // tables inside [field] (fieldSubTables())
     std::vector<Where> ellipsoidWhere;        ///< per [[field.ellipsoid]]
     std::optional<Where> gardnerScatterWhere; ///< [field.scatter]
+    std::vector<Where> windWhere;             ///< per [[field.wind]] (automaton)
     /// SDF node tables being read (params_sdf.cpp), one per table of the array.
     struct SdfNodeRow {
         SdfNodeDesc desc;
@@ -355,6 +356,7 @@ void addHomogeneousParams(std::vector<Param>& t);
 void addVdbParams(std::vector<Param>& t);
 void addGardnerParams(std::vector<Param>& t);
 void addSdfFieldParams(std::vector<Param>& t); ///< [field] kind = "sdf" (params_sdf.cpp)
+void addAutomatonParams(std::vector<Param>& t);
 void addGroundParams(std::vector<Param>& t);
 void addRenderParams(std::vector<Param>& t);
 void addOutputParams(std::vector<Param>& t);
@@ -386,6 +388,9 @@ struct FieldSubTable {
 
 const std::vector<FieldSubTable>& fieldSubTables();
 const std::vector<Param>& fieldSubRegistry();
+/// [[field.wind]] of kind = "automaton" and its rows (params_automaton.cpp).
+FieldSubTable automatonWindTable();
+void addAutomatonSubParams(std::vector<Param>& t);
 
 std::vector<std::string> sectionNames();
 /// Keys of @p section that apply to field kind @p kind (all keys outside [field]).
