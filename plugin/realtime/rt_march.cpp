@@ -46,6 +46,8 @@ const char* fieldKindWord(FieldKind k) {
         return "gardner";
     case FieldKind::Sdf:
         return "sdf";
+    case FieldKind::Automaton:
+        return "automaton";
     }
     return "?";
 }
