@@ -758,6 +758,22 @@ TEST(CApi, AnOverlappingCallOnOneContextIsRefused) {
 // ---------------------------------------------------------------------------------------------
 // the ABI: exported symbols and soname
 
+// dlclose() must not unload the library: TBB worker threads may still be spinning down after a
+// render (the suspected cause of the C host's one SIGSEGV at exit in a clean CI run under load).
+// Linked with -z nodelete: the dynamic section says NODELETE.
+TEST(CApi, TheLibraryStaysLoadedAfterDlclose) {
+    const std::string lib = NIMBUS_CAPI_LIBRARY;
+    const std::string dyn = run("readelf -d '" + lib + "'");
+    ASSERT_FALSE(dyn.empty()) << "readelf (binutils) gave nothing for " << lib;
+    bool nodelete = false;
+    std::istringstream lines(dyn);
+    for (std::string line; std::getline(lines, line);)
+        if (line.find("(FLAGS_1)") != std::string::npos &&
+            line.find("NODELETE") != std::string::npos)
+            nodelete = true;
+    EXPECT_TRUE(nodelete) << dyn;
+}
+
 TEST(CApi, ExportsExactlyTheBaselineAndTheSonameCarriesTheMajorVersion) {
     const std::string lib = NIMBUS_CAPI_LIBRARY;
     ASSERT_TRUE(fs::exists(lib)) << lib;
