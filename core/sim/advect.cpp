@@ -20,11 +20,10 @@ bool finite3(vec3 v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
-/// Component c of a velocity grid, trilinear, at grid index position q (sample k at q = k),
-/// clamped to the samples (nearest edge outside).
-[[gnu::always_inline]] inline float gridComponent(const VelocityGrid& g, int c, vec3 q) {
-    int i0[3], i1[3];
-    float f[3];
+/// The trilinear stencil of index position q in a velocity grid: the lower and upper sample of
+/// each axis and the weight of the upper, clamped to the samples (nearest edge outside).
+[[gnu::always_inline]] inline void trilinearCorners(const VelocityGrid& g, vec3 q, int i0[3],
+                                                    int i1[3], float f[3]) {
     for (int a = 0; a < 3; ++a) {
         const int n = g.res[a];
         float x = q[a];
@@ -34,6 +33,14 @@ bool finite3(vec3 v) {
         f[a] = x - float(i0[a]);
         i1[a] = std::min(i0[a] + 1, n - 1);
     }
+}
+
+/// Component c of a velocity grid, trilinear, at grid index position q (sample k at q = k),
+/// clamped to the samples (nearest edge outside).
+[[gnu::always_inline]] inline float gridComponent(const VelocityGrid& g, int c, vec3 q) {
+    int i0[3], i1[3];
+    float f[3];
+    trilinearCorners(g, q, i0, i1, f);
     auto at = [&](int x, int y, int z) { return g.v[g.index(x, y, z)][c]; };
     const float c00 = lerp(at(i0[0], i0[1], i0[2]), at(i1[0], i0[1], i0[2]), f[0]);
     const float c10 = lerp(at(i0[0], i1[1], i0[2]), at(i1[0], i1[1], i0[2]), f[0]);
@@ -46,15 +53,7 @@ bool finite3(vec3 v) {
 [[gnu::always_inline]] inline vec3 gridVector(const VelocityGrid& g, vec3 q) {
     int i0[3], i1[3];
     float f[3];
-    for (int a = 0; a < 3; ++a) {
-        const int n = g.res[a];
-        float x = q[a];
-        x = x > 0.0f ? x : 0.0f; // also maps NaN to 0
-        x = std::min(x, float(n - 1));
-        i0[a] = int(x);
-        f[a] = x - float(i0[a]);
-        i1[a] = std::min(i0[a] + 1, n - 1);
-    }
+    trilinearCorners(g, q, i0, i1, f);
     auto at = [&](int x, int y, int z) { return g.v[g.index(x, y, z)]; };
     auto lerp3 = [](vec3 a, vec3 b, float t) {
         return vec3(lerp(a.x, b.x, t), lerp(a.y, b.y, t), lerp(a.z, b.z, t));

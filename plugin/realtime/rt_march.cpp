@@ -25,12 +25,8 @@ namespace nimbus::rt {
 static_assert(int(SkyKind::None) == kern::RT_SKY_NONE);
 static_assert(int(SkyKind::Uniform) == kern::RT_SKY_UNIFORM);
 static_assert(int(SkyKind::Gradient) == kern::RT_SKY_GRADIENT);
-static_assert(int(InScatter::None) == kern::INSCATTER_NONE);
-static_assert(int(InScatter::Olajos) == kern::INSCATTER_OLAJOS);
-static_assert(int(InScatter::Powder) == kern::INSCATTER_POWDER);
-static_assert(int(PixelFilter::Box) == kern::FILTER_BOX);
-static_assert(int(PixelFilter::Gaussian) == kern::FILTER_GAUSSIAN);
-static_assert(int(PixelFilter::BlackmanHarris) == kern::FILTER_BLACKMAN_HARRIS);
+// the in-scatter and pixel-filter values are checked once, beside their other user
+// (core/integrators/march.cpp)
 
 namespace {
 
