@@ -13,6 +13,7 @@
 
 #include "core/accel.h"
 #include "core/geometry.h"
+#include "core/sim/advect.h"
 
 namespace nimbus {
 
@@ -36,6 +37,10 @@ struct FrameBindings {
     /// Surfaces and the instance query; null: instances are found by a linear scan and there
     /// are no surfaces.
     std::shared_ptr<const GeometryBackend> geometry;
+    /// `[field.advect] velocity`: the frame's velocity grid (world units / s, already scaled),
+    /// read by plugin/vdb; null when the scene names none.
+    std::shared_ptr<const sim::VelocityGrid> velocity;
+    bool velocityStaggered = false; ///< the grid's layout (MAC faces) as read
 
     /// The grid of volume `i` (an empty binding when there is none).
     const GridBinding& grid(int i) const {

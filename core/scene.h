@@ -216,6 +216,36 @@ struct AutomatonDesc {
     int checkpointEvery = 100;          ///< steps between kept states (going back in time)
 };
 
+/// How an advected field's wind is given (AdvectDesc).
+enum class AdvectWind { Uniform, Layered, Grid };
+/// Where a VDB velocity grid's components sit: at cell centres, or on the cells' lower faces
+/// (MAC, Mantaflow's cache); Auto reads the grid's own `vector_type` metadata.
+enum class VelocityLayout { Auto, Centred, Staggered };
+
+/// Wind advection of a field's density ([field.advect], core/fields/advected_field.h): the
+/// source field at time 0 (a VDB sequence: the frame's grid) is sampled on a dense grid of
+/// `voxel`-sized cells over `bounds` and carried by the wind in steps of `step` seconds,
+/// semi-Lagrangian with Selle et al.'s bounded MacCormack correction (core/sim/advect.h).
+struct AdvectDesc {
+    bool enabled = false;
+    AdvectWind wind = AdvectWind::Uniform;
+    vec3 uniform{0.0f};                   ///< Uniform: world units / s
+    std::vector<AutomatonWindRow> layers; ///< Layered: rows by altitude (vertical wind allowed)
+    std::string velocityPath;             ///< Grid: a VDB file (or per-frame pattern)
+    std::string velocityGrid = "velocity";
+    VelocityLayout layout = VelocityLayout::Auto;
+    float velocityScale = 1.0f; ///< Grid: multiplies the velocities (e.g. cells/s to units/s)
+    float voxel = 0.0f; ///< cell size; 0: the VDB grid's voxel, else the source's longest side/128
+    bool hasBounds = false;
+    Box bounds;        ///< the simulation domain (hasBounds); else the source's grown by the wind
+    float step = 0.0f; ///< seconds per step; 0: one step per frame (1 / fps)
+    bool maccormack = true;
+    /// Seconds to the scene's last frame (set by the host from `frames`): the default bounds
+    /// hold the source moved by the wind over this time.
+    float until = 0.0f;
+    int checkpointEvery = 50; ///< steps between kept states (going back in time)
+};
+
 struct FieldDesc {
     FieldKind kind = FieldKind::Cumulus;
     VdbFieldDesc vdb;
@@ -224,6 +254,7 @@ struct FieldDesc {
     GardnerDesc gardner;
     SdfFieldDesc sdf;
     AutomatonDesc automaton;
+    AdvectDesc advect; ///< cumulus, VDB, Gardner, SDF, homogeneous: carried by a wind
 };
 
 /// A further VDB volume beside `field` (scene file `[[volume]]`), referred to by name.

@@ -4,6 +4,31 @@
 
 namespace nimbus {
 
+namespace {
+
+FieldMotion uniformMotion(vec3 wind) {
+    FieldMotion m;
+    m.velocity = sim::uniformWind(wind);
+    m.moving = wind != vec3(0.0f);
+    return m;
+}
+
+} // namespace
+
+FieldMotion layeredMotion(const std::vector<AutomatonWindRow>& rows) {
+    FieldMotion m;
+    if (rows.empty()) return m;
+    std::vector<sim::WindLayer> layers;
+    bool moving = false;
+    for (const AutomatonWindRow& r : rows) {
+        layers.push_back({r.altitude, r.wind});
+        moving = moving || r.wind != vec3(0.0f);
+    }
+    m.velocity = sim::layeredWind(std::move(layers));
+    m.moving = moving;
+    return m;
+}
+
 Field makeField(const FieldDesc& desc, float time, std::shared_ptr<const NoiseVolume> baseBake,
                 std::shared_ptr<const NoiseVolume> detailBake) {
     return makeField(desc, time, GridBinding{}, std::move(baseBake), std::move(detailBake));
@@ -23,6 +48,7 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
         f.box = desc.cumulus.bounds;
         f.data = CumulusField{cumulusParams(desc.cumulus, time), std::move(baseBake),
                               std::move(detailBake)};
+        f.motion = uniformMotion(desc.cumulus.wind);
         break;
     case FieldKind::Vdb:
         f.box = grid.bounds;
@@ -40,6 +66,7 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
     case FieldKind::Automaton:
         f.box = desc.automaton.bounds;
         f.data = makeAutomatonField(desc.automaton, time);
+        f.motion = layeredMotion(desc.automaton.wind);
         break;
     }
     return f;
@@ -51,6 +78,7 @@ Field makeField(const FieldDesc& desc, float time, AutomatonSequence& sequence) 
     f.kind = FieldKind::Automaton;
     f.box = desc.automaton.bounds;
     f.data = makeAutomatonField(desc.automaton, time, &sequence);
+    f.motion = layeredMotion(desc.automaton.wind);
     return f;
 }
 

@@ -19,8 +19,18 @@
 #include "core/fields/homogeneous.h"
 #include "core/fields/sdf_cloud.h"
 #include "core/scene.h"
+#include "core/sim/advect.h"
 
 namespace nimbus {
+
+/// How a field's density moves around the frame's time (motion blur): the density at time
+/// t_frame + dt near p is the frame's density at p - v(p) dt (exact for a uniform wind and a
+/// layered wind without vertical components). World units per second, in the field's space.
+struct FieldMotion {
+    sim::VelocityField velocity;                   ///< Uniform zero when still
+    std::shared_ptr<const sim::VelocityGrid> grid; ///< owns velocity.grid (Centred, Staggered)
+    bool moving = false;
+};
 
 struct Field {
     /// Alternatives in FieldKind order.
@@ -30,6 +40,7 @@ struct Field {
     FieldKind kind = FieldKind::Homogeneous;
     Box box; ///< bounds(): no density outside
     Kinds data;
+    FieldMotion motion; ///< set by makeField from the field's wind
 
     const Box& bounds() const { return box; }
     float density(vec3 p) const;
@@ -66,6 +77,9 @@ Field makeField(const FieldDesc& desc, float time,
 /// An automaton field's frame from a simulation kept between frames (Renderer::fieldFor);
 /// the same bits as makeField(desc, time), which simulates from step 0.
 Field makeField(const FieldDesc& desc, float time, AutomatonSequence& sequence);
+
+/// The motion of a layered wind table (still when empty or all zero).
+FieldMotion layeredMotion(const std::vector<AutomatonWindRow>& rows);
 
 /// A field without density (an unplaced or empty volume).
 Field emptyField();
