@@ -5,7 +5,10 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/fields/advected_field.h"
 #include "core/fields/automaton_field.h"
+#include "core/fields/field.h"
+#include "core/fields/grid.h"
 #include "core/fields/gardner.h"
 #include "core/fields/grid.h"
 #include "core/fields/sdf_cloud.h"
@@ -207,6 +210,21 @@ std::string FramePlan::explain() const {
                       (unsigned long long)automatonSteps, automatonBytes / 1048576.0);
         o << sim;
     }
+    if (advected) {
+        char adv[512];
+        std::snprintf(adv, sizeof adv,
+                      "  advection: %s; %d x %d x %d cells of %.4g%s over (%.4g, %.4g, %.4g) to "
+                      "(%.4g, %.4g, %.4g), steps of %.4g s: %llu from time 0 when rendered alone "
+                      "(a renderer continuing a sequence computes only the steps since its "
+                      "previous frame); %.1f MB\n",
+                      advectWind.c_str(), advectRes.x, advectRes.y, advectRes.z, advectVoxel,
+                      advectCoarsened ? " (the default voxel, enlarged to stay within 2^24 cells)"
+                                      : "",
+                      advectBounds.lo.x, advectBounds.lo.y, advectBounds.lo.z, advectBounds.hi.x,
+                      advectBounds.hi.y, advectBounds.hi.z, advectStep,
+                      (unsigned long long)advectSteps, advectBytes / 1048576.0);
+        o << adv;
+    }
     o << "  march steps: " << stepDecision << "\n";
     o << "  empty-space skipping: "
       << (skipEmpty ? "majorant grid, cell " + std::to_string(majorantCell) : std::string("off"))
@@ -286,6 +304,56 @@ FramePlan planFrame(const SceneDesc& s, int frame, const AovSet& aovs) {
     return planFrame(s, frame, FrameBindings{}, aovs);
 }
 
+namespace {
+
+/// [field.advect]: the simulation's domain replaces the source's bounds for the plan.
+void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bounds, FramePlan& p) {
+    const AdvectDesc& a = s.field.advect;
+    std::string problem;
+    const FieldMotion wind = advectWind(a, bindings.velocity, bindings.velocityStaggered, &problem);
+    p.advected = true;
+    if (!problem.empty()) {
+        p.refusal = problem;
+        return;
+    }
+    float voxel = 0.0f;
+    if (s.field.kind == FieldKind::Vdb && bindings.grid(0).grid) {
+        const vec3 v = gridVoxelSize(bindings.grid(0));
+        voxel = std::min({v.x, v.y, v.z});
+    }
+    const AdvectDomain dom = advectDomain(a, bounds, voxel, wind.velocity);
+    if (!dom.problem.empty()) {
+        p.refusal = dom.problem;
+        return;
+    }
+    p.advectRes = dom.res;
+    p.advectVoxel = dom.frame.voxelSize;
+    p.advectBounds = dom.bounds;
+    p.advectCoarsened = dom.coarsened;
+    p.advectStep = advectStep(a, s.render.fps);
+    p.advectSteps = advectStepsFor(a, s.render.fps, p.time);
+    p.advectBytes = advectBytes(dom);
+    const char* scheme = a.maccormack ? "MacCormack" : "semi-Lagrangian";
+    char buf[200];
+    switch (a.wind) {
+    case AdvectWind::Uniform:
+        std::snprintf(buf, sizeof buf, "%s, uniform wind (%.4g, %.4g, %.4g)", scheme, a.uniform.x,
+                      a.uniform.y, a.uniform.z);
+        break;
+    case AdvectWind::Layered:
+        std::snprintf(buf, sizeof buf, "%s, layered wind of %zu rows", scheme, a.layers.size());
+        break;
+    case AdvectWind::Grid:
+        std::snprintf(buf, sizeof buf, "%s, velocity grid \"%s\" (%s)", scheme,
+                      a.velocityGrid.c_str(), bindings.velocityStaggered ? "staggered" : "centred");
+        break;
+    }
+    p.advectWind = buf;
+    if (!dom.bounds.empty()) bounds = dom.bounds;
+}
+
+} // namespace
+
 FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings,
                     const AovSet& aovs) {
     FramePlan p;
@@ -324,6 +392,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
             p.warnings.push_back(buf);
         }
     }
+    if (s.field.advect.enabled && isPlaced(s, 0)) planAdvection(s, bindings, bounds, p);
     p.sdfTrace =
         p.skipEmpty && s.render.sdfTrace && s.field.kind == FieldKind::Sdf && isPlaced(s, 0);
     chooseSteps(s, bindings, p);
@@ -386,6 +455,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     }
     checkBounds(s, bounds, p);
 
+    if (p.advected) {
+        p.noiseDecision = "[field.advect]: the source is sampled once onto the advection grid";
+        return p;
+    }
     if (s.field.kind != FieldKind::Cumulus) {
         p.noiseDecision =
             s.field.kind == FieldKind::Gardner     ? "Gardner's sine sums: nothing to bake"

@@ -89,6 +89,16 @@ struct FramePlan {
     std::uint64_t automatonSteps = 0; ///< steps from the seed to the frame's state
     double automatonSimTime = 0.0;    ///< seconds: warm-up + frame time
     double automatonBytes = 0.0;      ///< the simulation's and the frame's grids
+    /// [field.advect] (placed): the source is sampled onto a dense grid and carried by the wind
+    bool advected = false;
+    ivec3 advectRes{0};
+    float advectVoxel = 0.0f;
+    Box advectBounds;
+    float advectStep = 0.0f;       ///< seconds per step
+    std::uint64_t advectSteps = 0; ///< full steps from time 0 to the frame (plus a partial one)
+    double advectBytes = 0.0;      ///< the sequence's grids
+    std::string advectWind;        ///< what carries it, in words
+    bool advectCoarsened = false;  ///< the default voxel was enlarged to fit kMaxAdvectCells
     /// Set when the frame cannot be rendered as configured (a grid past kMaxGridCells): the
     /// message names the key, the cells it would need and the limit. The host refuses the frame.
     std::string refusal;

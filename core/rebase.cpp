@@ -35,6 +35,8 @@ Rebase chooseRebase(const SceneDesc& s, const FrameBindings& b, double fineLengt
         r.blocked = "[[volume]] or [[instance]] entries";
     else if (s.ground.enabled || !s.meshes.empty() || !s.solids.empty() || b.geometry)
         r.blocked = "surfaces (ground, meshes or solids)";
+    else if (s.field.advect.enabled)
+        r.blocked = "[field.advect] (its domain and winds are in world coordinates)";
     if (!r.blocked.empty()) return r;
     r.active = true;
     r.origin = 0.5 * (glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi));

@@ -115,6 +115,34 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
 Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, double* bakeSeconds,
                          const std::atomic<bool>* cancel) {
     if (bakeSeconds) *bakeSeconds = 0.0;
+    if (scene_.field.advect.enabled) {
+        std::lock_guard<std::mutex> lock(advectMutex_);
+        const GridBinding& g = bindings.grid(0);
+        std::uint64_t before = 0;
+        if (advect_ && advectSourceKey_ == g.grid &&
+            advectVelocityKey_ == bindings.velocity.get()) {
+            before = advect_->stepsComputed();
+        } else {
+            // a new source (the first frame, or a VDB sequence's next grid): sampled at time 0
+            // onto the domain the plan computed from the same bounds
+            advect_.reset();
+            if (!plan.refusal.empty() || !plan.advected) return emptyField();
+            advectWind_ =
+                advectWind(scene_.field.advect, bindings.velocity, bindings.velocityStaggered);
+            const Field source = makeAdvectSource(scene_.field, g);
+            AdvectDomain dom;
+            dom.res = plan.advectRes;
+            dom.frame = sim::GridFrame{plan.advectBounds.lo, plan.advectVoxel};
+            dom.bounds = plan.advectBounds;
+            advect_ = std::make_unique<AdvectedSequence>(scene_.field.advect, scene_.render.fps,
+                                                         dom, source, advectWind_);
+            advectSourceKey_ = g.grid;
+            advectVelocityKey_ = bindings.velocity.get();
+        }
+        Field f = makeAdvectedField(scene_.field.advect, plan.time, *advect_, advectWind_, cancel);
+        advectLastSteps_ = advect_->stepsComputed() - before;
+        return f;
+    }
     if (scene_.field.kind == FieldKind::Automaton) {
         std::lock_guard<std::mutex> lock(automatonMutex_);
         std::uint64_t before = 0;
@@ -161,6 +189,11 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         std::lock_guard<std::mutex> lock(automatonMutex_);
         stats.automatonSteps = automatonLastSteps_;
         stats.automatonSeconds = secondsSince(tField);
+    }
+    if (fieldPlaced && s.field.advect.enabled) {
+        std::lock_guard<std::mutex> lock(advectMutex_);
+        stats.advectSteps = advectLastSteps_;
+        stats.advectSeconds = secondsSince(tField);
     }
     for (size_t i = 0; i < s.volumes.size(); ++i)
         vs.fields.push_back(makeField(s.volumes[i].field, plan.time, bindings.grid(int(i) + 1)));

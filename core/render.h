@@ -39,6 +39,10 @@ struct RenderStats {
     /// the frame's field took (steps, smoothing, advection, block maxima)
     std::uint64_t automatonSteps = 0;
     double automatonSeconds = 0.0;
+    /// [field.advect]: advection steps computed for this frame (from time 0 for a lone frame,
+    /// since the previous frame in a sequence) and the seconds the field took
+    std::uint64_t advectSteps = 0;
+    double advectSeconds = 0.0;
     double majorantSeconds = 0.0; ///< majorant grids and the instance query
     double lightVolumeSeconds = 0.0;
     std::uint64_t lightVolumeLookups = 0; ///< density lookups spent building it
@@ -103,6 +107,14 @@ class Renderer {
     std::mutex automatonMutex_;
     std::unique_ptr<AutomatonSequence> automaton_;
     std::uint64_t automatonLastSteps_ = 0; ///< steps the last fieldFor computed
+    /// [field.advect]: the simulation kept between frames, and what it was made from (the
+    /// source grid and the velocity grid: a VDB sequence's next frame starts a new one)
+    std::mutex advectMutex_;
+    std::unique_ptr<AdvectedSequence> advect_;
+    const void* advectSourceKey_ = nullptr;
+    const void* advectVelocityKey_ = nullptr;
+    FieldMotion advectWind_;
+    std::uint64_t advectLastSteps_ = 0;
 };
 
 } // namespace nimbus

@@ -75,7 +75,9 @@ struct MediumDesc {
     std::shared_ptr<const MieTable> mieTable;
 };
 
-enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner, Sdf, Automaton };
+/// The kinds of field a scene names; Advected is what any of them becomes in a frame when
+/// [field.advect] carries it (never a scene file's `kind`).
+enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner, Sdf, Automaton, Advected };
 enum class NoiseEval { Auto, Direct, Baked };
 
 /// A box of constant density (tests, fog layers).

@@ -68,6 +68,8 @@ Field makeField(const FieldDesc& desc, float time, const GridBinding& grid,
         f.data = makeAutomatonField(desc.automaton, time);
         f.motion = layeredMotion(desc.automaton.wind);
         break;
+    case FieldKind::Advected: // a frame's kind, made by makeAdvectedField
+        return emptyField();
     }
     return f;
 }
@@ -80,6 +82,23 @@ Field makeField(const FieldDesc& desc, float time, AutomatonSequence& sequence) 
     f.data = makeAutomatonField(desc.automaton, time, &sequence);
     f.motion = layeredMotion(desc.automaton.wind);
     return f;
+}
+
+Field makeAdvectedField(const AdvectDesc&, float time, AdvectedSequence& sequence,
+                        const FieldMotion& wind, const std::atomic<bool>* cancel) {
+    Field f;
+    f.kind = FieldKind::Advected;
+    auto frame = sequence.frameAt(time, cancel);
+    f.box = frame->density.v.empty() ? Box{} : frame->bounds;
+    f.data = AdvectedField{AutomatonField{std::move(frame)}};
+    f.motion = wind;
+    return f;
+}
+
+Field makeAdvectSource(const FieldDesc& desc, const GridBinding& grid) {
+    FieldDesc src = desc;
+    src.advect.enabled = false;
+    return makeField(src, 0.0f, grid);
 }
 
 Field emptyField() {
@@ -105,6 +124,8 @@ float Field::density(vec3 p) const {
         return as<SdfCloudField>().density(p);
     case FieldKind::Automaton:
         return as<AutomatonField>().density(p);
+    case FieldKind::Advected:
+        return as<AdvectedField>().density(p);
     }
     return 0.0f;
 }
@@ -125,6 +146,8 @@ float Field::majorant(const Box& b) const {
         return as<SdfCloudField>().majorant(c);
     case FieldKind::Automaton:
         return as<AutomatonField>().majorant(c);
+    case FieldKind::Advected:
+        return as<AdvectedField>().majorant(c);
     }
     return 0.0f;
 }

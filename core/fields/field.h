@@ -12,6 +12,7 @@
 #include <memory>
 #include <variant>
 
+#include "core/fields/advected_field.h"
 #include "core/fields/automaton_field.h"
 #include "core/fields/cumulus.h"
 #include "core/fields/gardner.h"
@@ -35,7 +36,7 @@ struct FieldMotion {
 struct Field {
     /// Alternatives in FieldKind order.
     using Kinds = std::variant<HomogeneousField, CumulusField, GridField, GardnerField,
-                               SdfCloudField, AutomatonField>;
+                               SdfCloudField, AutomatonField, AdvectedField>;
 
     FieldKind kind = FieldKind::Homogeneous;
     Box box; ///< bounds(): no density outside
@@ -77,6 +78,13 @@ Field makeField(const FieldDesc& desc, float time,
 /// An automaton field's frame from a simulation kept between frames (Renderer::fieldFor);
 /// the same bits as makeField(desc, time), which simulates from step 0.
 Field makeField(const FieldDesc& desc, float time, AutomatonSequence& sequence);
+
+/// The frame of a field carried by [field.advect] (desc.advect.enabled): from `sequence`, the
+/// Renderer's, which was made from this desc's source (core/fields/advected_field.h).
+Field makeAdvectedField(const AdvectDesc& desc, float time, AdvectedSequence& sequence,
+                        const FieldMotion& wind, const std::atomic<bool>* cancel = nullptr);
+/// The source of an advected field: `desc` without its advection, at time 0.
+Field makeAdvectSource(const FieldDesc& desc, const GridBinding& grid);
 
 /// The motion of a layered wind table (still when empty or all zero).
 FieldMotion layeredMotion(const std::vector<AutomatonWindRow>& rows);

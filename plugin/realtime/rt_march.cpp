@@ -44,6 +44,8 @@ const char* fieldKindWord(FieldKind k) {
         return "sdf";
     case FieldKind::Automaton:
         return "automaton";
+    case FieldKind::Advected:
+        return "advected";
     }
     return "?";
 }
@@ -63,6 +65,8 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     if (!p.refusal.empty()) no("render", "the frame plan refuses the frame: " + p.refusal);
     if (p.pathtrace)
         no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
+    if (s.field.advect.enabled)
+        no("field.advect", "[field.advect]: the GLSL pass does not advect fields yet");
     if (s.field.kind != FieldKind::Cumulus)
         no("field.kind", std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
                              "\": the GLSL pass renders the procedural cumulus field only (VDB "

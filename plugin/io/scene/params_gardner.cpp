@@ -85,30 +85,36 @@ void addGardnerParams(std::vector<Param>& t) {
 }
 
 const std::vector<FieldSubTable>& fieldSubTables() {
-    static const std::vector<FieldSubTable> table = {
-        {FieldKind::Gardner, "ellipsoid", true,
-         "One textured ellipsoid of a Gardner cloud. The density is 0 outside it; inside, "
-         "Gardner's transparency a = 1 - (I - T1 - (T2 - T1)(1 - g)) / D (clamped to [0, 1], "
-         "g = 1 - r^2 the normalised falloff, 1 at the centre and 0 on the surface, I the sine-sum "
-         "texture) gives the density `density` x (1 - a). Where ellipsoids overlap the larger "
-         "density wins. The texture and shape keys left out take the values of [field].",
-         [](Staging& s, Where w) {
-             gardner(s).ellipsoids.push_back(GardnerEllipsoidDesc{});
-             s.ellipsoidWhere.push_back(w);
-         }},
-        {FieldKind::Gardner, "scatter", false,
-         "Builds a cumulus from `count` ellipsoids the way Gardner and Elinas & Stuerzlinger "
-         "do, deterministic per `seed`: about a fifth large flattened body ellipsoids standing on "
-         "the flat base, a sixth wide thin ones along the base, the rest smaller ellipsoids "
-         "heaped on the top and sides of earlier ones, all inside the box `extent` above "
-         "`center`. Each takes the shape and texture keys of [field]; the seed also moves the "
-         "texture. May be combined with [[field.ellipsoid]] tables.",
-         [](Staging& s, Where w) {
-             gardner(s).scatter.enabled = true;
-             s.gardnerScatterWhere = w;
-         }},
-        automatonWindTable(),
-    };
+    static const std::vector<FieldSubTable> table = [] {
+        std::vector<FieldSubTable> t = {
+            {FieldKind::Gardner, "ellipsoid", true,
+             "One textured ellipsoid of a Gardner cloud. The density is 0 outside it; inside, "
+             "Gardner's transparency a = 1 - (I - T1 - (T2 - T1)(1 - g)) / D (clamped to [0, 1], "
+             "g = 1 - r^2 the normalised falloff, 1 at the centre and 0 on the surface, I the "
+             "sine-sum "
+             "texture) gives the density `density` x (1 - a). Where ellipsoids overlap the larger "
+             "density wins. The texture and shape keys left out take the values of [field].",
+             [](Staging& s, Where w) {
+                 gardner(s).ellipsoids.push_back(GardnerEllipsoidDesc{});
+                 s.ellipsoidWhere.push_back(w);
+             }},
+            {FieldKind::Gardner, "scatter", false,
+             "Builds a cumulus from `count` ellipsoids the way Gardner and Elinas & Stuerzlinger "
+             "do, deterministic per `seed`: about a fifth large flattened body ellipsoids standing "
+             "on "
+             "the flat base, a sixth wide thin ones along the base, the rest smaller ellipsoids "
+             "heaped on the top and sides of earlier ones, all inside the box `extent` above "
+             "`center`. Each takes the shape and texture keys of [field]; the seed also moves the "
+             "texture. May be combined with [[field.ellipsoid]] tables.",
+             [](Staging& s, Where w) {
+                 gardner(s).scatter.enabled = true;
+                 s.gardnerScatterWhere = w;
+             }},
+            automatonWindTable(),
+        };
+        addAdvectTables(t);
+        return t;
+    }();
     return table;
 }
 
@@ -160,6 +166,7 @@ const std::vector<Param>& fieldSubRegistry() {
                              "holds the cloud.",
                              &GardnerScatterDesc::extent));
         addAutomatonSubParams(t);
+        addAdvectSubParams(t);
         return t;
     }();
     return table;

@@ -160,6 +160,71 @@ const std::vector<Rule>& rules() {
              }
          }},
         {"field",
+         "Advection: `[[field.wind_layer]]` rows need a `[field.advect]` table; the wind is "
+         "one of `wind`, the `[[field.wind_layer]]` rows (strictly increasing `altitude`) or "
+         "`velocity`; `bounds_min` and `bounds_max` come together, min below max.",
+         [](Staging& s, const Context& cx, Problems& pr) {
+             AdvectDesc& a = s.file.scene.field.advect;
+             const auto given = [&](const char* k) { return s.given.count(k) > 0; };
+             if (!a.enabled) {
+                 if (!a.layers.empty())
+                     pr.add(s.windLayerWhere[0],
+                            "[[field.wind_layer]] rows carry a field through [field.advect]; add "
+                            "a [field.advect] table (or remove the rows)");
+                 return;
+             }
+             const int sources = (given("field.advect.wind") ? 1 : 0) + (a.layers.empty() ? 0 : 1) +
+                                 (given("field.advect.velocity") ? 1 : 0);
+             if (sources > 1) {
+                 pr.add(locate(s, cx, {"field.advect.velocity", "field.advect.wind"}),
+                        "[field.advect] takes one wind: `wind` (uniform), [[field.wind_layer]] "
+                        "rows (layered) or `velocity` (a VDB velocity grid); this one gives " +
+                            std::to_string(sources));
+                 return;
+             }
+             a.wind = given("field.advect.velocity") ? AdvectWind::Grid
+                      : !a.layers.empty()            ? AdvectWind::Layered
+                                                     : AdvectWind::Uniform;
+             for (size_t i = 1; i < a.layers.size(); ++i) {
+                 if (a.layers[i].altitude > a.layers[i - 1].altitude) continue;
+                 const std::string label = "field.wind_layer[" + std::to_string(i) + "]";
+                 auto it = s.given.find(label + ".altitude");
+                 pr.add(it != s.given.end() ? it->second : s.windLayerWhere[i],
+                        label + ".altitude " + formatFloat(a.layers[i].altitude) +
+                            " is not above field.wind_layer[" + std::to_string(i - 1) +
+                            "].altitude " + formatFloat(a.layers[i - 1].altitude) +
+                            "; give the rows in strictly increasing altitude");
+                 return;
+             }
+             const bool lo = given("field.advect.bounds_min"),
+                        hi = given("field.advect.bounds_max");
+             if (lo != hi) {
+                 pr.add(locate(s, cx, {"field.advect.bounds_min", "field.advect.bounds_max"}),
+                        std::string("field.advect.") + (lo ? "bounds_min" : "bounds_max") +
+                            " needs field.advect." + (lo ? "bounds_max" : "bounds_min") +
+                            " too (or neither: the default domain)");
+                 return;
+             }
+             a.hasBounds = lo;
+             if (a.hasBounds)
+                 for (int k = 0; k < 3; ++k) {
+                     if (a.bounds.lo[k] < a.bounds.hi[k]) continue;
+                     pr.add(locate(s, cx, {"field.advect.bounds_min"}),
+                            "field.advect.bounds_min " + formatVec(a.bounds.lo) +
+                                " must be below field.advect.bounds_max " + formatVec(a.bounds.hi) +
+                                " on every axis");
+                     return;
+                 }
+             // the default domain holds the source carried until the scene's last frame (the
+             // scene file's `frames`, not --frames: every frame sees the same domain)
+             try {
+                 const std::vector<int> frames = parseFrameSpec(s.file.frames);
+                 a.until = float(std::max(0, frames.back())) / s.file.scene.render.fps;
+             } catch (const std::exception&) {
+                 a.until = 0.0f; // the spec's own problem is reported by its row
+             }
+         }},
+        {"field",
          "Gardner: the cloud needs at least one `[[field.ellipsoid]]` table or a "
          "`[field.scatter]` table.",
          [](Staging& s, const Context& cx, Problems& pr) {

@@ -146,6 +146,8 @@ struct Staging {
     std::vector<Where> ellipsoidWhere;        ///< per [[field.ellipsoid]]
     std::optional<Where> gardnerScatterWhere; ///< [field.scatter]
     std::vector<Where> windWhere;             ///< per [[field.wind]] (automaton)
+    std::optional<Where> advectWhere;         ///< [field.advect]
+    std::vector<Where> windLayerWhere;        ///< per [[field.wind_layer]] (advection)
     /// SDF node tables being read (params_sdf.cpp), one per table of the array.
     struct SdfNodeRow {
         SdfNodeDesc desc;
@@ -391,6 +393,10 @@ const std::vector<Param>& fieldSubRegistry();
 /// [[field.wind]] of kind = "automaton" and its rows (params_automaton.cpp).
 FieldSubTable automatonWindTable();
 void addAutomatonSubParams(std::vector<Param>& t);
+/// [field.advect] and [[field.wind_layer]] for every kind that can be advected
+/// (params_advect.cpp).
+void addAdvectTables(std::vector<FieldSubTable>& t);
+void addAdvectSubParams(std::vector<Param>& t);
 
 std::vector<std::string> sectionNames();
 /// Keys of @p section that apply to field kind @p kind (all keys outside [field]).
