@@ -210,7 +210,11 @@ std::string FramePlan::explain() const {
                       (unsigned long long)automatonSteps, automatonBytes / 1048576.0);
         o << sim;
     }
-    if (advected) {
+    if (advected && advectRes.x == 0) {
+        o << "  advection: " << advectWind
+          << "; the domain follows from the source's bounds (a VDB grid is read when the frame "
+             "is rendered)\n";
+    } else if (advected) {
         char adv[512];
         std::snprintf(adv, sizeof adv,
                       "  advection: %s; %d x %d x %d cells of %.4g%s over (%.4g, %.4g, %.4g) to "

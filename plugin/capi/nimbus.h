@@ -321,7 +321,11 @@ typedef enum nimbus_stat {
     NIMBUS_STAT_MAJORANT_EMPTY_FRACTION = 12, /**< fraction of majorant cells that are empty */
     NIMBUS_STAT_MAJORANT_USED = 13,           /**< 1 when march skipped space with that grid */
     NIMBUS_STAT_BAKED_NOISE = 14,             /**< 1 when the plan baked the noise */
-    NIMBUS_STAT_NON_FINITE = 15               /**< non-finite pixels replaced by 0 */
+    NIMBUS_STAT_NON_FINITE = 15,              /**< non-finite pixels replaced by 0 */
+    /** simulation steps this frame computed: the automaton's, or [field.advect]'s (a lone
+     * frame: all from the start; a frame after its predecessor: the steps in between) */
+    NIMBUS_STAT_SIMULATION_STEPS = 16,
+    NIMBUS_STAT_SIMULATION_SECONDS = 17 /**< the seconds that simulation and the field took */
 } nimbus_stat;
 
 /** What nimbus_output_check() found at a frame's output path. */

@@ -441,6 +441,10 @@ double statItem(const nimbus_context* ctx, int item) {
         return ctx->bakedNoise ? 1.0 : 0.0;
     case NIMBUS_STAT_NON_FINITE:
         return double(st.nonFinite);
+    case NIMBUS_STAT_SIMULATION_STEPS:
+        return double(st.automatonSteps + st.advectSteps);
+    case NIMBUS_STAT_SIMULATION_SECONDS:
+        return st.automatonSeconds + st.advectSeconds;
     }
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }

@@ -249,6 +249,8 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
         const std::size_t n = std::strlen(grids);
         std::snprintf(grids + n, sizeof grids - n, fmt, a, b);
     };
+    if (double n = stat(ctx, NIMBUS_STAT_SIMULATION_STEPS); n > 0.0)
+        append(", simulation %.0f steps %.2f s", n, stat(ctx, NIMBUS_STAT_SIMULATION_SECONDS));
     if (double s = stat(ctx, NIMBUS_STAT_LIGHT_VOLUME_SECONDS); s > 0.0)
         append(", light grids %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_LIGHT_GRID_MB));
     if (double s = stat(ctx, NIMBUS_STAT_DIFFUSION_SECONDS); s > 0.0)

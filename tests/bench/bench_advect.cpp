@@ -1,13 +1,19 @@
 // Benchmarks of wind advection (core/sim/advect.h) at 256 x 32 x 256 (x, y up, z), the issue's
 // size: the automaton's smoothed density 200 steps into its stable defaults (clouds present),
 // advected one step per iteration (the result fed back, so the clouds keep moving):
-//   BM_AdvectLayered/<scheme>/<threads>    a two-row layered wind (shear), max CFL ~1.3
+//   BM_AdvectLayered/<scheme>/<threads>/<row kernel>    a two-row layered wind (shear), max CFL
+//                                          ~1.3; row kernel 0 = the per-cell path (same bits)
 //   BM_AdvectGrid/<scheme>/<threads>       a cell-centred velocity grid (a swirl + drift) of
 //                                          the same size, max CFL ~1.9, 2 trace substeps
 //                                          where the CFL exceeds 1
+//   BM_AdvectCube/<n>/<scheme>/<wind>    an n^3 grid of smooth lobes (the 256^3 and its
+//                                          scaling), wind 0 = layered (row kernel), 1 = a
+//                                          centred velocity grid of the same size; all threads
 // scheme: 0 = semi-Lagrangian, 1 = MacCormack; threads: the TBB thread count. items_per_second
 // is steps per second. Run from the build dir:
 //   ./tests/nimbus_bench --benchmark_filter=Advect
+#include <cmath>
+
 #include <benchmark/benchmark.h>
 
 #include <tbb/global_control.h>
@@ -54,6 +60,7 @@ void run(benchmark::State& state, const VelocityField& v, const char* label) {
                                 size_t(state.range(1)));
     AdvectParams p;
     p.scheme = state.range(0) ? AdvectScheme::MacCormack : AdvectScheme::SemiLagrangian;
+    p.rowKernel = state.range(2) != 0;
     DensityGrid d = cloudDensity();
     AdvectWorkspace ws;
     AdvectStats st;
@@ -71,10 +78,10 @@ void run(benchmark::State& state, const VelocityField& v, const char* label) {
 void BM_AdvectLayered(benchmark::State& state) {
     static const VelocityField v =
         layeredWind({{1200.0f, vec3(8.0f, 0.0f, 2.0f)}, {1700.0f, vec3(16.0f, 0.0f, -4.0f)}});
-    run(state, v, "layered wind");
+    run(state, v, state.range(2) ? "layered wind, row kernel" : "layered wind, per cell");
 }
 BENCHMARK(BM_AdvectLayered)
-    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->ArgsProduct({{0, 1}, {1, 2}, {1, 0}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
@@ -82,7 +89,58 @@ void BM_AdvectGrid(benchmark::State& state) {
     run(state, centredGrid(swirl()), "centred velocity grid");
 }
 BENCHMARK(BM_AdvectGrid)
-    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->ArgsProduct({{0, 1}, {1, 2}, {1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_AdvectCube(benchmark::State& state) {
+    const int n = int(state.range(0));
+    DensityGrid d;
+    d.res = ivec3(n);
+    d.v.resize(size_t(n) * n * n);
+    for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                const float s = std::sin(0.11f * x) * std::sin(0.13f * y) * std::sin(0.07f * z);
+                d.v[(size_t(z) * n + y) * n + x] = s > 0.2f ? s - 0.2f : 0.0f;
+            }
+    const GridFrame frame{vec3(0.0f), 6400.0f / float(n)}; // 6.4 km across at any n
+    const VelocityField layered =
+        layeredWind({{800.0f, vec3(8.0f, 0.0f, 2.0f)}, {5600.0f, vec3(16.0f, 0.0f, -4.0f)}});
+    VelocityGrid g;
+    if (state.range(2)) {
+        g.res = d.res;
+        g.frame = frame;
+        g.v.resize(d.v.size());
+        const vec3 c(3200.0f);
+        for (int z = 0; z < n; ++z)
+            for (int y = 0; y < n; ++y)
+                for (int x = 0; x < n; ++x) {
+                    const vec3 p = (vec3(x, y, z) + 0.5f) * frame.voxelSize - c;
+                    g.v[g.index(x, y, z)] =
+                        vec3(0.004f * p.z, 0.5f, -0.004f * p.x) + vec3(6.0f, 0.0f, 2.0f);
+                }
+    }
+    const VelocityField v = state.range(2) ? centredGrid(g) : layered;
+    AdvectParams p;
+    p.scheme = state.range(1) ? AdvectScheme::MacCormack : AdvectScheme::SemiLagrangian;
+    AdvectWorkspace ws;
+    AdvectStats st;
+    const float dt = 0.5f * frame.voxelSize / 16.0f; // max CFL ~0.5 at any n
+    for (auto _ : state) {
+        st = advect(d, frame, v, dt, p, d, ws);
+        benchmark::ClobberMemory();
+    }
+    state.SetItemsProcessed(state.iterations());
+    state.counters["cells"] = double(d.v.size());
+    state.counters["ns/cell"] =
+        benchmark::Counter(double(d.v.size()) * state.iterations() * 1e-9,
+                           benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+    state.SetLabel(std::string(p.scheme == AdvectScheme::MacCormack ? "MacCormack, " : "SL, ") +
+                   (state.range(2) ? "centred velocity grid" : "layered wind"));
+}
+BENCHMARK(BM_AdvectCube)
+    ->ArgsProduct({{64, 128, 256}, {0, 1}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
