@@ -6,12 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "core/scene.h"
 #include "core/sim/advect.h"
+#include "plugin/vdb/vdb_isolate.h"
 #include "plugin/vdb/vdb_reader.h"
 #include "plugin/vdb/vdb_velocity.h"
 #include "plugin/vdb/vdb_writer.h"
@@ -277,6 +279,25 @@ TEST(VdbVelocity, RefusalsNameTheFileTheGridAndWhatWasFound) {
                              "(rotated, sheared, non-uniformly scaled or degenerate); a velocity "
                              "grid must be axis-aligned with one positive voxel size"));
     }
+}
+
+TEST(VdbVelocity, ACrashWhileReadingIsAnErrorOfTheChildProcess) {
+    TempDir dir;
+    const std::string path = (dir / "v.vdb").string();
+    writeVdbGrids(path, {linearGrid("velocity", true, "vec3s")});
+    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
+        std::fprintf(stderr, "bad leaf\n");
+        std::raise(SIGSEGV);
+    });
+    const std::string msg = loadError(options(path));
+    detail::setIsolatedChildHookForTests(nullptr);
+    EXPECT_TRUE(contains(msg, path + ": grid \"velocity\": the OpenVDB reader crashed (SIGSEGV, "
+                                     "segmentation fault) while reading the grid"));
+    EXPECT_TRUE(contains(msg, "its last output: \"bad leaf\""));
+    // a time limit that is not a number of seconds is refused by the same machinery
+    VelocityLoadOptions o = options(path);
+    o.read.timeoutSeconds = -1.0;
+    EXPECT_TRUE(contains(loadError(o), "the time limit of the reading process must be a positive"));
 }
 
 TEST(VdbVelocity, BindingReadsOnlyWhenTheSceneNamesAGridAndResolvesFrames) {
