@@ -274,6 +274,14 @@ int runBake(const BakeOptions& o) {
                          frame);
             return kExitBadInput;
         }
+        if (o.velocity && !field.motion.moving) {
+            std::fprintf(stderr,
+                         "nimbus: error: %s: frame %d: --velocity writes the field's motion, and "
+                         "this field does not move (no wind: a cumulus or automaton without "
+                         "`wind`, or a VDB or other still field); bake without --velocity\n",
+                         o.scene.c_str(), frame);
+            return kExitBadInput;
+        }
         std::vector<vdb::FogBake> fogs;
         if (!b.empty()) {
             ivec3 res;
@@ -291,6 +299,13 @@ int runBake(const BakeOptions& o) {
                                            grid.res - ivec3(1));
                 return grid.at(c) > 0.0f ? field.density(p) : 0.0f;
             };
+            if (o.velocity) {
+                // the field's motion (core/fields/field.h): world units / s at each voxel centre
+                fog.velocity = [&](vec3 p) {
+                    return gCancel ? vec3(0.0f) : sim::velocityAt(field.motion.velocity, p);
+                };
+                fog.velocityName = o.velocityGrid;
+            }
             fogs.push_back(std::move(fog));
         }
         const std::string out = io::expandFramePattern(o.output, frame);
@@ -308,6 +323,13 @@ int runBake(const BakeOptions& o) {
                     stderr, "frame %d: \"%s\": %dx%dx%d voxels of %g, %llu active, max %g\n", frame,
                     fog.name.c_str(), fog.resolution.x, fog.resolution.y, fog.resolution.z,
                     double(voxel), (unsigned long long)s.activeVoxelCount, double(s.maxValue));
+                if (fog.velocity) {
+                    const vdb::VdbBakeStats& v = st[k++];
+                    std::fprintf(stderr, "frame %d: \"%s\": %llu voxels, speed %g to %g units/s\n",
+                                 frame, fog.velocityName.c_str(),
+                                 (unsigned long long)v.activeVoxelCount, double(v.minValue),
+                                 double(v.maxValue));
+                }
             }
             for (const vdb::LevelSetBake& l : sets) {
                 const vdb::VdbBakeStats& s = st[k++];

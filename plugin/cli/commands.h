@@ -94,6 +94,10 @@ struct BakeOptions {
     std::string levelSetGrid = "surface"; ///< their grid name ("surface_<n>" for several)
     float halfWidth = 3.0f;               ///< narrow band, voxels each side
     std::optional<Box> box;               ///< clips the level sets (needed for unbounded solids)
+    /// also a vec3s grid `velocityGrid` per frame: the field's motion (its wind) around the
+    /// density (vdb::FogBake::velocity); refused for a field that does not move
+    bool velocity = false;
+    std::string velocityGrid = "velocity";
 };
 
 /// `nimbus bench-vdb-render`: OpenVDB's VolumeRender against Nimbus march (bench_vdb.cpp).

@@ -349,6 +349,12 @@ int mainImpl(int argc, char** argv) {
                      "Narrow band of the level sets, in voxels each side of the surface")
         ->capture_default_str()
         ->check(CLI::Range(1.0f, 64.0f));
+    bake->add_flag("--velocity", bo.velocity,
+                   "Also write the field's velocity (its wind, world units/s) as a vec3s grid "
+                   "\"velocity\", cell-centred, over the active density voxels dilated by at "
+                   "least one voxel; refused for a field that does not move");
+    bake->add_option("--velocity-grid", bo.velocityGrid, "Name of the velocity grid")
+        ->capture_default_str();
     std::vector<float> bakeBox;
     bake->add_option("--box", bakeBox,
                      "xmin,ymin,zmin,xmax,ymax,zmax: the box the level sets are baked in (needed "

@@ -17,6 +17,7 @@
 #include "plugin/io/frames.h"
 #include "plugin/io/scene_setup.h"
 #include "plugin/vdb/vdb_field.h"
+#include "plugin/vdb/vdb_velocity.h"
 
 namespace nimbus::host {
 
@@ -217,7 +218,11 @@ Status Session::bind(int frame) {
     b.grids.resize(1 + s.volumes.size());
     std::vector<std::string> warnings;
     try {
-        if (isPlaced(s, 0)) b.grids[0] = vdb::bindVdbField(s.field, dir, frame, warnings);
+        if (isPlaced(s, 0)) {
+            b.grids[0] = vdb::bindVdbField(s.field, dir, frame, warnings);
+            // [field.advect] wind = "grid": the frame's velocity grid (read only when named)
+            vdb::bindVdbVelocity(s.field, dir, frame, b.velocity, b.velocityStaggered, warnings);
+        }
         for (size_t i = 0; i < s.volumes.size(); ++i) {
             if (!isPlaced(s, int(i) + 1)) continue; // never read
             try {

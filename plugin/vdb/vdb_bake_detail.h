@@ -72,7 +72,7 @@ std::vector<std::unique_ptr<FloatLeaf>> buildLeaves(glm::ivec3 res, const BadSam
 }
 
 /// Name, class, the voxel-centre transform (vdb_writer.h) and Nimbus' grid metadata.
-void placeGrid(openvdb::FloatGrid& grid, const std::string& name, openvdb::GridClass cls,
+void placeGrid(openvdb::GridBase& grid, const std::string& name, openvdb::GridClass cls,
                glm::vec3 worldOrigin, glm::vec3 voxelSize);
 
 /// The level set @p spec describes (vdb_level_set.cpp); @p path names the file in errors.

@@ -12,6 +12,8 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <new>
 #include <type_traits>
 
@@ -57,52 +59,6 @@ struct ReplyHeader {
 
 /// Exit codes of the child besides 0 (a reply was written).
 constexpr int kChildWriteFailed = 101; ///< the pipe broke while the reply was written
-
-class Encoder {
-  public:
-    template <class T> void pod(const T& v) {
-        static_assert(std::is_trivially_copyable_v<T>);
-        bytes.append(reinterpret_cast<const char*>(&v), sizeof v);
-    }
-    void str(const std::string& s) {
-        pod(std::uint64_t(s.size()));
-        bytes += s;
-    }
-    std::string bytes;
-};
-
-class Decoder {
-  public:
-    explicit Decoder(const std::string& b) : p_(b.data()), end_(b.data() + b.size()) {}
-    template <class T> T pod() {
-        static_assert(std::is_trivially_copyable_v<T>);
-        T v{};
-        if (std::size_t(end_ - p_) < sizeof v) {
-            ok_ = false;
-            return v;
-        }
-        std::memcpy(&v, p_, sizeof v);
-        p_ += sizeof v;
-        return v;
-    }
-    std::string str() {
-        const auto n = pod<std::uint64_t>();
-        if (!ok_ || n > std::uint64_t(end_ - p_)) {
-            ok_ = false;
-            return {};
-        }
-        std::string s(p_, std::size_t(n));
-        p_ += n;
-        return s;
-    }
-    /// Every byte read, none missing, none left over.
-    bool complete() const { return ok_ && p_ == end_; }
-
-  private:
-    const char* p_;
-    const char* end_;
-    bool ok_ = true;
-};
 
 // A tripwire: a field added to LoadedVdbGrid must also be sent (encodeMeta/decodeMeta).
 static_assert(sizeof(LoadedVdbGrid) == 544 || sizeof(void*) != 8,
@@ -206,22 +162,23 @@ bool writeAll(int fd, const void* data, std::size_t n) {
     return true;
 }
 
-bool writeReply(int fd, ReplyKind kind, const std::string& meta, const nanovdb::HostBuffer* grid) {
+bool writeReply(int fd, ReplyKind kind, const std::string& meta, const void* bulk = nullptr,
+                std::uint64_t bulkBytes = 0) {
     ReplyHeader h{};
     std::memcpy(h.magic, kReplyMagic, sizeof h.magic);
     h.kind = std::uint32_t(kind);
     h.metaBytes = meta.size();
-    h.gridBytes = grid ? grid->size() : 0;
+    h.gridBytes = bulk ? bulkBytes : 0;
     return writeAll(fd, &h, sizeof h) && writeAll(fd, meta.data(), meta.size()) &&
-           (!grid || writeAll(fd, grid->data(), std::size_t(grid->size()))) &&
+           (!bulk || writeAll(fd, bulk, std::size_t(bulkBytes))) &&
            writeAll(fd, kReplyEnd, sizeof kReplyEnd);
 }
 
 /// The forked child: limits itself, reads the grid, writes the reply, _exit()s. Never returns
 /// and never runs the parent's atexit handlers, static destructors or stdio flushes (which
 /// would repeat the parent's buffered output, or wait for TBB workers that do not exist here).
-[[noreturn]] void childMain(const VdbLoadOptions& options, int replyFd, int logFd, pid_t parent,
-                            rlim_t addressLimit) {
+[[noreturn]] void childMain(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
+                            int replyFd, int logFd, pid_t parent, rlim_t addressLimit) {
     // Default dispositions, so that a crash ends this process with its signal (the caller may
     // have its own handlers); a signal blocked in the forking thread is unblocked. Ctrl-C and
     // SIGTERM/SIGHUP sent to the whole process group are the caller's to handle (the nimbus
@@ -273,20 +230,20 @@ bool writeReply(int fd, ReplyKind kind, const std::string& meta, const nanovdb::
 
     bool written = false;
     try {
-        LoadedVdbGrid g;
+        ChildReply reply;
         // The parent's TBB worker threads do not exist in a forked child: an arena of one slot
         // asks for none, and every TBB algorithm of the reader runs on this thread.
         tbb::task_arena arena(1);
-        arena.execute([&] { g = loadVdbGridInProcess(options, /*checkGrid=*/false); });
-        written = writeReply(replyFd, ReplyKind::Loaded, encodeMeta(g), &g.handle.buffer());
+        arena.execute([&] { reply = work(); });
+        written = writeReply(replyFd, ReplyKind::Loaded, reply.meta, reply.bulk, reply.bulkBytes);
     } catch (const VdbError& e) {
-        written = writeReply(replyFd, ReplyKind::VdbError, e.what(), nullptr);
+        written = writeReply(replyFd, ReplyKind::VdbError, e.what());
     } catch (const std::bad_alloc&) {
-        written = writeReply(replyFd, ReplyKind::OtherError, "out of memory", nullptr);
+        written = writeReply(replyFd, ReplyKind::OtherError, "out of memory");
     } catch (const std::exception& e) {
-        written = writeReply(replyFd, ReplyKind::OtherError, e.what(), nullptr);
+        written = writeReply(replyFd, ReplyKind::OtherError, e.what());
     } catch (...) {
-        written = writeReply(replyFd, ReplyKind::OtherError, "unknown exception", nullptr);
+        written = writeReply(replyFd, ReplyKind::OtherError, "unknown exception");
     }
     _exit(written ? 0 : kChildWriteFailed);
 }
@@ -578,7 +535,8 @@ void setIsolatedChildHookForTests(IsolatedChildHook hook) {
     gChildHook = hook;
 }
 
-LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
+IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
+                          std::uint64_t minBulkBytes, const char* bulkName) {
     const std::string ctx = options.path + ": grid \"" + options.gridName + "\": ";
     if (!(options.timeoutSeconds > 0.0) || !std::isfinite(options.timeoutSeconds)) {
         throw VdbError(ctx +
@@ -615,7 +573,7 @@ LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
     }
     if (pid == 0) {
         ::close(fds[0]);
-        childMain(options, fds[1], log.fd, parent, addressLimit);
+        childMain(options, work, fds[1], log.fd, parent, addressLimit);
     }
     ::close(fds[1]);
 
@@ -639,10 +597,12 @@ LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
             invalid = "unknown reply kind " + std::to_string(header.kind);
         } else if (header.metaBytes > kMaxMetaBytes) {
             invalid = "it announces " + std::to_string(header.metaBytes) + " bytes of metadata";
-        } else if (kind != ReplyKind::Loaded ? header.gridBytes != 0
-                                             : header.gridBytes < sizeof(nanovdb::GridData) ||
-                                                   header.gridBytes > budget) {
-            invalid = "it announces a grid of " + std::to_string(header.gridBytes) + " bytes";
+        } else if (kind != ReplyKind::Loaded
+                       ? header.gridBytes != 0
+                       : header.gridBytes < std::max<std::uint64_t>(minBulkBytes, 1) ||
+                             header.gridBytes > budget) {
+            invalid = std::string("it announces ") + bulkName + " of " +
+                      std::to_string(header.gridBytes) + " bytes";
         }
         if (invalid.empty()) {
             meta.resize(std::size_t(header.metaBytes));
@@ -652,7 +612,7 @@ LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
             try {
                 grid = nanovdb::HostBuffer::create(header.gridBytes);
             } catch (const std::bad_alloc&) {
-                throw VdbError(ctx + "out of memory receiving the NanoVDB grid (" +
+                throw VdbError(ctx + "out of memory receiving " + bulkName + " (" +
                                mib(header.gridBytes) + ") from the reading process");
             }
             r = child.read(grid.data(), header.gridBytes);
@@ -742,12 +702,26 @@ LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
         break;
     }
 
+    return IsolatedReply{std::move(meta), std::move(grid)};
+}
+
+LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
+    IsolatedReply reply = runIsolated(
+        options,
+        [&options] {
+            auto g =
+                std::make_shared<LoadedVdbGrid>(loadVdbGridInProcess(options, /*checkGrid=*/false));
+            const nanovdb::HostBuffer& buffer = g->handle.buffer();
+            return ChildReply{encodeMeta(*g), g, buffer.data(), buffer.size()};
+        },
+        sizeof(nanovdb::GridData), "a grid");
     LoadedVdbGrid out;
-    if (!decodeMeta(meta, out)) {
-        throw VdbError(ctx + "the process reading the grid sent an invalid reply: its metadata "
-                             "does not decode");
+    if (!decodeMeta(reply.meta, out)) {
+        throw VdbError(options.path + ": grid \"" + options.gridName +
+                       "\": the process reading the grid sent an invalid reply: its metadata "
+                       "does not decode");
     }
-    out.handle = nanovdb::GridHandle<nanovdb::HostBuffer>(std::move(grid));
+    out.handle = nanovdb::GridHandle<nanovdb::HostBuffer>(std::move(reply.bulk));
     // Checked here, not in the child: what arrives is what the caller will traverse.
     const std::string problem = checkNanoGrid(out);
     if (!problem.empty()) throw VdbError(invalidGridMessage(out, problem));

@@ -11,6 +11,11 @@
 ///    not the caller, and becomes a VdbError naming the file, the grid and what happened.
 #pragma once
 
+#include <cstdint>
+#include <cstring>
+#include <type_traits>
+#include <functional>
+#include <memory>
 #include <string>
 
 #include "plugin/vdb/vdb_reader.h"
@@ -30,12 +35,88 @@ std::string invalidGridMessage(const LoadedVdbGrid& g, const std::string& proble
 /// failures of the child itself (a signal, an abnormal exit, the time limit, an invalid reply).
 LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options);
 
+/// Byte records for the replies of child processes (runIsolated): plain values and strings.
+class Encoder {
+  public:
+    template <class T> void pod(const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        bytes.append(reinterpret_cast<const char*>(&v), sizeof v);
+    }
+    void str(const std::string& s) {
+        pod(std::uint64_t(s.size()));
+        bytes += s;
+    }
+    std::string bytes;
+};
+
+class Decoder {
+  public:
+    explicit Decoder(const std::string& b) : p_(b.data()), end_(b.data() + b.size()) {}
+    template <class T> T pod() {
+        static_assert(std::is_trivially_copyable_v<T>);
+        T v{};
+        if (std::size_t(end_ - p_) < sizeof v) {
+            ok_ = false;
+            return v;
+        }
+        std::memcpy(&v, p_, sizeof v);
+        p_ += sizeof v;
+        return v;
+    }
+    std::string str() {
+        const auto n = pod<std::uint64_t>();
+        if (!ok_ || n > std::uint64_t(end_ - p_)) {
+            ok_ = false;
+            return {};
+        }
+        std::string s(p_, std::size_t(n));
+        p_ += n;
+        return s;
+    }
+    /// Every byte read, none missing, none left over.
+    bool complete() const { return ok_ && p_ == end_; }
+
+  private:
+    const char* p_;
+    const char* end_;
+    bool ok_ = true;
+};
+
+/// What the work of a child process returns (runIsolated): its metadata bytes and one bulk
+/// buffer (`bulkBytes` bytes at `bulk`, kept alive by `owner`).
+struct ChildReply {
+    std::string meta;
+    std::shared_ptr<const void> owner;
+    const void* bulk = nullptr;
+    std::uint64_t bulkBytes = 0;
+};
+
+/// What runIsolated() received: the child's metadata and its bulk buffer, unchecked.
+struct IsolatedReply {
+    std::string meta;
+    nanovdb::HostBuffer bulk;
+};
+
+/// The machinery of loadVdbGridIsolated() for any reader: forks a child process limited as
+/// "Isolation" in vdb_reader.h says (address space, no core dumps, OOM score, time limit of
+/// options.timeoutSeconds, captured stderr), runs @p work there inside a one-thread TBB arena and
+/// sends its reply back. A VdbError thrown by @p work reaches the caller with its message; a
+/// crash, a hang, an exhausted memory limit or a garbled reply becomes a VdbError that starts
+/// with `<options.path>: grid "<options.gridName>": `. A reply whose bulk buffer is smaller than
+/// @p minBulkBytes (at least 1) or larger than the memory limit is refused; @p bulkName names
+/// the buffer in messages ("a grid"). The caller decodes and checks what it receives.
+IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
+                          std::uint64_t minBulkBytes, const char* bulkName);
+
 /// Checks that @p g.handle holds one well-formed float NanoVDB grid that is safe to traverse:
 /// its header, every node offset inside the buffer and pointing at a node of the right level,
 /// a finite transform, finite non-negative values and finite node statistics, and node and
 /// voxel counts that agree with @p g. Returns "" when it is valid, otherwise what is wrong.
 /// Linear in the size of the grid (about 1 ms per 10 MB).
 std::string checkNanoGrid(const LoadedVdbGrid& g);
+
+/// Counts one read in vdbReadCount()/vdbRecentReads() (the velocity reader uses it too).
+void recordVdbRead(const std::string& path, const std::string& gridName, int gridsRead);
 
 /// Test hook: when set, the child process calls it first, before it reads anything (tests use it
 /// to simulate a crash, a hang, an abnormal exit or a garbled reply). Not thread-safe: set it

@@ -3,6 +3,7 @@
 ///        reads OpenVDB files: OpenVDB's headers cost ~20 s and ~600 MB per translation unit.
 #include "plugin/vdb/vdb_reader.h"
 #include "plugin/vdb/vdb_isolate.h"
+#include "plugin/vdb/vdb_velocity.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
@@ -19,6 +20,7 @@
 #include <deque>
 #include <mutex>
 #include <cerrno>
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -545,12 +547,7 @@ LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
     openvdb::initialize(); // idempotent and thread-safe
     LoadedVdbGrid g = options.isolate ? detail::loadVdbGridIsolated(options)
                                       : detail::loadVdbGridInProcess(options);
-    {
-        std::lock_guard<std::mutex> lock(g_readsMutex);
-        ++g_readCount;
-        g_reads.push_back({g.path, g.gridName, g.gridsRead});
-        if (g_reads.size() > kVdbRecentReads) g_reads.pop_front();
-    }
+    detail::recordVdbRead(g.path, g.gridName, g.gridsRead);
     return g;
 }
 
@@ -743,6 +740,204 @@ LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool c
                        ": unknown exception (a corrupted file?)");
     }
     return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Velocity (vec3) grids: vdb_velocity.h.
+
+namespace {
+
+bool isVec3Type(const std::string& t) {
+    return t == "vec3s" || t == "vec3h" || t == "vec3d";
+}
+
+/// Copies the active voxel box of @p grid into @p out.grid (scaled, NaN/Inf set to 0).
+template <class GridT>
+void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale,
+                   LoadedVelocityGrid& out) {
+    sim::VelocityGrid& g = out.grid;
+    const openvdb::Coord lo = box.min();
+    g.res = ivec3(box.dim()[0], box.dim()[1], box.dim()[2]);
+    g.v.assign(std::size_t(g.res.x) * std::size_t(g.res.y) * std::size_t(g.res.z), vec3(0.0f));
+    auto acc = grid.getConstAccessor();
+    std::uint64_t nonFinite = 0;
+    float maxSpeed2 = 0.0f;
+    for (int z = 0; z < g.res.z; ++z)
+        for (int y = 0; y < g.res.y; ++y)
+            for (int x = 0; x < g.res.x; ++x) {
+                const auto v = acc.getValue(lo.offsetBy(x, y, z));
+                vec3 w;
+                for (int a = 0; a < 3; ++a) {
+                    const double c = double(v[a]) * double(scale);
+                    const bool ok = std::isfinite(c) && std::abs(c) <= double(FLT_MAX);
+                    if (!ok) ++nonFinite;
+                    w[a] = ok ? float(c) : 0.0f;
+                }
+                g.v[g.index(x, y, z)] = w;
+                maxSpeed2 = std::max(maxSpeed2, glm::dot(w, w));
+            }
+    out.nonFiniteCount = nonFinite;
+    out.maxSpeed = std::sqrt(maxSpeed2);
+}
+
+} // namespace
+
+LoadedVelocityGrid detail::loadVdbVelocityInProcess(const VelocityLoadOptions& options) {
+    openvdb::initialize();
+    const std::string& path = options.read.path;
+    const std::string& name = options.read.gridName;
+    const std::string ctx = gridContext(path, name);
+    if (!std::isfinite(options.scale))
+        throw VdbError(ctx + "the velocity scale " + std::to_string(options.scale) +
+                       " is not a finite number");
+
+    LoadedVelocityGrid out;
+    out.path = path;
+    out.gridName = name;
+
+    DescriptorScan scan;
+    try {
+        scan = DescriptorScanner().scan(path, name);
+    } catch (const VdbError&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw VdbError(path + ": out of memory reading the file header (a corrupted file?)");
+    } catch (const std::exception& e) {
+        throw VdbError(path + ": cannot read the file header: " + e.what() +
+                       " (not a VDB file, or a corrupted one)");
+    }
+    const std::string version = " (" + versionText(scan.fileVersion, scan.libraryVersion) + ")";
+    auto found = std::find_if(scan.grids.begin(), scan.grids.end(),
+                              [&](const VdbGridInfo& g) { return g.name == name; });
+    if (found == scan.grids.end()) {
+        std::vector<VdbGridInfo> vec3;
+        for (const VdbGridInfo& g : scan.grids)
+            if (isVec3Type(g.valueType)) vec3.push_back(g);
+        std::string msg = ctx + "no grid of that name; ";
+        if (vec3.empty()) {
+            msg += "the file has no vec3 (velocity) grids; " + listGrids(scan.grids);
+        } else {
+            msg += "its vec3 grids: ";
+            for (std::size_t i = 0; i < vec3.size(); ++i)
+                msg += (i ? ", " : "") + vec3[i].name + " (" + vec3[i].valueType + ")";
+        }
+        throw VdbError(msg);
+    }
+    if (!isVec3Type(found->valueType)) {
+        const bool scalar = isScalarFloatType(found->valueType);
+        throw VdbError(ctx + "holds " + found->valueType + " values" +
+                       (scalar ? " (a scalar grid, e.g. a density)" : "") +
+                       "; a velocity grid must hold vec3s, vec3h or vec3d values");
+    }
+    out.sourceValueType = found->valueType;
+
+    try {
+        openvdb::io::File file(path);
+        file.setCopyMaxBytes(0);
+        file.open(/*delayLoad=*/true);
+        openvdb::GridBase::Ptr base = file.readGrid(name);
+        ++out.gridsRead;
+        if (!base) throw VdbError(ctx + "OpenVDB returned no grid" + version);
+        auto vs = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
+        auto vd = openvdb::gridPtrCast<openvdb::Vec3DGrid>(base);
+        if (!vs && !vd) {
+            throw VdbError(ctx + "has grid type " + base->type() + " (" + base->valueType() +
+                           " values); a velocity grid must be a vec3s or vec3d grid with the "
+                           "standard 5-4-3 tree");
+        }
+        out.gridClass = openvdb::GridBase::gridClassToString(base->getGridClass());
+        out.vectorType = openvdb::GridBase::vecTypeToString(base->getVectorType());
+        switch (options.layout) {
+        case VelocityLayout::Auto:
+            out.staggered = base->getGridClass() == openvdb::GRID_STAGGERED;
+            break;
+        case VelocityLayout::Centred:
+            out.staggered = false;
+            break;
+        case VelocityLayout::Staggered:
+            out.staggered = true;
+            break;
+        }
+
+        // Axis-aligned, uniform positive scale, finite: origin + index * h.
+        const openvdb::math::Transform& xform = base->transform();
+        if (!xform.isLinear()) {
+            throw VdbError(ctx + "has a non-linear (" + xform.mapType() +
+                           ") transform; a velocity grid must be axis-aligned with one voxel "
+                           "size on the three axes");
+        }
+        const openvdb::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();
+        const double h = m(0, 0);
+        bool aligned = std::isfinite(h) && h > 0.0;
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) {
+                const double v = m(r, c);
+                if (!std::isfinite(v)) aligned = false;
+                if (r < 3 && c < 3 && r != c && std::abs(v) > 1e-6 * std::abs(h)) aligned = false;
+                if (r < 3 && r == c && std::abs(v - h) > 1e-6 * std::abs(h)) aligned = false;
+            }
+        if (!aligned) {
+            std::ostringstream d;
+            d.precision(6);
+            d << "[" << m(0, 0) << " " << m(0, 1) << " " << m(0, 2) << "; " << m(1, 0) << " "
+              << m(1, 1) << " " << m(1, 2) << "; " << m(2, 0) << " " << m(2, 1) << " " << m(2, 2)
+              << "]";
+            throw VdbError(ctx + "has an index-to-world transform with matrix " + d.str() +
+                           " (rotated, sheared, non-uniformly scaled or degenerate); a velocity "
+                           "grid must be axis-aligned with one positive voxel size on the three "
+                           "axes");
+        }
+
+        openvdb::CoordBBox box;
+        if (!base->baseTreePtr()->evalActiveVoxelBoundingBox(box) || box.empty()) {
+            throw VdbError(ctx + "is empty (no active voxels): there is no velocity to read" +
+                           version);
+        }
+        out.indexMin = glm::ivec3(box.min()[0], box.min()[1], box.min()[2]);
+        out.indexMax = glm::ivec3(box.max()[0], box.max()[1], box.max()[2]);
+        const double cells = double(box.dim()[0]) * double(box.dim()[1]) * double(box.dim()[2]);
+        if (cells > double(options.maxCells)) {
+            throw VdbError(ctx + "its active voxels span a box of " + std::to_string(box.dim()[0]) +
+                           " x " + std::to_string(box.dim()[1]) + " x " +
+                           std::to_string(box.dim()[2]) + " = " +
+                           std::to_string(std::uint64_t(cells)) +
+                           " cells, more than the limit of " + std::to_string(options.maxCells) +
+                           " cells for a dense velocity grid (12 bytes per cell)");
+        }
+        out.activeVoxelCount = base->activeVoxelCount();
+        const openvdb::Vec3d o = xform.indexToWorld(
+            openvdb::Vec3d(box.min()[0] - 0.5, box.min()[1] - 0.5, box.min()[2] - 0.5));
+        out.grid.frame.origin = vec3(float(o[0]), float(o[1]), float(o[2]));
+        out.grid.frame.voxelSize = float(h);
+        if (vs)
+            denseVelocity(*vs, box, options.scale, out);
+        else
+            denseVelocity(*vd, box, options.scale, out);
+        file.close();
+        if (out.nonFiniteCount) {
+            out.warnings.push_back(ctx + std::to_string(out.nonFiniteCount) +
+                                   " NaN/Inf velocity component(s) set to 0");
+        }
+    } catch (const VdbError&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw VdbError(ctx + "out of memory while reading it" + version +
+                       " (a corrupted file, or a grid too large for this machine)");
+    } catch (const std::exception& e) {
+        throw VdbError(ctx + "OpenVDB could not read it" + version + ": " + e.what() +
+                       " (a corrupted or truncated file?)");
+    } catch (...) {
+        throw VdbError(ctx + "OpenVDB could not read it" + version +
+                       ": unknown exception (a corrupted file?)");
+    }
+    return out;
+}
+
+void detail::recordVdbRead(const std::string& path, const std::string& gridName, int gridsRead) {
+    std::lock_guard<std::mutex> lock(g_readsMutex);
+    ++g_readCount;
+    g_reads.push_back({path, gridName, gridsRead});
+    if (g_reads.size() > kVdbRecentReads) g_reads.pop_front();
 }
 
 } // namespace nimbus::vdb

@@ -13,7 +13,8 @@
 /// `<path>: grid "<name>": ` and says what was found):
 ///  - value types: float, half (float stored as 16 bits: read as float), double (converted to
 ///    float; values beyond the float range become Inf and are then sanitised, see below).
-///    Vector grids (vec3s, vec3d, ...) and integer/bool/point grids are refused.
+///    Vector grids (vec3s, vec3d, ...) and integer/bool/point grids are refused (velocity
+///    grids are read by loadVdbVelocity(), vdb_velocity.h, through the same child process).
 ///  - grid classes: fog volume and unknown are accepted; a level set is refused unless
 ///    VdbLoadOptions::levelsetToFog, which converts it by the rules of
 ///    openvdb::tools::sdfToFogVolume (interior = 1 as active tiles, the inner half of the narrow

@@ -50,10 +50,13 @@ void writeFile(const std::string& path, const openvdb::GridCPtrVec& grids,
 
 /// The bake: fills 8^3 leaves in parallel from @p sample(i, j, k), keeps the leaves with at least
 /// one sample > tolerance.
+/// When @p occupied is not null it receives one flag per 8^3 block (x fastest) that holds an
+/// active voxel.
 template <class SampleFn>
 openvdb::FloatGrid::Ptr buildFog(const std::string& path, const std::string& gridName,
                                  glm::ivec3 res, glm::vec3 worldOrigin, glm::vec3 voxelSize,
-                                 float tolerance, const SampleFn& sample, VdbBakeStats& stats) {
+                                 float tolerance, const SampleFn& sample, VdbBakeStats& stats,
+                                 std::vector<char>* occupied = nullptr) {
     const std::string ctx = path + ": grid \"" + gridName + "\": ";
     if (gridName.empty()) throw VdbError(path + ": cannot bake a grid without a name");
     if (res.x < 1 || res.y < 1 || res.z < 1) {
@@ -103,8 +106,11 @@ openvdb::FloatGrid::Ptr buildFog(const std::string& path, const std::string& gri
     openvdb::FloatGrid::Ptr grid = newGrid<openvdb::FloatGrid>();
     stats = VdbBakeStats{};
     bool first = true;
-    for (std::unique_ptr<LeafT>& leaf : leaves) {
+    if (occupied) occupied->assign(leaves.size(), 0);
+    for (std::size_t b = 0; b < leaves.size(); ++b) {
+        std::unique_ptr<LeafT>& leaf = leaves[b];
         if (!leaf) continue;
+        if (occupied) (*occupied)[b] = 1;
         ++stats.leafCount;
         stats.activeVoxelCount += leaf->onVoxelCount();
         for (auto v = leaf->cbeginValueOn(); v; ++v) {
@@ -115,6 +121,79 @@ openvdb::FloatGrid::Ptr buildFog(const std::string& path, const std::string& gri
         grid->tree().addLeaf(leaf.release());
     }
     detail::placeGrid(*grid, gridName, openvdb::GRID_FOG_VOLUME, worldOrigin, voxelSize);
+    return grid;
+}
+
+/// The velocity grid of a fog bake (FogBake::velocity): every voxel of the blocks that are
+/// @p occupied or next to one, inside the box of @p res voxels.
+openvdb::Vec3SGrid::Ptr buildVelocity(const std::string& path, const FogBake& f,
+                                      const std::vector<char>& occupied, VdbBakeStats& stats) {
+    using VecLeaf = openvdb::Vec3STree::LeafNodeType;
+    const std::string ctx = path + ": grid \"" + f.velocityName + "\": ";
+    if (f.velocityName.empty() || f.velocityName == f.name)
+        throw VdbError(ctx + "the velocity grid needs a name of its own (the density grid is \"" +
+                       f.name + "\")");
+    const glm::ivec3 res = f.resolution, blocks = (res + 7) / 8;
+    auto at = [&](glm::ivec3 b) {
+        return occupied[std::size_t(b.x) +
+                        std::size_t(blocks.x) * (std::size_t(b.y) + std::size_t(blocks.y) * b.z)];
+    };
+    const glm::dvec3 origin(f.worldOrigin), vs(f.voxelSize);
+    std::vector<std::unique_ptr<VecLeaf>> leaves(occupied.size());
+    detail::BadSample bad;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, occupied.size()), [&](const auto& r) {
+        for (std::size_t n = r.begin(); n != r.end(); ++n) {
+            if (bad.seen()) return;
+            const glm::ivec3 b(int(n % blocks.x), int((n / blocks.x) % blocks.y),
+                               int(n / (std::size_t(blocks.x) * blocks.y)));
+            bool near = false;
+            for (int dz = -1; dz <= 1 && !near; ++dz)
+                for (int dy = -1; dy <= 1 && !near; ++dy)
+                    for (int dx = -1; dx <= 1 && !near; ++dx) {
+                        const glm::ivec3 c = b + glm::ivec3(dx, dy, dz);
+                        near = glm::all(glm::greaterThanEqual(c, glm::ivec3(0))) &&
+                               glm::all(glm::lessThan(c, blocks)) && at(c);
+                    }
+            if (!near) continue;
+            const glm::ivec3 o = 8 * b;
+            auto leaf = std::make_unique<VecLeaf>(openvdb::Coord(o.x, o.y, o.z),
+                                                  openvdb::Vec3s(0.0f), false);
+            for (int i = o.x; i < std::min(o.x + 8, res.x); ++i)
+                for (int j = o.y; j < std::min(o.y + 8, res.y); ++j)
+                    for (int k = o.z; k < std::min(o.z + 8, res.z); ++k) {
+                        const glm::vec3 v =
+                            f.velocity(glm::vec3(origin + glm::dvec3(i, j, k) * vs));
+                        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+                            bad.report(glm::ivec3(i, j, k), glm::length(v));
+                            return;
+                        }
+                        leaf->setValueOn(VecLeaf::coordToOffset(openvdb::Coord(i, j, k)),
+                                         openvdb::Vec3s(v.x, v.y, v.z));
+                    }
+            leaves[n] = std::move(leaf);
+        }
+    });
+    if (bad.seen()) {
+        throw VdbError(ctx + "the velocity at voxel " + bad.where() +
+                       " is not finite; a velocity must be finite");
+    }
+    openvdb::Vec3SGrid::Ptr grid = detail::newGrid<openvdb::Vec3SGrid>();
+    stats = VdbBakeStats{};
+    bool first = true;
+    for (std::unique_ptr<VecLeaf>& leaf : leaves) {
+        if (!leaf) continue;
+        ++stats.leafCount;
+        stats.activeVoxelCount += leaf->onVoxelCount();
+        for (auto v = leaf->cbeginValueOn(); v; ++v) {
+            const float speed = v->length();
+            stats.maxValue = first ? speed : std::max(stats.maxValue, speed);
+            stats.minValue = first ? speed : std::min(stats.minValue, speed);
+            first = false;
+        }
+        grid->tree().addLeaf(leaf.release());
+    }
+    detail::placeGrid(*grid, f.velocityName, openvdb::GRID_UNKNOWN, f.worldOrigin, f.voxelSize);
+    grid->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
     return grid;
 }
 
@@ -148,8 +227,10 @@ openvdb::Coord coord(glm::ivec3 v) {
     return openvdb::Coord(v.x, v.y, v.z);
 }
 
-template <class GridT, class Convert>
-openvdb::GridBase::Ptr buildGrid(const VdbGridSpec& spec, const Convert& convert) {
+/// @p convert maps a scalar to a value; @p value maps a voxel to its value.
+template <class GridT, class Convert, class Value>
+openvdb::GridBase::Ptr buildGrid(const VdbGridSpec& spec, const Convert& convert,
+                                 const Value& value) {
     typename GridT::Ptr grid = newGrid<GridT>();
     auto& tree = grid->tree();
     tree.root().setBackground(convert(spec.background), /*updateChildNodes=*/false);
@@ -158,18 +239,24 @@ openvdb::GridBase::Ptr buildGrid(const VdbGridSpec& spec, const Convert& convert
     }
     for (const VdbGridSpec::Voxel& v : spec.voxels) {
         if (v.active)
-            tree.setValueOn(coord(v.ijk), convert(v.value));
+            tree.setValueOn(coord(v.ijk), value(v));
         else
-            tree.setValueOff(coord(v.ijk), convert(v.value));
+            tree.setValueOff(coord(v.ijk), value(v));
     }
     return grid;
+}
+
+template <class GridT, class Convert>
+openvdb::GridBase::Ptr buildGrid(const VdbGridSpec& spec, const Convert& convert) {
+    return buildGrid<GridT>(spec, convert,
+                            [&](const VdbGridSpec::Voxel& v) { return convert(v.value); });
 }
 
 } // namespace
 
 namespace detail {
 
-void placeGrid(openvdb::FloatGrid& grid, const std::string& name, openvdb::GridClass cls,
+void placeGrid(openvdb::GridBase& grid, const std::string& name, openvdb::GridClass cls,
                glm::vec3 worldOrigin, glm::vec3 voxelSize) {
     grid.setName(name);
     grid.setGridClass(cls);
@@ -220,12 +307,17 @@ std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<Fog
         if (!f.density) throw VdbError(path + ": grid \"" + f.name + "\": no density function");
         const glm::dvec3 origin(f.worldOrigin), vs(f.voxelSize);
         stats.emplace_back();
+        std::vector<char> occupied;
         grids.push_back(buildFog(
             path, f.name, f.resolution, f.worldOrigin, f.voxelSize, f.backgroundTolerance,
             [&](int i, int j, int k) {
                 return f.density(glm::vec3(origin + glm::dvec3(i, j, k) * vs));
             },
-            stats.back()));
+            stats.back(), f.velocity ? &occupied : nullptr));
+        if (f.velocity) {
+            stats.emplace_back();
+            grids.push_back(buildVelocity(path, f, occupied, stats.back()));
+        }
     }
     for (const LevelSetBake& l : levelSets) {
         stats.emplace_back();
@@ -248,14 +340,26 @@ void writeVdbGrids(const std::string& path, const std::vector<VdbGridSpec>& grid
             g->setSaveFloatAsHalf(t == "half");
         } else if (t == "double") {
             g = buildGrid<openvdb::DoubleGrid>(spec, [](double v) { return v; });
-        } else if (t == "vec3s") {
+        } else if (t == "vec3s" || t == "vec3h") {
             g = buildGrid<openvdb::Vec3SGrid>(
-                spec, [](double v) { return openvdb::Vec3s(float(v), float(v), float(v)); });
+                spec, [](double v) { return openvdb::Vec3s(float(v), float(v), float(v)); },
+                [](const VdbGridSpec::Voxel& v) {
+                    const glm::dvec3 w = v.hasVector ? v.vector : glm::dvec3(v.value);
+                    return openvdb::Vec3s(float(w.x), float(w.y), float(w.z));
+                });
+            g->setSaveFloatAsHalf(t == "vec3h");
+        } else if (t == "vec3d") {
+            g = buildGrid<openvdb::Vec3DGrid>(
+                spec, [](double v) { return openvdb::Vec3d(v, v, v); },
+                [](const VdbGridSpec::Voxel& v) {
+                    const glm::dvec3 w = v.hasVector ? v.vector : glm::dvec3(v.value);
+                    return openvdb::Vec3d(w.x, w.y, w.z);
+                });
         } else if (t == "int32") {
             g = buildGrid<openvdb::Int32Grid>(spec, [](double v) { return std::int32_t(v); });
         } else {
             throw VdbError(path + ": grid \"" + spec.name + "\": unknown value type \"" + t +
-                           "\" (float, half, double, vec3s, int32)");
+                           "\" (float, half, double, vec3s, vec3h, vec3d, int32)");
         }
         g->setName(spec.name);
         g->setGridClass(parseClass(path, spec.gridClass));

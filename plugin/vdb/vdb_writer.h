@@ -98,11 +98,22 @@ struct FogBake {
     glm::vec3 voxelSize{0.0f};
     std::function<float(glm::vec3)> density;
     float backgroundTolerance = 0.0f;
+    /// When set, bakeVdb() also writes a velocity grid (`nimbus bake --velocity`) right after
+    /// this fog volume: a vec3s grid named velocityName, cell-centred (grid class "unknown",
+    /// vector_type "contravariant relative", is_in_world_space true: world units per second),
+    /// with the fog's transform, holding velocity(p) at the voxel centres of every 8^3 block
+    /// that holds an active density voxel and of the blocks next to those (26 neighbours,
+    /// inside the baked box), all of them active: the active density voxels dilated by at
+    /// least one voxel. Called concurrently; a NaN/Inf component is an error naming the voxel.
+    std::function<glm::vec3(glm::vec3)> velocity;
+    std::string velocityName = "velocity";
 };
 
 /// Bakes @p fogs and @p levelSets and writes them, in that order, to one file @p path
 /// (atomically). Returns one VdbBakeStats per grid, in the same order (for a level set,
-/// maxValue is the largest active distance and minValue the smallest).
+/// maxValue is the largest active distance and minValue the smallest; a fog's velocity grid
+/// follows it in the file and in the stats, whose maxValue is then the largest speed |v| and
+/// minValue the smallest).
 /// @throws VdbError as bakeFogVdb(), and for a level set with a half width below 1, a
 ///         non-finite distance (naming the voxel) or no voxel in its band.
 std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<FogBake>& fogs,
@@ -113,14 +124,17 @@ std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<Fog
 /// inactive values, NaN/Inf/negative values.
 struct VdbGridSpec {
     std::string name = "density";
-    std::string valueType = "float";      ///< "float", "half", "double", "vec3s", "int32"
+    /// "float", "half", "double", "vec3s", "vec3h" (vec3s saved as half), "vec3d", "int32"
+    std::string valueType = "float";
     std::string gridClass = "fog volume"; ///< "fog volume", "level set", "unknown", "staggered"
     glm::dmat4 worldFromIndex{1.0};       ///< affine; column vectors (world = M * (ijk, 1))
     double background = 0.0;
     struct Voxel {
         glm::ivec3 ijk{0};
-        double value = 0.0; ///< vec3s grids store (value, value, value)
+        double value = 0.0; ///< vec3 grids store (value, value, value) unless hasVector
         bool active = true;
+        bool hasVector = false; ///< vec3 grids: store `vector` instead
+        glm::dvec3 vector{0.0};
     };
     std::vector<Voxel> voxels;
     /// A tile at @p level: 1 covers the 8^3 voxels of a lower internal-node entry, 2 the 128^3
