@@ -119,8 +119,22 @@ Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, d
         std::lock_guard<std::mutex> lock(advectMutex_);
         const GridBinding& g = bindings.grid(0);
         std::uint64_t before = 0;
-        if (advect_ && advectSourceKey_ == g.grid &&
-            advectVelocityKey_ == bindings.velocity.get()) {
+        bool keep =
+            advect_ && advectSourceKey_ == g.grid && advectVelocityKey_ == bindings.velocity.get();
+        if (advect_ && !keep && plan.refusal.empty() && plan.advected &&
+            plan.advectRes == advect_->domain().res &&
+            plan.advectBounds.lo == advect_->domain().bounds.lo) {
+            // another binding: the same static VDB file read again for this frame, or the next
+            // grid of a sequence; compared by content (the sequence keeps its own wind grid)
+            const FieldMotion wind =
+                advectWind(scene_.field.advect, bindings.velocity, bindings.velocityStaggered);
+            keep = advect_->sameSource(makeAdvectSource(scene_.field, g), wind);
+            if (keep) {
+                advectSourceKey_ = g.grid;
+                advectVelocityKey_ = bindings.velocity.get();
+            }
+        }
+        if (keep) {
             before = advect_->stepsComputed();
         } else {
             // a new source (the first frame, or a VDB sequence's next grid): sampled at time 0

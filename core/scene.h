@@ -221,7 +221,7 @@ struct AutomatonDesc {
 /// How an advected field's wind is given (AdvectDesc).
 enum class AdvectWind { Uniform, Layered, Grid };
 /// Where a VDB velocity grid's components sit: at cell centres, or on the cells' lower faces
-/// (MAC, Mantaflow's cache); Auto reads the grid's own `vector_type` metadata.
+/// (MAC, Mantaflow's cache); Auto takes the grid class (OpenVDB marks MAC grids "staggered").
 enum class VelocityLayout { Auto, Centred, Staggered };
 
 /// Wind advection of a field's density ([field.advect], core/fields/advected_field.h): the

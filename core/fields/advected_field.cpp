@@ -155,16 +155,11 @@ double advectBytes(const AdvectDomain& dom) {
     return cells * 7.0 * 4.0;
 }
 
-AdvectedSequence::AdvectedSequence(const AdvectDesc& d, float fps, const AdvectDomain& domain,
-                                   const Field& source, const FieldMotion& wind)
-    : desc_(d), domain_(domain), wind_(wind.velocity), windGrid_(wind.grid),
-      dt_(advectStep(d, fps)) {
-    params_.scheme =
-        d.maccormack ? sim::AdvectScheme::MacCormack : sim::AdvectScheme::SemiLagrangian;
+sim::DensityGrid sampleSource(const AdvectDomain& domain, const Field& source) {
     sim::DensityGrid g;
-    g.res = domain.res;
-    if (domain.res.x < 1 || domain.res.y < 1 || domain.res.z < 1) return;
     const ivec3 r = domain.res;
+    if (r.x < 1 || r.y < 1 || r.z < 1) return g;
+    g.res = r;
     g.v.assign(size_t(r.x) * size_t(r.y) * size_t(r.z), 0.0f);
     const float h = domain.frame.voxelSize;
     const vec3 o = domain.frame.origin;
@@ -175,6 +170,29 @@ AdvectedSequence::AdvectedSequence(const AdvectDesc& d, float fps, const AdvectD
                     g.v[(size_t(z) * r.y + y) * r.x + x] =
                         source.density(o + (vec3(x, y, z) + 0.5f) * h);
     });
+    return g;
+}
+
+bool AdvectedSequence::sameSource(const Field& source, const FieldMotion& wind) const {
+    if (wind.velocity.kind != wind_.kind || wind.velocity.uniform != wind_.uniform) return false;
+    if (bool(wind.grid) != bool(windGrid_)) return false;
+    if (wind.grid && (wind.grid->res != windGrid_->res || wind.grid->v != windGrid_->v ||
+                      wind.grid->frame.origin != windGrid_->frame.origin ||
+                      wind.grid->frame.voxelSize != windGrid_->frame.voxelSize))
+        return false;
+    const auto it = checkpoints_.find(0);
+    const sim::DensityGrid g = sampleSource(domain_, source);
+    return it == checkpoints_.end() ? g.v.empty() : g.v == it->second.v;
+}
+
+AdvectedSequence::AdvectedSequence(const AdvectDesc& d, float fps, const AdvectDomain& domain,
+                                   const Field& source, const FieldMotion& wind)
+    : desc_(d), domain_(domain), wind_(wind.velocity), windGrid_(wind.grid),
+      dt_(advectStep(d, fps)) {
+    params_.scheme =
+        d.maccormack ? sim::AdvectScheme::MacCormack : sim::AdvectScheme::SemiLagrangian;
+    sim::DensityGrid g = sampleSource(domain, source);
+    if (g.v.empty()) return;
     sourceMax_ = g.v.empty() ? 0.0f : *std::max_element(g.v.begin(), g.v.end());
     state_ = g;
     checkpoints_.emplace(0, std::move(g));

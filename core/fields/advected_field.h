@@ -61,6 +61,9 @@ std::uint64_t advectStepsFor(const AdvectDesc& d, float fps, float time);
 /// Memory of a sequence: the source, the state, a frame, the advection's workspace.
 double advectBytes(const AdvectDomain& dom);
 
+/// The source's density at the cell centres of the domain (empty for an empty domain).
+sim::DensityGrid sampleSource(const AdvectDomain& domain, const Field& source);
+
 /// The simulation a Renderer keeps between the frames of a sequence.
 class AdvectedSequence {
   public:
@@ -72,6 +75,10 @@ class AdvectedSequence {
     std::shared_ptr<const AutomatonFrame> frameAt(float time,
                                                   const std::atomic<bool>* cancel = nullptr);
     std::uint64_t stepsComputed() const { return stepsComputed_; }
+    /// Whether `source` (sampled on this domain) and `wind` are those this sequence started
+    /// from, bit for bit: a host that reads the same static VDB file again for every frame
+    /// then continues the sequence instead of re-simulating from time 0.
+    bool sameSource(const Field& source, const FieldMotion& wind) const;
     /// The last step's report (mass, CFL, limiter).
     const sim::AdvectStats& lastStats() const { return last_; }
     const AdvectDomain& domain() const { return domain_; }
