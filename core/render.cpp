@@ -192,8 +192,10 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         vs.wholeMajorant[i] = sweptMajorant(f, vs.boundsOf(i), vs.shutter);
         if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
         // each volume's grid in its own space; the plan's cell for `field`
-        const float cell =
-            i == 0 ? plan.majorantCell : autoMajorantCell(s, vs.boundsOf(i), plan.step);
+        float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, vs.boundsOf(i), plan.step);
+        // blurred: the swept bounds keep the plan's cap on the cells per axis
+        if (i == 0 && vs.shutter.open())
+            cell = std::max(cell, autoMajorantCell(s, vs.boundsOf(0), plan.step));
         vs.grids[i] = buildMajorantGrid(f, cell, 0.05f, cancel, vs.shutter);
         stats.majorantCells += vs.grids[i].cellCount();
         const double empty = vs.grids[i].emptyFraction();
