@@ -116,28 +116,38 @@ Box displacementRange(const Box& velocities, const Shutter& shutter, float sign)
     return r;
 }
 
+MotionSweep::MotionSweep(const Field& f, const Shutter& shutter)
+    : f_(f), shutter_(shutter), active_(shutter.open() && f.motion.moving) {
+    if (!active_) return;
+    byRegion_ = f.motion.velocity.kind == sim::VelocityKind::Layered;
+    all_ = velocityRange(f.motion, Box{vec3(-kInf), vec3(kInf)});
+}
+
+float MotionSweep::majorant(const Box& b) const {
+    if (!active_) return f_.majorant(b);
+    // densityAt(q, dt) = density(q - v(q) dt) with q in b: the source lies in b + D, D the
+    // displacements -v dt with v over b's velocity range
+    const Box v = byRegion_ ? velocityRange(f_.motion, b) : all_;
+    return f_.majorant(roundingSlack(minkowski(b, displacementRange(v, shutter_, -1.0f))));
+}
+
+Box MotionSweep::node(const Box& n) const {
+    if (!active_ || n.empty()) return n;
+    // q can see the density of n at dt when q - v(q) dt lies in n: q in n + v dt, v over every
+    // value (v is taken at q, which can lie anywhere)
+    return roundingSlack(minkowski(n, displacementRange(all_, shutter_, 1.0f)));
+}
+
 Box sweptBounds(const Field& f, const Shutter& shutter) {
-    const Box& b = f.bounds();
-    if (!shutter.open() || !f.motion.moving || b.empty()) return b;
-    // q can hold density at dt when q - v(q) dt lies in b: q in b + v dt, v over every value
-    const Box all{vec3(-kInf), vec3(kInf)};
-    return roundingSlack(
-        minkowski(b, displacementRange(velocityRange(f.motion, all), shutter, 1.0f)));
+    return MotionSweep(f, shutter).bounds();
 }
 
 float sweptMajorant(const Field& f, const Box& b, const Shutter& shutter) {
-    if (!shutter.open() || !f.motion.moving) return f.majorant(b);
-    // densityAt(q, dt) = density(q - v(q) dt) with q in b: the source lies in b + D, D the
-    // displacements -v dt with v over b's velocity range
-    return f.majorant(
-        roundingSlack(minkowski(b, displacementRange(velocityRange(f.motion, b), shutter, -1.0f))));
+    return MotionSweep(f, shutter).majorant(b);
 }
 
 Box sweptNode(const Field& f, const Box& node, const Shutter& shutter) {
-    if (!shutter.open() || !f.motion.moving) return node;
-    const Box all{vec3(-kInf), vec3(kInf)};
-    return roundingSlack(
-        minkowski(node, displacementRange(velocityRange(f.motion, all), shutter, 1.0f)));
+    return MotionSweep(f, shutter).node(node);
 }
 
 } // namespace nimbus

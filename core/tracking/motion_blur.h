@@ -70,6 +70,28 @@ inline float densityAt(const Field& f, vec3 q, float dt) {
     return f.density(q - sim::velocityAt(f.motion.velocity, q) * dt);
 }
 
+/// The sweep of one field over one shutter, with what does not depend on the box computed once
+/// (a velocity grid's range over all its samples): builders of majorant grids make one and ask
+/// it per cell. The free functions below make one per call.
+class MotionSweep {
+  public:
+    MotionSweep(const Field& f, const Shutter& shutter);
+    /// sweptMajorant(f, b, shutter)
+    float majorant(const Box& b) const;
+    /// sweptNode(f, node, shutter)
+    Box node(const Box& n) const;
+    /// sweptBounds(f, shutter)
+    Box bounds() const { return node(f_.bounds()); }
+    bool active() const { return active_; }
+
+  private:
+    const Field& f_;
+    Shutter shutter_;
+    bool active_ = false;   ///< shutter open and the field moving
+    bool byRegion_ = false; ///< layered: the velocity range depends on the box's altitudes
+    Box all_;               ///< the velocity range over every point
+};
+
 /// Where the field can hold density at some time of the shutter (its own space): its box
 /// grown by the displacements +v dt (the field's box when still or the shutter is closed).
 Box sweptBounds(const Field& f, const Shutter& shutter);

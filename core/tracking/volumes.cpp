@@ -126,6 +126,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
     const vec3 pad = g.cellSize * padding;
     for (const VolumeInstance& in : vs.instances) {
         const Field& f = vs.fields[size_t(in.volume)];
+        const MotionSweep sweep(f, vs.shutter);
         const ivec3 c0 = glm::clamp(
             ivec3(glm::floor((in.worldBounds.lo - g.bounds.lo) / g.cellSize)), ivec3(0), g.res - 1);
         const ivec3 c1 = glm::clamp(
@@ -137,7 +138,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
         };
         // grids: scatter the tree's node maxima (cost per node, not per cell x node)
         const bool grid = f.forEachDensityNode([&](const Box& nodeLocal, float m) {
-            const Box w = transformBox(in.worldFromLocal, sweptNode(f, nodeLocal, vs.shutter));
+            const Box w = transformBox(in.worldFromLocal, sweep.node(nodeLocal));
             const ivec3 a =
                 glm::clamp(ivec3(glm::floor((w.lo - pad - g.bounds.lo) / g.cellSize)), c0, c1);
             const ivec3 b =
@@ -155,9 +156,8 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
                     for (int x = c0.x; x <= c1.x; ++x) {
                         const vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
                         const Box cellBox{lo - pad, lo + g.cellSize + pad};
-                        at(ivec3(x, y, z)) = sweptMajorant(
-                            f, in.identity ? cellBox : transformBox(in.localFromWorld, cellBox),
-                            vs.shutter);
+                        at(ivec3(x, y, z)) = sweep.majorant(
+                            in.identity ? cellBox : transformBox(in.localFromWorld, cellBox));
                     }
             });
         }
