@@ -299,6 +299,17 @@ std::string FramePlan::explain() const {
     if (solids > 0)
         o << "  SDF solids: " << solids
           << " (sphere traced, soft shadows and AO; no Embree of their own)\n";
+    if (motionBlur) {
+        char blur[200];
+        std::snprintf(blur, sizeof blur,
+                      "  motion blur: shutter [%g, %g] s from the frame's time, one time per "
+                      "camera sample (march) or path (pathtrace); moving: ",
+                      double(shutterOpen), double(shutterClose));
+        o << blur << motionNote
+          << "; lighting caches (light, sky and diffusion grids, photons) at the frame's time\n";
+    } else {
+        o << "  motion blur: " << motionNote << "\n";
+    }
     o << "  AOVs: beauty" << (aovs.transmittance ? ", transmittance" : "")
       << (aovs.depth ? ", depth" : "") << "\n";
     return o.str();
@@ -458,6 +469,17 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.lightGridBytes = double(res.x) * res.y * res.z * p.lightGrids * sizeof(float);
     }
     checkBounds(s, bounds, p);
+    // motion blur: only with the shutter open and something placed that moves
+    const std::string moving = movingVolumes(s);
+    const bool shutterOpen = s.render.shutterClose > s.render.shutterOpen;
+    p.motionBlur = shutterOpen && !moving.empty();
+    p.motionNote = !shutterOpen     ? "off (render.shutter closed)"
+                   : moving.empty() ? "off (render.shutter open, but no placed volume moves)"
+                                    : moving;
+    if (p.motionBlur) {
+        p.shutterOpen = s.render.shutterOpen / s.render.fps;
+        p.shutterClose = s.render.shutterClose / s.render.fps;
+    }
 
     if (p.advected) {
         p.noiseDecision = "[field.advect]: the source is sampled once onto the advection grid";

@@ -110,6 +110,14 @@ struct FramePlan {
     bool rebased = false;
     glm::dvec3 renderOrigin{0.0};
     double originDistance = 0.0; ///< how far the field or the camera lies from the origin
+    /// Motion blur (core/tracking/motion_blur.h): the shutter is open (render.shutter) and a
+    /// placed volume moves. Each camera sample then looks the density up at its own time
+    /// offset in [shutterOpen, shutterClose] / fps seconds; the lighting caches stay at the
+    /// frame's time.
+    bool motionBlur = false;
+    float shutterOpen = 0.0f;  ///< seconds from the frame's time (motionBlur)
+    float shutterClose = 0.0f; ///< seconds
+    std::string motionNote;    ///< what moves, or why the blur is left out
     std::string explain() const;
 };
 

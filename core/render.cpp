@@ -213,6 +213,8 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         vs.fields.push_back(makeField(s.volumes[i].field, plan.time, bindings.grid(int(i) + 1)));
     const auto t0 = std::chrono::steady_clock::now();
     vs.instances = makeInstances(vs.fields, s.instances);
+    // motion blur: bounds and majorants over the shutter (core/tracking/motion_blur.h)
+    if (plan.motionBlur) setShutter(vs, Shutter{plan.shutterOpen, plan.shutterClose});
     vs.bounds =
         Box{vec3(std::numeric_limits<float>::max()), vec3(-std::numeric_limits<float>::max())};
     for (const VolumeInstance& in : vs.instances) {
@@ -229,15 +231,19 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
     vs.useCoarse = plan.skipEmpty && plan.instanced && !plan.hierarchical;
     vs.traceSdf.assign(n, 0);
     vs.traceSdf[0] = plan.sdfTrace && !vs.useCoarse && vs.fields[0].kind == FieldKind::Sdf &&
-                     !vs.fields[0].bounds().empty();
+                     !vs.fields[0].bounds().empty() &&
+                     !(vs.shutter.open() && vs.fields[0].motion.moving);
     double emptyCells = 0.0;
     for (size_t i = 0; i < n; ++i) {
         const Field& f = vs.fields[i];
-        vs.wholeMajorant[i] = f.majorant(f.bounds());
+        vs.wholeMajorant[i] = sweptMajorant(f, vs.boundsOf(i), vs.shutter);
         if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
         // each volume's grid in its own space; the plan's cell for `field`
-        const float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, f.bounds(), plan.step);
-        vs.grids[i] = buildMajorantGrid(f, cell, 0.05f, cancel);
+        float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, vs.boundsOf(i), plan.step);
+        // blurred: the swept bounds keep the plan's cap on the cells per axis
+        if (i == 0 && vs.shutter.open())
+            cell = std::max(cell, autoMajorantCell(s, vs.boundsOf(0), plan.step));
+        vs.grids[i] = buildMajorantGrid(f, cell, 0.05f, cancel, vs.shutter);
         stats.majorantCells += vs.grids[i].cellCount();
         const double empty = vs.grids[i].emptyFraction();
         emptyCells += empty * double(vs.grids[i].cellCount());

@@ -407,6 +407,11 @@ struct RenderDesc {
     int threads = 0; ///< 0 = all cores
     int tileSize = 16;
     float fps = 24.0f; ///< frame -> time: t = frame / fps
+    /// Motion blur (render.shutter, docs/motion_blur.md): the shutter is open from
+    /// shutterOpen to shutterClose frames around the frame's time; equal (the default [0, 0]):
+    /// closed, no blur.
+    float shutterOpen = 0.0f;
+    float shutterClose = 0.0f;
 };
 
 struct SceneDesc {

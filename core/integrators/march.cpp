@@ -273,7 +273,17 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
     vec3 T(0.0f);
     float depth = 0.0f;
     const int n = std::max(1, r.pixelSamples);
+    // motion blur: every camera sample, and its shadow rays, at its own time in the shutter
+    const bool blur = vols_.shutter.open();
+    const float timeOffset = blur ? kern::hashToUnit(pcg(pixelKey ^ 0x7f4a7c15u)) : 0.0f;
+    auto setTime = [&](int k) {
+        if (!blur) return;
+        const float dt = sampleTime(vols_.shutter, std::uint32_t(k), timeOffset);
+        scratch.primary.setTime(dt);
+        scratch.shadow.setTime(dt);
+    };
     if (n == 1) {
+        setTime(0);
         // one ray through the pixel centre
         const float jitter = r.jitter ? kern::hashToUnit(pixelKey) : 0.5f;
         const Sample smp = traceRay(camera_.generate(float(x) + 0.5f, float(y) + 0.5f), pixelKey,
@@ -294,6 +304,7 @@ void MarchContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
             const float w = kern::pixelFilterWeight(int(r.filter), o.x, o.y, r.filterWidth);
             if (!(w > 0.0f)) continue;
             const float jitter = r.jitter ? kern::hashToUnit(key) : 0.5f;
+            setTime(k);
             const Sample smp =
                 traceRay(camera_.generate(float(x) + 0.5f + o.x, float(y) + 0.5f + o.y), key,
                          jitter, cnt, scratch);

@@ -279,10 +279,15 @@ void PathContext::renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt,
     double depthSum = 0.0;
     float alphaSum = 0.0f, wSum = 0.0f;
     int depthCount = 0;
+    // motion blur: one time per path, for every ray of it (scratch.rv walks them all)
+    const bool blur = vols_.shutter.open();
+    const float timeOffset =
+        blur ? kern::hashToUnit(Sampler::forPixel(x, y, frameKey_, 0x7f4a7c15u).key) : 0.0f;
     for (int s = 0; s < spp; ++s) {
         // a frame of millions of samples per pixel stops within a few samples of a cancel
         if ((s & 15) == 15 && cancelRequested(vols_.cancel)) break;
         Sampler rng = Sampler::forPixel(x, y, frameKey_, std::uint32_t(s));
+        if (blur) scratch.rv.setTime(sampleTime(vols_.shutter, std::uint32_t(s), timeOffset));
         // uniform over the filter's width, weighted by the filter (box of width 1: the pixel)
         const float ox = r.jitter ? (rng.next() - 0.5f) * r.filterWidth : 0.0f;
         const float oy = r.jitter ? (rng.next() - 0.5f) * r.filterWidth : 0.0f;

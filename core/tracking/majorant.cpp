@@ -55,9 +55,10 @@ void MajorantGrid::buildBlocks() {
 }
 
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
-                               const std::atomic<bool>* cancel) {
+                               const std::atomic<bool>* cancel, const Shutter& shutter) {
     MajorantGrid g;
-    g.bounds = field.bounds();
+    const MotionSweep sweep(field, shutter);
+    g.bounds = sweep.bounds();
     const vec3 ext = g.bounds.extent();
     for (int a = 0; a < 3; ++a) g.res[a] = std::max(1, int(std::ceil(ext[a] / cell)));
     g.cellSize = ext / vec3(g.res);
@@ -65,7 +66,8 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
     const vec3 pad = g.cellSize * padding;
     // grid fields: every tree node writes its maximum into the cells its support overlaps
     // (one pass over the nodes instead of one tree query per cell)
-    if (field.forEachDensityNode([&](const Box& n, float v) {
+    if (field.forEachDensityNode([&](const Box& node, float v) {
+            const Box n = sweep.node(node);
             const ivec3 a = glm::clamp(ivec3(glm::floor((n.lo - pad - g.bounds.lo) / g.cellSize)),
                                        ivec3(0), g.res - ivec3(1));
             const ivec3 b = glm::clamp(ivec3(glm::floor((n.hi + pad - g.bounds.lo) / g.cellSize)),
@@ -86,7 +88,7 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
             for (int x = 0; x < g.res.x; ++x) {
                 vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
                 Box b{lo - pad, lo + g.cellSize + pad};
-                g.maj[(size_t(z) * g.res.y + y) * g.res.x + x] = field.majorant(b);
+                g.maj[(size_t(z) * g.res.y + y) * g.res.x + x] = sweep.majorant(b);
             }
         }
     });

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/fields/field.h"
+#include "core/tracking/motion_blur.h"
 
 namespace nimbus {
 
@@ -47,8 +48,11 @@ struct MajorantGrid {
 /// Builds the grid over field.bounds() with cells of about `cell` world units (TBB-parallel).
 /// `padding` grows each cell by this fraction of its size before bounding. Stops early (the
 /// grid incomplete) once `cancel` is set (core/cancel.h).
+/// With an open `shutter` and a moving field (motion blur, core/tracking/motion_blur.h) the
+/// grid spans sweptBounds() and each cell holds sweptMajorant(): a bound over the shutter.
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding = 0.05f,
-                               const std::atomic<bool>* cancel = nullptr);
+                               const std::atomic<bool>* cancel = nullptr,
+                               const Shutter& shutter = {});
 
 /// A stretch [t0, t1] of a ray with density bound sigma_maj > 0.
 struct MajorantSegment {

@@ -84,6 +84,17 @@ std::vector<VolumeInstance> makeInstances(const std::vector<Field>& fields,
     return out;
 }
 
+void setShutter(VolumeSet& vs, const Shutter& shutter) {
+    vs.shutter = shutter;
+    vs.sweptBounds.clear();
+    if (!shutter.open()) return;
+    for (const Field& f : vs.fields) vs.sweptBounds.push_back(sweptBounds(f, shutter));
+    for (VolumeInstance& in : vs.instances) {
+        const Box& b = vs.sweptBounds[size_t(in.volume)];
+        in.worldBounds = in.identity ? b : transformBox(in.worldFromLocal, b);
+    }
+}
+
 float VolumeSet::densityAt(vec3 p) const {
     float sum = 0.0f;
     for (const VolumeInstance& in : instances) {
@@ -115,6 +126,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
     const vec3 pad = g.cellSize * padding;
     for (const VolumeInstance& in : vs.instances) {
         const Field& f = vs.fields[size_t(in.volume)];
+        const MotionSweep sweep(f, vs.shutter);
         const ivec3 c0 = glm::clamp(
             ivec3(glm::floor((in.worldBounds.lo - g.bounds.lo) / g.cellSize)), ivec3(0), g.res - 1);
         const ivec3 c1 = glm::clamp(
@@ -126,7 +138,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
         };
         // grids: scatter the tree's node maxima (cost per node, not per cell x node)
         const bool grid = f.forEachDensityNode([&](const Box& nodeLocal, float m) {
-            const Box w = transformBox(in.worldFromLocal, nodeLocal);
+            const Box w = transformBox(in.worldFromLocal, sweep.node(nodeLocal));
             const ivec3 a =
                 glm::clamp(ivec3(glm::floor((w.lo - pad - g.bounds.lo) / g.cellSize)), c0, c1);
             const ivec3 b =
@@ -144,7 +156,7 @@ MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padd
                     for (int x = c0.x; x <= c1.x; ++x) {
                         const vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
                         const Box cellBox{lo - pad, lo + g.cellSize + pad};
-                        at(ivec3(x, y, z)) = f.majorant(
+                        at(ivec3(x, y, z)) = sweep.majorant(
                             in.identity ? cellBox : transformBox(in.localFromWorld, cellBox));
                     }
             });
@@ -185,7 +197,7 @@ bool RayVolumes::begin(const VolumeSet& vs, const Ray& ray, float tmin, float tm
         s.instance = h.instance;
         s.local = toLocal(in, ray);
         // the exact span in the volume's own box (tighter than the world box of a rotated one)
-        if (!intersectBox(s.local, vs.fields[size_t(in.volume)].bounds(), std::max(tmin, h.t0),
+        if (!intersectBox(s.local, vs.boundsOf(size_t(in.volume)), std::max(tmin, h.t0),
                           std::min(tmax, h.t1), s.t0, s.t1))
             continue;
         spans_.push_back(s);
@@ -212,7 +224,9 @@ float RayVolumes::density(float t) {
             continue;
         }
         const VolumeInstance& in = vs_->instances[size_t(s.instance)];
-        sum += in.density * vs_->fields[size_t(in.volume)].density(s.local.at(t));
+        const Field& f = vs_->fields[size_t(in.volume)];
+        sum += in.density * (time_ == 0.0f ? f.density(s.local.at(t))
+                                           : nimbus::densityAt(f, s.local.at(t), time_));
         ++k;
     }
     return sum;
@@ -239,8 +253,9 @@ bool RayVolumes::nextSegment(MajorantSegment& out) {
             const bool traced = v < vs_->traceSdf.size() && vs_->traceSdf[v];
             Walker w{traced
                          ? MajorantIterator(f.as<SdfCloudField>(), f.bounds(), s.local, s.t0, s.t1)
-                         : MajorantIterator(vs_->useGrid[v] ? &vs_->grids[v] : nullptr, f.bounds(),
-                                            s.local, s.t0, s.t1, vs_->wholeMajorant[v]),
+                         : MajorantIterator(vs_->useGrid[v] ? &vs_->grids[v] : nullptr,
+                                            vs_->boundsOf(v), s.local, s.t0, s.t1,
+                                            vs_->wholeMajorant[v]),
                      MajorantSegment{}, in.density};
             if (w.it.next(w.seg)) walkers_.push_back(w);
         }

@@ -20,6 +20,7 @@
 #include "core/cancel.h"
 #include "core/fields/field.h"
 #include "core/tracking/majorant.h"
+#include "core/tracking/motion_blur.h"
 
 namespace nimbus {
 
@@ -55,6 +56,15 @@ struct VolumeSet {
     bool useCoarse = false;
     /// Set by the host to stop the frame (core/cancel.h): ray walks over this set end early.
     const std::atomic<bool>* cancel = nullptr;
+    /// Motion blur (setShutter): the shutter, and per volume the box where it can hold density
+    /// over it (empty: no blur, every volume's own bounds).
+    Shutter shutter;
+    std::vector<Box> sweptBounds;
+
+    /// Where volume v can hold density during the frame (its bounds, swept when blurred).
+    const Box& boundsOf(size_t v) const {
+        return v < sweptBounds.size() ? sweptBounds[v] : fields[v].bounds();
+    }
 
     /// One untransformed instance of one volume: the common case, no query needed.
     bool single() const { return instances.size() == 1 && instances[0].identity; }
@@ -69,8 +79,12 @@ struct VolumeSet {
 std::vector<VolumeInstance> makeInstances(const std::vector<Field>& fields,
                                           const std::vector<InstanceDesc>& descs);
 
+/// Opens the shutter (motion blur): the moving volumes' swept bounds, and the instances' world
+/// boxes and `bounds` grown to them. Call after makeInstances, before the majorant grids.
+void setShutter(VolumeSet& vs, const Shutter& shutter);
+
 /// Builds the world-space coarse grid over all instances (each instance adds its bound to the
-/// cells its box overlaps).
+/// cells its box overlaps; over vs.shutter when it is open).
 MajorantGrid buildCoarseMajorantGrid(const VolumeSet& vs, float cell, float padding = 0.05f);
 
 /// What one ray sees of a VolumeSet between tmin and tmax. density() must be asked at
@@ -84,6 +98,10 @@ class RayVolumes {
     float tOut() const { return tOut_; }
     float density(float t);
     bool nextSegment(MajorantSegment& seg);
+    /// The time offset (seconds from the frame's time) of the densities asked from now on:
+    /// motion blur, one per camera sample. 0 (the default): the frame's time.
+    void setTime(float dt) { time_ = dt; }
+    float time() const { return time_; }
     /// Iterator-style adapter for marchSegments()
     bool next(MajorantSegment& seg) { return nextSegment(seg); }
     /// Asked every CancelPoll::kEvery steps by marchSegments and sampleTmaj (core/cancel.h).
@@ -110,6 +128,7 @@ class RayVolumes {
     size_t segNext_ = 0;
     std::vector<Walker> walkers_;
     float cur_ = 0.0f;
+    float time_ = 0.0f;
     bool coarseStarted_ = false;
     MajorantIterator coarse_{nullptr, Box{}, Ray{}, 0.0f, 0.0f, 0.0f};
     CancelPoll poll_;

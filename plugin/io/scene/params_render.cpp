@@ -344,6 +344,16 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::tileSize));
     t.push_back(ren.param("fps", above(0), "Frames per second: frame f is at time f / fps.",
                           &RenderDesc::fps));
+    t.push_back(ren.pair("shutter", closed(-4, 4),
+                         "Motion blur: [open, close] in frames around the frame's time (e.g. "
+                         "[-0.25, 0.25]); moving volumes are seen at a time in it per camera "
+                         "sample. [0, 0] (equal): closed, no blur. docs/motion_blur.md.",
+                         &RenderDesc::shutterOpen, &RenderDesc::shutterClose)
+                    .checkedBy([](const Value& v) -> std::string {
+                        if (v.v[0] <= v.v[1]) return "";
+                        return "open " + formatFloat(v.v[0]) + " is after close " +
+                               formatFloat(v.v[1]) + "; expected [open, close] with open <= close";
+                    }));
 }
 
 } // namespace nimbus::io::scene
