@@ -383,3 +383,38 @@ TEST(AdvectedVdb, MantaflowDensityMovesWithItsOwnStaggeredVelocity) {
     r.volumesFor(s.plan(7), s.bindings(), st);
     EXPECT_EQ(st.advectSteps, 1u);
 }
+
+TEST(AdvectedVdb, EachFrameOfASequenceIsItsOwnGridCarriedToItsTime) {
+    const std::string dir = std::string(NIMBUS_SHARED_VDB_DIR);
+    if (!std::filesystem::exists(dir + "/usd_smoke_000003.vdb"))
+        GTEST_SKIP() << "the shared VDB test files are not here (" << dir
+                     << " is absent): the VDB sequence advection test is skipped";
+    // frames 2 and 3 of a Blender smoke simulation, carried by a uniform wind of 0.5 units/s
+    const std::string text = "frames = \"2-3\"\n[field]\nkind = \"vdb\"\npath = \"" + dir +
+                             "/usd_smoke_######.vdb\"\n[field.advect]\nwind = [0.5, 0, 0]\n"
+                             "scheme = \"semi_lagrangian\"\n";
+    host::Session s;
+    ASSERT_TRUE(s.loadString(text, "seq.toml").ok());
+    Renderer& r = s.renderer();
+    for (int frame : {2, 3}) {
+        ASSERT_TRUE(s.bind(frame).ok());
+        const FramePlan p = s.plan(frame);
+        ASSERT_TRUE(p.refusal.empty()) << p.refusal;
+        RenderStats st;
+        const VolumeSet vs = r.volumesFor(p, s.bindings(), st);
+        // the frame's own grid as read, and the same grid carried to t = frame / 24
+        FieldDesc still = s.file().scene.field;
+        still.advect.enabled = false;
+        const Field source = makeField(still, 0.0f, s.bindings().grid(0));
+        const Box dom = p.advectBounds;
+        const float h = p.advectVoxel;
+        const vec3 moved = centroid(vs.fields[0], dom, h) - centroid(source, dom, h);
+        const float want = 0.5f * float(frame) / 24.0f;
+        std::printf("frame %d: %llu steps, centroid moved (%.4f, %.4f, %.4f), wind x t = %.4f\n",
+                    frame, (unsigned long long)st.advectSteps, moved.x, moved.y, moved.z, want);
+        EXPECT_EQ(st.advectSteps, std::uint64_t(frame)); // a new source: from time 0
+        EXPECT_NEAR(moved.x, want, 0.02f * want + 1e-4f);
+        EXPECT_NEAR(moved.y, 0.0f, 1e-3f);
+        EXPECT_NEAR(moved.z, 0.0f, 1e-3f);
+    }
+}
