@@ -988,6 +988,75 @@ void addVoxelCases(Cases& cs) {
 }
 
 /// Long frame ranges: parsed, or refused with the limit.
+/// [field.advect] at CFL numbers from 0.1 to 50 per step (8 steps to frame 1, MacCormack and
+/// semi-Lagrangian): the frame's grid stays within the source's range, finite; and motion blur
+/// with the widest shutter and winds up to 1e6 units a second (swept majorants over the shutter).
+void addMotionCases(Cases& cs) {
+    for (double cfl : {0.1, 1.0, 10.0, 50.0})
+        for (bool mac : {true, false})
+            cs.push_back({"advect/cfl-" + fmt("%g", cfl) + (mac ? "/maccormack" : "/sl"),
+                          cfl == 50.0 || cfl == 1.0, [cfl, mac](Context& c, Outcome& o) {
+                              SceneDesc s = cumulusScene(c);
+                              AdvectDesc& a = s.field.advect;
+                              a.enabled = true;
+                              a.maccormack = mac;
+                              a.voxel = 0.1f;
+                              // the default domain: the cloud carried until frame 1 fits
+                              a.until = 1.0f / s.render.fps;
+                              a.step = 1.0f / (8.0f * s.render.fps);
+                              a.wind = AdvectWind::Layered; // shear: no whole-cell moves
+                              const float u = float(cfl) * a.voxel / a.step;
+                              a.layers = {AutomatonWindRow{1.5f, vec3(0.3f * u, 0.0f, 0.1f * u)},
+                                          AutomatonWindRow{4.0f, vec3(u, 0.0f, -0.2f * u)}};
+                              o.fig("cfl", cfl);
+                              Renderer r(s);
+                              const FramePlan p = r.plan(1);
+                              const Field src = makeAdvectSource(s.field, GridBinding{});
+                              const Field f = r.fieldFor(p);
+                              float srcMax = 0.0f;
+                              for (float v :
+                                   sampleSource(AdvectDomain{sim::GridFrame{p.advectBounds.lo,
+                                                                            p.advectVoxel},
+                                                             p.advectRes, p.advectBounds},
+                                                src)
+                                       .v)
+                                  srcMax = std::max(srcMax, v);
+                              float lo = 0.0f, hi = 0.0f;
+                              bool finite = true;
+                              if (f.kind == FieldKind::Advected)
+                                  for (float v : f.as<AdvectedField>().grid.frame->density.v) {
+                                      finite = finite && std::isfinite(v);
+                                      lo = std::min(lo, v);
+                                      hi = std::max(hi, v);
+                                  }
+                              o.fig("max/source", srcMax > 0.0f ? hi / srcMax : 0.0);
+                              if (f.kind != FieldKind::Advected)
+                                  o.fail("the frame's field is not the advected grid");
+                              else if (!finite || lo < 0.0f || hi > srcMax)
+                                  o.fail(fmt("advected density in [%g, ", lo) +
+                                         fmt("%g], source max ", hi) + fmt("%g", srcMax));
+                              const Frame fr = render(s, c.budget);
+                              judge(o, fr, c.budget);
+                              figures(o, fr, s, false);
+                          }});
+    for (double wind : {10.0, 1e3, 1e6})
+        for (Method m : {Method::March, Method::PathTrace})
+            cs.push_back({"blur/wind-" + fmt("%g", wind) + "/" + methodName(m), wind == 1e6,
+                          [wind, m](Context& c, Outcome& o) {
+                              SceneDesc s = cumulusScene(c);
+                              s.field.cumulus.wind = vec3(float(wind), 0.0f, 0.3f * float(wind));
+                              s.render.shutterOpen = -4.0f;
+                              s.render.shutterClose = 4.0f;
+                              s.render.pixelSamples = 4;
+                              applyMethod(s, m, c);
+                              o.fig("wind", wind);
+                              const Frame f = render(s, c.budget);
+                              if (!f.plan.motionBlur) o.fail("the plan left the blur out");
+                              judge(o, f, c.budget);
+                              figures(o, f, s, !deterministic(m));
+                          }});
+}
+
 void addFrameCases(Cases& cs) {
     struct Spec {
         const char* spec;
@@ -1045,6 +1114,7 @@ Cases allCases() {
     addTransmittanceCases(cs);
     addVoxelCases(cs);
     addFrameCases(cs);
+    addMotionCases(cs);
 
     return cs;
 }
