@@ -327,6 +327,22 @@ struct RowLookup {
         row[3] = at(ay.i1, ay.in1, az.i1, az.in1);
     }
 
+    /// The min and max of the 8 samples operator() reads at x (the MacCormack limiter's range),
+    /// without the interpolation.
+    [[gnu::always_inline]] void range(int x, float& lo, float& hi) const {
+        const float px = float(x) + 0.5f + sx;
+        const Axis ax = axis(px - 0.5f, nx, b);
+        auto at = [&](int k, int i, bool vi) { return vi && row[k] ? row[k][i] : 0.0f; };
+        const float v000 = at(0, ax.i0, ax.in0), v100 = at(0, ax.i1, ax.in1);
+        const float v010 = at(1, ax.i0, ax.in0), v110 = at(1, ax.i1, ax.in1);
+        const float v001 = at(2, ax.i0, ax.in0), v101 = at(2, ax.i1, ax.in1);
+        const float v011 = at(3, ax.i0, ax.in0), v111 = at(3, ax.i1, ax.in1);
+        lo = std::min(std::min(std::min(v000, v100), std::min(v010, v110)),
+                      std::min(std::min(v001, v101), std::min(v011, v111)));
+        hi = std::max(std::max(std::max(v000, v100), std::max(v010, v110)),
+                      std::max(std::max(v001, v101), std::max(v011, v111)));
+    }
+
     [[gnu::always_inline]] float operator()(int x, float* lo, float* hi) const {
         const float px = float(x) + 0.5f + sx;
         const Axis ax = axis(px - 0.5f, nx, b);
@@ -390,7 +406,7 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     DensityGrid& fwd = mac ? ws.fwd : dst;
     fwd.res = res;
     fwd.v.resize(cells);
-    if (mac) {
+    if (mac && !rowKernel) { // the row kernel recomputes the limiter's range in pass 2
         ws.lo.resize(cells);
         ws.hi.resize(cells);
     }
@@ -417,15 +433,9 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                 subMax = 1;
                 const RowLookup look(in, y, z, u0, -dt, ap.boundary);
                 for (int x = 0; x < nx; ++x) {
-                    float lo, hi;
-                    const float v = look(x, &lo, &hi);
+                    const float v = look(x, nullptr, nullptr);
                     fwd.v[base + x] = v;
-                    if (mac) {
-                        ws.lo[base + x] = lo;
-                        ws.hi[base + x] = hi;
-                    } else {
-                        massOut += double(v);
-                    }
+                    if (!mac) massOut += double(v);
                     massIn += double(in.v[base + x]);
                 }
             }
@@ -467,23 +477,31 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                     const vec3 uRow =
                         rowKernel ? u(vec3(0.5f, float(y) + 0.5f, float(z) + 0.5f)) : vec3(0.0f);
                     const RowLookup look(fwd, y, z, uRow, dt, ap.boundary);
+                    // the forward step's stencil again, for the limiter's range: reading `in`
+                    // (cached rows) costs less than storing and reloading two grids
+                    const RowLookup fwdLook(in, y, z, uRow, -dt, ap.boundary);
                     for (int x = 0; x < nx; ++x) {
-                        float back;
+                        float back, lo = 0.0f, hi = 0.0f;
                         if (rowKernel) {
                             back = look(x, nullptr, nullptr);
+                            if (ap.limiter) fwdLook.range(x, lo, hi);
                         } else {
                             const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
                             const vec3 u0 = u(p);
                             const int n = substeps(exact, ap, glm::length(u0) * adt);
                             const vec3 dstPos = trace(u, p, u0, dt, n, ap.backtrace);
                             back = sampleDensityImpl(fwd, dstPos, ap.boundary, nullptr, nullptr);
+                            if (ap.limiter) {
+                                lo = ws.lo[base + x];
+                                hi = ws.hi[base + x];
+                            }
                         }
                         const size_t i = base + x;
                         const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
                         float v = c;
                         if (ap.limiter) {
-                            if (!(v >= ws.lo[i])) v = ws.lo[i]; // a NaN c becomes lo
-                            if (v > ws.hi[i]) v = ws.hi[i];
+                            if (!(v >= lo)) v = lo; // a NaN c becomes lo
+                            if (v > hi) v = hi;
                         }
                         if (!(v == c)) {
                             ++clamped;
