@@ -237,6 +237,9 @@ struct AdvectDesc {
     std::string velocityGrid = "velocity";
     VelocityLayout layout = VelocityLayout::Auto;
     float velocityScale = 1.0f; ///< Grid: multiplies the velocities (e.g. cells/s to units/s)
+    /// Grid: inactive voxels inside the grid's active box take their neighbours' velocity
+    /// (extrapolated outward) instead of the background's 0
+    bool velocityExtrapolate = true;
     float voxel = 0.0f; ///< cell size; 0: the VDB grid's voxel, else the source's longest side/128
     bool hasBounds = false;
     Box bounds;        ///< the simulation domain (hasBounds); else the source's grown by the wind

@@ -370,11 +370,12 @@ TEST(AdvectedVdb, MantaflowDensityMovesWithItsOwnStaggeredVelocity) {
                 "centroid moved (%.3f, %.3f, %.3f)\n",
                 vMean.x, vMean.y, vMean.z, want.x, want.y, want.z, moved.x, moved.y, moved.z);
     ASSERT_GT(glm::length(vMean), 0.05f);
-    // along the mean velocity, and not faster: the cloud's front moves into cells where
-    // Mantaflow stored no velocity (0), and a semi-Lagrangian step takes each cell's own
-    // velocity, so the front lags (measured: 0.102 of 0.198, docs/advection.md)
+    // along the mean velocity, and not faster. Mantaflow stores velocity only where its fluid
+    // was; the reader extrapolates it into the box's other voxels (velocity_extrapolate, on by
+    // default). Measured 0.180 of 0.256 (with velocity_extrapolate = false, 0.102 of 0.198: the
+    // front stalled in the still voxels); the rest is the field changing along the way.
     EXPECT_GT(glm::dot(glm::normalize(moved), glm::normalize(want)), 0.98f);
-    EXPECT_GT(glm::length(moved), 0.3f * glm::length(want));
+    EXPECT_GT(glm::length(moved), 0.6f * glm::length(want));
     EXPECT_LT(glm::length(moved), 1.05f * glm::length(want));
     // the next frame binds the same file read again (another grid in memory): the sequence
     // goes on with one step instead of seven from time 0

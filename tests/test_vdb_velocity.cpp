@@ -178,6 +178,43 @@ TEST(VdbVelocity, DoubleAndHalfGridsScaleAndReadInProcessTheSame) {
     EXPECT_LT(maxError(h, glm::ivec3(-3, 2, 5), glm::ivec3(6, 9, 12), n), 0.05f); // half floats
 }
 
+TEST(VdbVelocity, InactiveVoxelsTakeTheirNeighboursVelocityLayerByLayer) {
+    // a uniform wind stored only in two separated slabs of a 12 x 6 x 6 box (x 0-1 and 10-11):
+    // the voxels between are the background, (0, 0, 0)
+    TempDir dir;
+    const std::string path = (dir / "sparse.vdb").string();
+    VdbGridSpec g;
+    g.name = "velocity";
+    g.valueType = "vec3s";
+    g.worldFromIndex = glm::dmat4(kVoxel);
+    g.worldFromIndex[3] = glm::dvec4(kTranslation, 1.0);
+    const glm::dvec3 wind(1.5, -0.5, 2.0);
+    for (int k = 0; k < 6; ++k)
+        for (int j = 0; j < 6; ++j)
+            for (int i : {0, 1, 10, 11}) {
+                VdbGridSpec::Voxel v;
+                v.ijk = glm::ivec3(i, j, k);
+                v.hasVector = true;
+                v.vector = wind;
+                g.voxels.push_back(v);
+            }
+    writeVdbGrids(path, {g});
+    VelocityLoadOptions o = options(path);
+    const LoadedVelocityGrid filled = loadVdbVelocity(o);
+    o.extrapolate = false;
+    const LoadedVelocityGrid still = loadVdbVelocity(o);
+    ASSERT_EQ(filled.grid.res, ivec3(12, 6, 6));
+    EXPECT_EQ(filled.extrapolatedCells, 8u * 6u * 6u); // x = 2 .. 9
+    EXPECT_EQ(still.extrapolatedCells, 0u);
+    int zeros = 0;
+    for (size_t i = 0; i < filled.grid.v.size(); ++i) {
+        // the mean of equal neighbours is the wind itself, in every layer
+        EXPECT_EQ(filled.grid.v[i], vec3(wind)) << "cell " << i;
+        zeros += still.grid.v[i] == vec3(0.0f);
+    }
+    EXPECT_EQ(zeros, 8 * 6 * 6);
+}
+
 TEST(VdbVelocity, MantaflowVelocityIsStaggeredAndSensible) {
     const std::string path =
         std::string(NIMBUS_SHARED_VDB_DIR) + "/blender_mantaflow_fluid_data_0001.vdb";

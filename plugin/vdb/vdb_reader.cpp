@@ -753,7 +753,7 @@ bool isVec3Type(const std::string& t) {
 
 /// Copies the active voxel box of @p grid into @p out.grid (scaled, NaN/Inf set to 0).
 template <class GridT>
-void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale,
+void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale, bool extrapolate,
                    LoadedVelocityGrid& out) {
     sim::VelocityGrid& g = out.grid;
     const openvdb::Coord lo = box.min();
@@ -778,6 +778,79 @@ void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale
             }
     out.nonFiniteCount = nonFinite;
     out.maxSpeed = std::sqrt(maxSpeed2);
+    if (!extrapolate) return;
+    // inactive cells take the mean of their known face neighbours, one layer at a time outward
+    // from the active voxels (each layer computed from the layers before it: deterministic)
+    const std::size_t n = g.v.size();
+    std::vector<std::uint8_t> known(n, 0);
+    for (int z = 0; z < g.res.z; ++z)
+        for (int y = 0; y < g.res.y; ++y)
+            for (int x = 0; x < g.res.x; ++x)
+                known[g.index(x, y, z)] = acc.isValueOn(lo.offsetBy(x, y, z)) ? 1 : 0;
+    const ivec3 step[6] = {ivec3(-1, 0, 0), ivec3(1, 0, 0),  ivec3(0, -1, 0),
+                           ivec3(0, 1, 0),  ivec3(0, 0, -1), ivec3(0, 0, 1)};
+    auto inside = [&](ivec3 q) {
+        return q.x >= 0 && q.y >= 0 && q.z >= 0 && q.x < g.res.x && q.y < g.res.y && q.z < g.res.z;
+    };
+    std::vector<std::size_t> frontier;
+    for (int z = 0; z < g.res.z; ++z)
+        for (int y = 0; y < g.res.y; ++y)
+            for (int x = 0; x < g.res.x; ++x) {
+                if (known[g.index(x, y, z)]) continue;
+                for (const ivec3& d : step) {
+                    const ivec3 q = ivec3(x, y, z) + d;
+                    if (inside(q) && known[g.index(q.x, q.y, q.z)]) {
+                        frontier.push_back(g.index(x, y, z));
+                        break;
+                    }
+                }
+            }
+    std::vector<vec3> values;
+    std::vector<std::size_t> next;
+    std::uint64_t filled = 0;
+    while (!frontier.empty()) {
+        values.assign(frontier.size(), vec3(0.0f));
+        for (std::size_t k = 0; k < frontier.size(); ++k) {
+            const std::size_t i = frontier[k];
+            const ivec3 c(int(i % g.res.x), int((i / g.res.x) % g.res.y),
+                          int(i / (std::size_t(g.res.x) * g.res.y)));
+            vec3 sum(0.0f);
+            int count = 0;
+            for (const ivec3& d : step) {
+                const ivec3 q = c + d;
+                if (!inside(q)) continue;
+                const std::size_t j = g.index(q.x, q.y, q.z);
+                if (known[j] == 1) {
+                    sum += g.v[j];
+                    ++count;
+                }
+            }
+            values[k] = count > 0 ? sum / float(count) : vec3(0.0f);
+        }
+        next.clear();
+        for (std::size_t k = 0; k < frontier.size(); ++k) {
+            g.v[frontier[k]] = values[k];
+            known[frontier[k]] = 2; // filled in this layer: known to the next
+        }
+        for (std::size_t k = 0; k < frontier.size(); ++k) {
+            const std::size_t i = frontier[k];
+            known[i] = 1;
+            const ivec3 c(int(i % g.res.x), int((i / g.res.x) % g.res.y),
+                          int(i / (std::size_t(g.res.x) * g.res.y)));
+            for (const ivec3& d : step) {
+                const ivec3 q = c + d;
+                if (!inside(q)) continue;
+                const std::size_t j = g.index(q.x, q.y, q.z);
+                if (known[j] == 0) {
+                    known[j] = 3; // queued
+                    next.push_back(j);
+                }
+            }
+        }
+        filled += frontier.size();
+        frontier.swap(next);
+    }
+    out.extrapolatedCells = filled;
 }
 
 } // namespace
@@ -910,9 +983,9 @@ LoadedVelocityGrid detail::loadVdbVelocityInProcess(const VelocityLoadOptions& o
         out.grid.frame.origin = vec3(float(o[0]), float(o[1]), float(o[2]));
         out.grid.frame.voxelSize = float(h);
         if (vs)
-            denseVelocity(*vs, box, options.scale, out);
+            denseVelocity(*vs, box, options.scale, options.extrapolate, out);
         else
-            denseVelocity(*vd, box, options.scale, out);
+            denseVelocity(*vd, box, options.scale, options.extrapolate, out);
         file.close();
         if (out.nonFiniteCount) {
             out.warnings.push_back(ctx + std::to_string(out.nonFiniteCount) +

@@ -16,7 +16,7 @@ namespace nimbus::vdb {
 namespace {
 
 // A tripwire: a field added to LoadedVelocityGrid must also be sent (encode/decode below).
-static_assert(sizeof(LoadedVelocityGrid) == 296 || sizeof(void*) != 8,
+static_assert(sizeof(LoadedVelocityGrid) == 304 || sizeof(void*) != 8,
               "LoadedVelocityGrid changed: send the new field in encodeVelocityMeta() and "
               "decodeVelocityMeta(), then update this size");
 
@@ -35,6 +35,7 @@ std::string encodeVelocityMeta(const LoadedVelocityGrid& g) {
     e.pod(g.indexMax);
     e.pod(g.activeVoxelCount);
     e.pod(g.nonFiniteCount);
+    e.pod(g.extrapolatedCells);
     e.pod(g.maxSpeed);
     e.pod(g.gridsRead);
     e.pod(std::uint64_t(g.warnings.size()));
@@ -56,6 +57,7 @@ bool decodeVelocityMeta(const std::string& bytes, LoadedVelocityGrid& g) {
     g.indexMax = d.pod<glm::ivec3>();
     g.activeVoxelCount = d.pod<std::uint64_t>();
     g.nonFiniteCount = d.pod<std::uint64_t>();
+    g.extrapolatedCells = d.pod<std::uint64_t>();
     g.maxSpeed = d.pod<float>();
     g.gridsRead = d.pod<int>();
     const auto warnings = d.pod<std::uint64_t>();
@@ -129,6 +131,7 @@ void bindVdbVelocity(const FieldDesc& field, const std::string& sceneDir, int fr
     applyVdbEnvironment(o.read);
     o.layout = a.layout;
     o.scale = a.velocityScale;
+    o.extrapolate = a.velocityExtrapolate;
     LoadedVelocityGrid g = loadVdbVelocity(o);
     for (const std::string& w : g.warnings) warnings.push_back(w);
     staggered = g.staggered;

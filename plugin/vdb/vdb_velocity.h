@@ -65,6 +65,10 @@ struct VelocityLoadOptions {
     float scale = 1.0f;                           ///< multiplies every component
     /// The most cells the dense grid may have (12 bytes each; 2^27 cells = 1.5 GiB).
     std::uint64_t maxCells = std::uint64_t(1) << 27;
+    /// Inactive voxels inside the active box (OpenVDB's background: Mantaflow stores velocity
+    /// only where its fluid was) take the mean of their known face neighbours, layer by layer
+    /// outward from the active voxels, instead of the background's still air.
+    bool extrapolate = true;
 
     static VdbLoadOptions defaultRead() {
         VdbLoadOptions o;
@@ -85,10 +89,11 @@ struct LoadedVelocityGrid {
     glm::ivec3 indexMin{0};      ///< the active voxel box, inclusive
     glm::ivec3 indexMax{-1};
     std::uint64_t activeVoxelCount = 0;
-    std::uint64_t nonFiniteCount = 0;  ///< NaN/Inf components set to 0
-    float maxSpeed = 0.0f;             ///< largest |v| over the dense cells (scaled)
-    int gridsRead = 0;                 ///< trees read from the file: 1
-    std::vector<std::string> warnings; ///< "<path>: grid "<name>": ..."
+    std::uint64_t nonFiniteCount = 0;    ///< NaN/Inf components set to 0
+    std::uint64_t extrapolatedCells = 0; ///< inactive cells filled from their neighbours
+    float maxSpeed = 0.0f;               ///< largest |v| over the dense cells (scaled)
+    int gridsRead = 0;                   ///< trees read from the file: 1
+    std::vector<std::string> warnings;   ///< "<path>: grid "<name>": ..."
 };
 
 /// Reads options.read.gridName from options.read.path (see the file comment), in a child process

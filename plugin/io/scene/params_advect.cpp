@@ -47,6 +47,12 @@ void addAdvectSubParams(std::vector<Param>& t) {
                          "Multiplies the grid's velocities (e.g. to turn a simulation's units "
                          "into world units per second).",
                          &AdvectDesc::velocityScale));
+    t.push_back(ad.param("velocity_extrapolate", {},
+                         "Inactive voxels inside the velocity grid's active box (OpenVDB's "
+                         "background, 0: Mantaflow stores velocity only where its fluid was) "
+                         "take the mean of their neighbours, layer by layer outward; false "
+                         "keeps them still, which stalls a cloud's front where it enters them.",
+                         &AdvectDesc::velocityExtrapolate));
     t.push_back(ad.param("voxel", above(0),
                          "Cell size of the advection grid (world units). Default: the VDB "
                          "grid's voxel, else 1/128 of the domain's longest side; enlarged "
