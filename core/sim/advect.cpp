@@ -327,38 +327,39 @@ struct RowLookup {
         row[3] = at(ay.i1, ay.in1, az.i1, az.in1);
     }
 
-    /// The min and max of the 8 samples operator() reads at x (the MacCormack limiter's range),
-    /// without the interpolation.
-    [[gnu::always_inline]] void range(int x, float& lo, float& hi) const {
+    /// The 8 samples of the lookup at x (v[k]: bit 0 x, bit 1 y, bit 2 z) and its x weight.
+    [[gnu::always_inline]] void samples(int x, float v[8], float& fx) const {
         const float px = float(x) + 0.5f + sx;
         const Axis ax = axis(px - 0.5f, nx, b);
         auto at = [&](int k, int i, bool vi) { return vi && row[k] ? row[k][i] : 0.0f; };
-        const float v000 = at(0, ax.i0, ax.in0), v100 = at(0, ax.i1, ax.in1);
-        const float v010 = at(1, ax.i0, ax.in0), v110 = at(1, ax.i1, ax.in1);
-        const float v001 = at(2, ax.i0, ax.in0), v101 = at(2, ax.i1, ax.in1);
-        const float v011 = at(3, ax.i0, ax.in0), v111 = at(3, ax.i1, ax.in1);
-        lo = std::min(std::min(std::min(v000, v100), std::min(v010, v110)),
-                      std::min(std::min(v001, v101), std::min(v011, v111)));
-        hi = std::max(std::max(std::max(v000, v100), std::max(v010, v110)),
-                      std::max(std::max(v001, v101), std::max(v011, v111)));
+        for (int k = 0; k < 4; ++k) {
+            v[2 * k] = at(k, ax.i0, ax.in0);
+            v[2 * k + 1] = at(k, ax.i1, ax.in1);
+        }
+        fx = ax.f;
     }
 
-    [[gnu::always_inline]] float operator()(int x, float* lo, float* hi) const {
-        const float px = float(x) + 0.5f + sx;
-        const Axis ax = axis(px - 0.5f, nx, b);
-        auto at = [&](int k, int i, bool vi) { return vi && row[k] ? row[k][i] : 0.0f; };
-        const float v000 = at(0, ax.i0, ax.in0), v100 = at(0, ax.i1, ax.in1);
-        const float v010 = at(1, ax.i0, ax.in0), v110 = at(1, ax.i1, ax.in1);
-        const float v001 = at(2, ax.i0, ax.in0), v101 = at(2, ax.i1, ax.in1);
-        const float v011 = at(3, ax.i0, ax.in0), v111 = at(3, ax.i1, ax.in1);
-        if (lo)
-            *lo = std::min(std::min(std::min(v000, v100), std::min(v010, v110)),
-                           std::min(std::min(v001, v101), std::min(v011, v111)));
-        if (hi)
-            *hi = std::max(std::max(std::max(v000, v100), std::max(v010, v110)),
-                           std::max(std::max(v001, v101), std::max(v011, v111)));
-        const float c0 = lerp(lerp(v000, v100, ax.f), lerp(v010, v110, ax.f), fy);
-        const float c1 = lerp(lerp(v001, v101, ax.f), lerp(v011, v111, ax.f), fy);
+    /// The min and max of the 8 samples operator() reads at x (the MacCormack limiter's range).
+    [[gnu::always_inline]] static void minMax(const float v[8], float& lo, float& hi) {
+        lo = std::min(std::min(std::min(v[0], v[1]), std::min(v[2], v[3])),
+                      std::min(std::min(v[4], v[5]), std::min(v[6], v[7])));
+        hi = std::max(std::max(std::max(v[0], v[1]), std::max(v[2], v[3])),
+                      std::max(std::max(v[4], v[5]), std::max(v[6], v[7])));
+    }
+
+    [[gnu::always_inline]] void range(int x, float& lo, float& hi) const {
+        float v[8], fx;
+        samples(x, v, fx);
+        minMax(v, lo, hi);
+    }
+
+    [[gnu::always_inline]] float operator()(int x) const {
+        float v[8], fx;
+        samples(x, v, fx);
+        const float v000 = v[0], v100 = v[1], v010 = v[2], v110 = v[3];
+        const float v001 = v[4], v101 = v[5], v011 = v[6], v111 = v[7];
+        const float c0 = lerp(lerp(v000, v100, fx), lerp(v010, v110, fx), fy);
+        const float c1 = lerp(lerp(v001, v101, fx), lerp(v011, v111, fx), fy);
         return lerp(c0, c1, fz);
     }
 };
@@ -433,7 +434,7 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                 subMax = 1;
                 const RowLookup look(in, y, z, u0, -dt, ap.boundary);
                 for (int x = 0; x < nx; ++x) {
-                    const float v = look(x, nullptr, nullptr);
+                    const float v = look(x);
                     fwd.v[base + x] = v;
                     if (!mac) massOut += double(v);
                     massIn += double(in.v[base + x]);
@@ -483,7 +484,7 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                     for (int x = 0; x < nx; ++x) {
                         float back, lo = 0.0f, hi = 0.0f;
                         if (rowKernel) {
-                            back = look(x, nullptr, nullptr);
+                            back = look(x);
                             if (ap.limiter) fwdLook.range(x, lo, hi);
                         } else {
                             const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);

@@ -46,6 +46,25 @@ std::string gridContext(const std::string& path, const std::string& grid) {
     return path + ": grid " + quoted(grid) + ": ";
 }
 
+/// Called inside a catch block of a grid read: rethrows the exception in flight as a VdbError
+/// naming the file (`ctx`) and its versions (a VdbError passes unchanged).
+[[noreturn]] void rethrowAsVdbError(const std::string& ctx, const std::string& version) {
+    try {
+        throw;
+    } catch (const VdbError&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw VdbError(ctx + "out of memory while reading it" + version +
+                       " (a corrupted file, or a grid too large for this machine)");
+    } catch (const std::exception& e) {
+        throw VdbError(ctx + "OpenVDB could not read it" + version + ": " + e.what() +
+                       " (a corrupted or truncated file?)");
+    } catch (...) {
+        throw VdbError(ctx + "OpenVDB could not read it" + version +
+                       ": unknown exception (a corrupted file?)");
+    }
+}
+
 std::string versionText(std::uint32_t fileVersion, const std::string& library) {
     return "file format version " + std::to_string(fileVersion) + ", written by OpenVDB " + library;
 }
@@ -727,17 +746,8 @@ LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool c
             const std::string problem = detail::checkNanoGrid(out);
             if (!problem.empty()) throw VdbError(detail::invalidGridMessage(out, problem));
         }
-    } catch (const VdbError&) {
-        throw;
-    } catch (const std::bad_alloc&) {
-        throw VdbError(ctx + "out of memory while reading it" + version +
-                       " (a corrupted file, or a grid too large for this machine)");
-    } catch (const std::exception& e) {
-        throw VdbError(ctx + "OpenVDB could not read it" + version + ": " + e.what() +
-                       " (a corrupted or truncated file?)");
     } catch (...) {
-        throw VdbError(ctx + "OpenVDB could not read it" + version +
-                       ": unknown exception (a corrupted file?)");
+        rethrowAsVdbError(ctx, version);
     }
     return out;
 }
@@ -991,17 +1001,8 @@ LoadedVelocityGrid detail::loadVdbVelocityInProcess(const VelocityLoadOptions& o
             out.warnings.push_back(ctx + std::to_string(out.nonFiniteCount) +
                                    " NaN/Inf velocity component(s) set to 0");
         }
-    } catch (const VdbError&) {
-        throw;
-    } catch (const std::bad_alloc&) {
-        throw VdbError(ctx + "out of memory while reading it" + version +
-                       " (a corrupted file, or a grid too large for this machine)");
-    } catch (const std::exception& e) {
-        throw VdbError(ctx + "OpenVDB could not read it" + version + ": " + e.what() +
-                       " (a corrupted or truncated file?)");
     } catch (...) {
-        throw VdbError(ctx + "OpenVDB could not read it" + version +
-                       ": unknown exception (a corrupted file?)");
+        rethrowAsVdbError(ctx, version);
     }
     return out;
 }
