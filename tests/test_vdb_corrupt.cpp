@@ -780,6 +780,73 @@ TEST_F(VdbCorrupt, ABoolMetadataByteOtherThanZeroOrOneIsRefusedBeforeOpenVdbRead
     }
 }
 
+/// smoke1-like voxels plus one inactive root tile (level 3) holding 0.625 at root key
+/// (4096, 0, 0); @p at is set to the byte of that tile's active flag in the written file.
+std::vector<char> withRootTile(const std::string& p, std::size_t& at) {
+    VdbGridSpec s = smokeSpec();
+    s.tiles.push_back({glm::ivec3(4096 + 7, 3, 5), 3, 0.625, false});
+    writeVdbGrids(p, {s});
+    std::vector<char> bytes = bytesOf(p);
+    // RootNode::writeTopology: per tile the origin (3 int32), the value, the active flag
+    const std::int32_t origin[3] = {4096, 0, 0};
+    const float value = 0.625f;
+    char pattern[16];
+    std::memcpy(pattern, origin, 12);
+    std::memcpy(pattern + 12, &value, 4);
+    auto it = std::search(bytes.begin(), bytes.end(), pattern, pattern + 16);
+    at = it == bytes.end() ? 0 : std::size_t(it - bytes.begin()) + 16;
+    return bytes;
+}
+
+TEST_F(VdbCorrupt, ARootTileActiveFlagOtherThanZeroOrOneIsRefusedBeforeOpenVdbReadsIt) {
+    // docs/fuzzing.md find 8: OpenVDB reads the flag into a bool (UBSan in RootNode.h)
+    std::size_t at = 0;
+    std::vector<char> bytes = withRootTile(path("tile.vdb"), at);
+    ASSERT_NE(at, 0u) << "the root tile was not found in the written file";
+    ASSERT_EQ(bytes[at], 0) << "the tile was written inactive";
+    // The clean file loads, tile and all (the inactive non-zero tile is zeroed, as documented)
+    const LoadedVdbGrid clean = loadVdbGrid({.path = path("tile.vdb"), .isolate = false});
+    EXPECT_EQ(clean.inactiveNonZeroCount, 1u);
+    for (int flag : {154, 2, 255}) {
+        bytes[at] = char(flag);
+        const std::string c = path("badflag.vdb");
+        writeBytesTo(c, bytes);
+        for (bool isolate : {false, true}) {
+            try {
+                loadVdbGrid({.path = c, .isolate = isolate});
+                ADD_FAILURE() << "loaded a root tile flag of " << flag << " (isolate " << isolate
+                              << ")";
+            } catch (const VdbError& e) {
+                EXPECT_TRUE(contains(e.what(), c +
+                                                   ": grid \"density\": corrupted file: the "
+                                                   "active flag of root tile 1 of 1 holds the "
+                                                   "byte " +
+                                                   std::to_string(flag) + ", not 0 or 1"))
+                    << e.what();
+            }
+        }
+    }
+}
+
+TEST_F(VdbCorrupt, ARootTileCountPastTheGridIsRefusedBeforeOpenVdbLoopsOverIt) {
+    std::size_t at = 0;
+    std::vector<char> bytes = withRootTile(path("tile.vdb"), at);
+    ASSERT_NE(at, 0u);
+    // the tile count (uint32) and child count precede the first tile's 17 bytes
+    const std::size_t countAt = at - 16 - 8;
+    std::uint32_t count = 0;
+    std::memcpy(&count, &bytes[countAt], 4);
+    ASSERT_EQ(count, 1u) << "the layout of the root node changed";
+    count = 0x7fffffffu;
+    std::memcpy(&bytes[countAt], &count, 4);
+    const std::string c = path("badcount.vdb");
+    writeBytesTo(c, bytes);
+    const std::string m = errorOf({.path = c, .isolate = false});
+    EXPECT_TRUE(contains(m, c + ": grid \"density\": corrupted file: the root node claims "
+                                "2147483647 tiles of 17 bytes"))
+        << m;
+}
+
 TEST_F(VdbCorrupt, ACorruptedChunkSizeIsReportedWhetherOpenVdbCrashesOrRefusesIt) {
     // A negative size means "raw bytes follow": OpenVDB 10 reads 8 GB into a 2 KB leaf buffer
     // (up to the end of the file): a heap overflow. What it does next is undefined: it mostly

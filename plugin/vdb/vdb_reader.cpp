@@ -136,6 +136,8 @@ class StructureReader {
         is_.seekg(std::streamoff(p));
     }
     void setEnd(std::uint64_t end) { end_ = std::min(end, fileSize_); }
+    /// Bytes left before the end of the file or of the grid (setEnd).
+    std::uint64_t left() { return remaining(); }
 
     template <class T> T pod(const char* what) {
         if (remaining() < sizeof(T)) truncated(what, sizeof(T));
@@ -246,6 +248,64 @@ struct DescriptorScan {
 };
 
 class DescriptorScanner : private openvdb::io::Archive {
+    /// The bytes of one value of a grid's tree as its root node stores it (a half grid's
+    /// root holds floats); 0 for value types not checked.
+    static std::uint32_t rootValueBytes(const std::string& valueType) {
+        static const std::pair<const char*, std::uint32_t> sizes[] = {
+            {"float", 4}, {"half", 4},   {"double", 8}, {"int32", 4},  {"int64", 8},
+            {"bool", 1},  {"vec3s", 12}, {"vec3h", 12}, {"vec3d", 24}, {"vec3i", 12}};
+        for (const auto& [name, size] : sizes)
+            if (valueType == name) return size;
+        return 0;
+    }
+
+    /// The transform and the root node's tile table of a grid (openvdb::math::Transform::read,
+    /// TreeBase::readTopology, RootNode::readTopology), from the transform's type name on. OpenVDB
+    /// reads each root tile's active flag, and a bool grid's values, straight into a bool: a
+    /// byte other than 0 and 1 is undefined behaviour in every later use (UBSan in
+    /// RootNode.h, docs/fuzzing.md find 8), and a corrupted tile count makes it loop billions
+    /// of times. Transforms OpenVDB cannot read are left to its own error, later.
+    void rootTiles(StructureReader& r, std::ifstream& is, const VdbGridInfo& grid) {
+        const std::uint32_t valueBytes = rootValueBytes(grid.valueType);
+        if (valueBytes == 0) return;
+        try {
+            openvdb::math::Transform transform;
+            transform.read(is); // fixed-size maps; the type name was checked above
+        } catch (const openvdb::Exception&) {
+            return;
+        }
+        if (!is) return; // a truncated transform: OpenVDB says so when it reads the grid
+        r.pod<std::int32_t>("the tree's buffer count");
+        r.skip(valueBytes, "the background value");
+        const auto tiles = r.pod<std::uint32_t>("the root node's tile count");
+        const auto children = r.pod<std::uint32_t>("the root node's child count");
+        const std::uint64_t tileBytes = 12 + valueBytes + 1; // coordinates, value, active flag
+        if (tiles > r.left() / tileBytes)
+            r.corrupted("the root node claims " + std::to_string(tiles) + " tiles of " +
+                        std::to_string(tileBytes) + " bytes in the " + std::to_string(r.left()) +
+                        " bytes left of the grid");
+        const bool boolValues = grid.valueType == "bool";
+        auto flag = [&](const char* what, std::uint32_t tile) {
+            const auto b = r.pod<std::uint8_t>(what);
+            if (b > 1)
+                r.corrupted(std::string(what) + " of root tile " + std::to_string(tile + 1) +
+                            " of " + std::to_string(tiles) + " holds the byte " +
+                            std::to_string(b) + ", not 0 or 1");
+        };
+        for (std::uint32_t t = 0; t < tiles; ++t) {
+            r.skip(12, "a root tile's coordinates");
+            if (boolValues)
+                flag("the bool value", t);
+            else
+                r.skip(valueBytes, "a root tile's value");
+            flag("the active flag", t);
+        }
+        if (children > r.left() / 12)
+            r.corrupted("the root node claims " + std::to_string(children) +
+                        " child nodes in the " + std::to_string(r.left()) +
+                        " bytes left of the grid");
+    }
+
   public:
     /// Scans @p path; when @p gridToCheck is a grid of the file, also checks that grid's
     /// metadata and transform type (the part of a grid OpenVDB reads with trusted lengths).
@@ -280,6 +340,7 @@ class DescriptorScanner : private openvdb::io::Archive {
         }
         StructureReader r(is, size, path + ": ");
         if (!is) r.truncated("the file header", 0);
+        openvdb::io::setVersion(is, libraryVersion(), fileVersion()); // for Transform::read
         out.fileVersion = fileVersion();
         out.libraryVersion =
             std::to_string(libraryVersion().first) + "." + std::to_string(libraryVersion().second);
@@ -296,6 +357,7 @@ class DescriptorScanner : private openvdb::io::Archive {
         }
         std::uint64_t previousEnd = r.pos();
         const VdbGridInfo* toCheck = nullptr;
+        bool toCheckIsInstance = false; // an instance shares its parent's tree: none of its own
         out.grids.reserve(std::size_t(count));
         for (std::int32_t i = 0; i < count; ++i) {
             // openvdb::io::GridDescriptor::read: unique name, type, [instance parent],
@@ -305,8 +367,9 @@ class DescriptorScanner : private openvdb::io::Archive {
             const std::string name = openvdb::io::GridDescriptor::stripSuffix(uniqueName);
             r.setContext(gridContext(path, name));
             std::string type = r.str("a grid type", 1024);
+            std::string instanceParent;
             if (out.fileVersion >= openvdb::OPENVDB_FILE_VERSION_GRID_INSTANCING)
-                r.str("an instance parent name", 1u << 16);
+                instanceParent = r.str("an instance parent name", 1u << 16);
             const auto gridPos = r.pod<std::int64_t>("the grid offsets");
             const auto blockPos = r.pod<std::int64_t>("the grid offsets");
             const auto endPos = r.pod<std::int64_t>("the grid offsets");
@@ -335,7 +398,10 @@ class DescriptorScanner : private openvdb::io::Archive {
             if (half && valueType == "float") valueType = "half";
             if (half && valueType == "vec3s") valueType = "vec3h";
             out.grids.push_back({name, valueType, std::uint64_t(gridPos), std::uint64_t(endPos)});
-            if (name == gridToCheck && !toCheck) toCheck = &out.grids.back();
+            if (name == gridToCheck && !toCheck) {
+                toCheck = &out.grids.back();
+                toCheckIsInstance = !instanceParent.empty();
+            }
             r.seek(std::uint64_t(endPos));
         }
         // The grid's own header (openvdb::io::Archive::readGrid): compression flags, metadata,
@@ -346,7 +412,12 @@ class DescriptorScanner : private openvdb::io::Archive {
             r.setEnd(toCheck->dataEnd);
             r.pod<std::uint32_t>("the compression flags");
             r.metaMap();
+            const std::uint64_t transformAt = r.pos();
             r.str("the transform type", 256);
+            if (!toCheckIsInstance) {
+                r.seek(transformAt);
+                rootTiles(r, is, *toCheck);
+            }
         }
         return out;
     }
