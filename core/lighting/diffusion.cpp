@@ -110,14 +110,18 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     const int sa = ad.x >= ad.y && ad.x >= ad.z ? 0 : (ad.y >= ad.z ? 1 : 2);
     const float sunPath = geo.voxel[sa] / std::max(ad[sa], 1e-6f);
 
-    // the voxels with density, coloured red/black by the parity of x + y + z
+    // the voxels with density, coloured red/black by the parity of x + y + z; a voxel whose
+    // diffusion resistance is below kDiffusionMinResistance along every axis and in every
+    // channel counts as empty space (see diffusion.h)
+    const float thinRho = kDiffusionMinResistance / (1.5f * maxComponent(geo.voxel) *
+                                                     std::max(maxComponent(sigmaTr), 1e-30f));
     std::vector<int> active(n, -1);
     std::vector<Cell> cells;
     for (int z = 0; z < res.z; ++z)
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {
                 const size_t i = index(res, x, y, z);
-                if (rho[i] > 0.0f) {
+                if (rho[i] > 0.0f && rho[i] >= thinRho) {
                     active[i] = int(cells.size());
                     cells.push_back(Cell{std::uint32_t(i), {}, {}, vec3(0.0f), vec3(0.0f)});
                 }

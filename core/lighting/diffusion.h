@@ -43,6 +43,17 @@ namespace nimbus {
 /// than two transport mean free paths, the usual case, are unchanged.
 constexpr float kDiffusionMaxBoundaryResistance = 3.0f;
 
+/// A voxel whose diffusion resistance 1.5 h sigma_t' rho is below this along every axis and in
+/// every channel (an optical thickness under 1/1500 of a transport mean free path) takes no
+/// part in the solve: it counts as empty space. Between two such voxels the conductance
+/// A / (r_i + r_j) grows without bound as the density falls, so a faint halo of them around a
+/// cloud (the residue of advection, a VDB's long tail) conducted light around the cloud's
+/// surface and out through the halo's larger outer area, and made the system so stiff that SOR
+/// stopped on its relative-change test far from the answer (docs/accuracy.md, "A near-empty
+/// halo"). Their own scattering is still integrated by march; their multiple scattering is a
+/// second-order effect of a density this thin.
+constexpr float kDiffusionMinResistance = 1e-3f;
+
 struct DiffusionParams {
     vec3 sigma_s{1.0f}, sigma_a{0.0f};   ///< per unit density, density scale folded in
     float g = 0.0f;                      ///< mean cosine of the phase function
