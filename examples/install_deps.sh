@@ -9,6 +9,7 @@ PACKAGES=(
   libopenimageio-dev openimageio-tools libopencolorio-dev # plugin: EXR, colour
   libtomlplusplus-dev libcli11-dev                       # plugin: scene files, command line
   libopenvdb-dev libnanovdb-dev libboost-iostreams-dev   # plugin/vdb: VDB reading, baking
+  liblog4cplus-dev                                       # plugin/vdb: OpenVDB's log without colours, on stderr
   libembree-dev libtinyobjloader-dev                     # plugin/geom: surfaces, instances
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
   libegl-dev libopengl-dev libgl1-mesa-dri               # tests: GLSL parity on headless GL (llvmpipe)

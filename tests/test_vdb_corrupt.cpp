@@ -828,6 +828,35 @@ TEST_F(VdbCorrupt, ARootTileActiveFlagOtherThanZeroOrOneIsRefusedBeforeOpenVdbRe
     }
 }
 
+TEST_F(VdbCorrupt, OpenVdbsOwnWarningsInProcessComeWithoutColours) {
+    // A file format version newer than this OpenVDB's: libopenvdb (io::Archive::readHeader)
+    // warns "unsupported VDB file format" through log4cplus, whose layout wrapped the warning in
+    // ANSI colours (ESC[35m ... ESC[0m) in a log. In the reading child the parent strips them;
+    // in process (NIMBUS_VDB_ISOLATE=0) OpenVDB printed them itself, and on stdout.
+    const std::string p = write("smoke.vdb", {smokeSpec()});
+    std::vector<char> bytes = bytesOf(p);
+    std::uint32_t version = 0; // after the 8-byte magic number
+    std::memcpy(&version, &bytes[8], 4);
+    ASSERT_EQ(version, 224u) << "the writer's file format changed";
+    version = 225;
+    std::memcpy(&bytes[8], &version, 4);
+    const std::string c = path("newer.vdb");
+    writeBytesTo(c, bytes);
+    testing::internal::CaptureStdout();
+    testing::internal::CaptureStderr();
+    try {
+        loadVdbGrid({.path = c, .isolate = false}); // it may load or be refused: either is fine
+    } catch (const VdbError&) {
+    }
+    const std::string err = testing::internal::GetCapturedStderr();
+    const std::string out = testing::internal::GetCapturedStdout();
+    EXPECT_EQ(out, "") << "OpenVDB's appender wrote to stdout, where --progress json goes";
+    EXPECT_TRUE(contains(err, "WARN: unsupported VDB file format (expected version 224 or "
+                              "earlier, got version 225)"))
+        << err;
+    EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
+}
+
 TEST_F(VdbCorrupt, ARootTileCountPastTheGridIsRefusedBeforeOpenVdbLoopsOverIt) {
     std::size_t at = 0;
     std::vector<char> bytes = withRootTile(path("tile.vdb"), at);

@@ -118,6 +118,11 @@ std::string checkNanoGrid(const LoadedVdbGrid& g);
 /// Counts one read in vdbReadCount()/vdbRecentReads() (the velocity reader uses it too).
 void recordVdbRead(const std::string& path, const std::string& gridName, int gridsRead);
 
+/// openvdb::initialize(), then OpenVDB's log4cplus appender replaced by one that writes to
+/// stderr (OpenVDB's wrote to stdout) without terminal colours (plugin/vdb/vdb_logging.cpp):
+/// its warnings read " WARN: ..." in a log, in process as in the reading child. Idempotent and thread-safe; every reader calls it.
+void initializeOpenVdb();
+
 /// Test hook: when set, the child process calls it first, before it reads anything (tests use it
 /// to simulate a crash, a hang, an abnormal exit or a garbled reply). Not thread-safe: set it
 /// only while no isolated load runs. nullptr (the default) disables it.

@@ -603,7 +603,7 @@ void levelSetToFog(openvdb::FloatTree& tree) {
 } // namespace
 
 std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
-    openvdb::initialize();
+    detail::initializeOpenVdb();
     try {
         return DescriptorScanner().scan(path).grids;
     } catch (const VdbError&) {
@@ -634,7 +634,7 @@ std::vector<VdbRead> vdbRecentReads() {
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
     // Before a fork: the child inherits the registered grid types instead of registering them
     // again for every load.
-    openvdb::initialize(); // idempotent and thread-safe
+    detail::initializeOpenVdb(); // idempotent and thread-safe (no colours in the log)
     LoadedVdbGrid g = options.isolate ? detail::loadVdbGridIsolated(options)
                                       : detail::loadVdbGridInProcess(options);
     detail::recordVdbRead(g.path, g.gridName, g.gridsRead);
@@ -642,7 +642,7 @@ LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
 }
 
 LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid) {
-    openvdb::initialize(); // idempotent and thread-safe
+    detail::initializeOpenVdb(); // idempotent and thread-safe (no colours in the log)
     const std::string& path = options.path;
     const std::string ctx = gridContext(path, options.gridName);
 
@@ -937,7 +937,7 @@ void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale
 } // namespace
 
 LoadedVelocityGrid detail::loadVdbVelocityInProcess(const VelocityLoadOptions& options) {
-    openvdb::initialize();
+    detail::initializeOpenVdb();
     const std::string& path = options.read.path;
     const std::string& name = options.read.gridName;
     const std::string ctx = gridContext(path, name);
