@@ -13,7 +13,7 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
   - the JSON's members tile the block by the std430 rules (vec4 16-byte aligned, scalars 4),
     every member has a meaning and units, and each value equals the bytes of params.bin at the
     member's offset (floats bit for bit);
-and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
+`nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
 `nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
 Exit 0 when every check passes; each failure is printed.
 """
@@ -128,6 +128,13 @@ for name, (sets, features) in VARIANTS.items():
     bindings = sorted(b["binding"] for b in doc["buffers"])
     check(bindings == [0, 1, 2], f"{name}: bindings {bindings}")
 check(len(set(texts.values())) == len(texts), "two variants exported the same text")
+
+# the help
+rc, log = run(["--help"])
+check(rc == 0 and "export-glsl" in log, f"nimbus --help does not list export-glsl: {log}")
+rc, log = run(["export-glsl", "--help"])
+check(rc == 0 and all(w in log for w in ("--output", "--frame", "--set")),
+      f"export-glsl --help: exit {rc}: {log}")
 
 # errors
 rc, log = run(["export-glsl", SCENE] + BASE)
