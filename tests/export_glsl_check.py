@@ -9,7 +9,10 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
   - glslangValidator accepts march.comp;
   - params.json parses with Python's json module and names the features the variant must have;
   - the text of march.comp has the code of every enabled feature and none of a disabled one's
-    (the #if blocks are preprocessed away, not set to 0), and no #if on an RT_* macro is left;
+    (the #if blocks are preprocessed away, not set to 0; the kernels only that code calls are
+    gone too), and no #if on an RT_* macro is left;
+  - every line after a `#line N S` is line N of the file S names (the renumbering after removed
+    code is right);
   - the JSON's members tile the block by the std430 rules (vec4 16-byte aligned, scalars 4),
     every member has a meaning and units, and each value equals the bytes of params.bin at the
     member's offset (floats bit for bit);
@@ -26,6 +29,7 @@ import subprocess
 import sys
 
 NIMBUS, VALIDATOR, SCENE, SCRATCH = sys.argv[1:5]
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(SCENE))))
 FAILURES = []
 
 
@@ -61,11 +65,14 @@ VARIANTS = {
 
 # code that exists only with the feature (march_pass.glsl): the shadow march and the octaves of
 # the sun, the height-occluded ambient, the sky behind the clouds, the pixel-sample loop's body
+# (and the kernels only that code calls)
 MARKERS = {
-    "RT_SUN": ["rtDensityIntegral(", "octaveSun(vec3(phaseEval(", "inScatterFactor(P.inScatter"],
-    "RT_AMBIENT": ["skyHeightInScatter(rtXyz(P.skySphere)"],
+    "RT_SUN": ["rtDensityIntegral(", "octaveSun(vec3(phaseEval(", "inScatterFactor(P.inScatter",
+               "NB_FN vec3 octaveSun(", "NB_FN PhaseParams phaseOctave("],
+    "RT_AMBIENT": ["skyHeightInScatter(rtXyz(P.skySphere)", "NB_FN vec3 skyHeightInScatter("],
     "RT_BACKGROUND_SKY": ["L += T * rtSkyRadiance(P, d);"],
-    "RT_MULTISAMPLE": ["pixelSampleOffset(k, ns", "atomicAdd(nonFinite"],
+    "RT_MULTISAMPLE": ["pixelSampleOffset(k, ns", "atomicAdd(nonFinite",
+                       "NB_FN vec2 pixelSampleOffset("],
 }
 
 SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
@@ -100,6 +107,28 @@ for name, (sets, features) in VARIANTS.items():
             check((marker in text) == bool(on),
                   f"{name}: {feature} {'on' if on else 'off'} but '{marker}' is "
                   f"{'absent' if on else 'present'}")
+    # every line after a #line is the line of the file it names (the header lists the
+    # source-string numbers): the renumbering after removed code is right
+    sources = dict((int(n), f) for n, f in
+                   re.findall(r"(\d+) ((?:core|plugin)/[\w/]+\.glsl)", text.split("#define")[0]))
+    check(len(sources) >= 3, f"{name}: the header lists no source strings")
+    files = {n: open(os.path.join(ROOT, f)).read().split("\n") for n, f in sources.items()}
+    src, num, compared = 0, None, 0
+    for line in text.split("\n"):
+        m = re.match(r"#line (\d+) (\d+)$", line)
+        if m:
+            num, src = int(m.group(1)), int(m.group(2))
+            continue
+        if num is not None and src in files:
+            original = files[src][num - 1] if num - 1 < len(files[src]) else None
+            if not check(original == line, f"{name}: line {num} of {sources[src]} is "
+                                           f"{original!r}, the export has {line!r}"):
+                break
+            compared += 1
+        if num is not None:
+            num += 1
+    check(compared > 300, f"{name}: only {compared} lines compared with their files")
+
     # the block: std430 offsets, documentation, values = params.bin
     block = doc["parameter_block"]
     data = open(os.path.join(out, block["file"]), "rb").read()

@@ -1,10 +1,11 @@
 /// @file test_export_glsl.cpp
-/// @brief `nimbus export-glsl` (plugin/realtime/export_glsl.h): the feature preprocessor on
-/// texts with known answers, the JSON's std430 offsets against the C++ struct's offsetof, a
-/// disabled feature's code absent from the exported text (present when enabled), and an export
-/// written by the command, read back from its files alone (march.comp, params.json) and
-/// dispatched through the EGL compute context, against `nimbus rt`'s pass on the same frame.
-/// The command line's errors and glslangValidator on every variant: tests/export_glsl_check.py.
+/// @brief `nimbus export-glsl` (plugin/realtime/export_glsl.h): the feature preprocessor and the
+/// removal of unreferenced declarations on texts with known answers, the JSON's std430 offsets
+/// against the C++ struct's offsetof, a disabled feature's code absent from the exported text
+/// (present when enabled), and an export written by the command, read back from its files alone
+/// (march.comp, params.json) and dispatched through the EGL compute context, against `nimbus rt`'s
+/// pass on the same frame. The command line's errors and glslangValidator on every variant:
+/// tests/export_glsl_check.py.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -233,6 +234,62 @@ TEST(ExportGlslStrip, RefusesWhatItCannotDecide) {
     EXPECT_TRUE(contains(e, "names a feature macro")) << e;
 }
 
+// --- unreferenced declarations ---------------------------------------------------------------
+
+std::string prune(const std::string& text, std::string* error = nullptr) {
+    std::string out, e;
+    if (!rt::removeUnreferenced(text, out, &e)) {
+        if (error) *error = e;
+        return "<error: " + e + ">";
+    }
+    return out;
+}
+
+TEST(ExportGlslPrune, KeepsWhatMainReaches) {
+    const std::string text = "#version 430\n"
+                             "const int A = 1;\n"
+                             "const int B = A + 1;\n"
+                             "const int C = 3;\n"
+                             "struct S {\n    int x;\n};\n"
+                             "struct Unused {\n    int y;\n};\n"
+                             "// f's comment\n"
+                             "int f(S s) { return s.x + B; }\n"
+                             "\n"
+                             "// g's comment, with { and ; in it\n"
+                             "int g() {\n    return C; // not A\n}\n"
+                             "int h(int v);\n"
+                             "layout(std430, binding = 0) buffer Out { int o[]; };\n"
+                             "void main() {\n    S s;\n    o[0] = f(s);\n}\n";
+    EXPECT_EQ(prune(text), "#version 430\n"
+                           "const int A = 1;\n"
+                           "const int B = A + 1;\n"
+                           "#line 5 0\n"
+                           "struct S {\n    int x;\n};\n"
+                           "#line 11 0\n"
+                           "// f's comment\n"
+                           "int f(S s) { return s.x + B; }\n"
+                           "\n"
+                           "#line 19 0\n"
+                           "layout(std430, binding = 0) buffer Out { int o[]; };\n"
+                           "void main() {\n    S s;\n    o[0] = f(s);\n}\n");
+    // #line directives, also inside a body, set the numbers the renumbering uses
+    EXPECT_EQ(prune("#line 1 4\nint u() {\n#line 40 4\n return 0;\n}\nint k = 2;\n"
+                    "void main() { k; }\n"),
+              "#line 1 4\n#line 42 4\nint k = 2;\nvoid main() { k; }\n");
+}
+
+TEST(ExportGlslPrune, RefusesWhatItCannotSplit) {
+    std::string e;
+    prune("void main() {\n", &e);
+    EXPECT_TRUE(contains(e, "unbalanced")) << e;
+    e.clear();
+    prune("int f() { return 1; }\n", &e);
+    EXPECT_TRUE(contains(e, "no main()")) << e;
+    e.clear();
+    prune("}\nvoid main() {}\n", &e);
+    EXPECT_TRUE(contains(e, "line 1")) << e;
+}
+
 // --- the parameter block ----------------------------------------------------------------------
 
 // The layout read from march_params.glsl by the std430 rules is the C++ struct's: every member
@@ -394,6 +451,21 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
     }
     // the shadow march is gone as a word, not only as a call
     EXPECT_EQ(b.shader.find("rtDensityIntegral"), std::string::npos);
+    // and the kernels only a disabled feature calls are gone too (removeUnreferenced)
+    for (const std::string s :
+         {"NB_FN vec3 octaveSun(", "NB_FN float inScatterFactor(", "NB_FN PhaseParams phaseOctave(",
+          "NB_FN vec3 skyHeightInScatter(", "NB_FN vec2 pixelSampleOffset(",
+          "NB_FN float pixelFilterWeight("}) {
+        EXPECT_TRUE(contains(a.shader, s)) << s;
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    }
+    // the kernels of other fields are in nimbus rt's text, not in either export
+    const std::string rtText = rt::marchShader(on, planFrame(on, 1)).source;
+    for (const std::string s : {"NB_FN float sdSphere(", "sdBox("}) {
+        EXPECT_TRUE(contains(rtText, s)) << s;
+        EXPECT_FALSE(contains(a.shader, s)) << s;
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    }
     for (const std::string* t : {&a.shader, &b.shader}) {
         EXPECT_FALSE(contains(*t, "#if RT_"));
         EXPECT_FALSE(contains(*t, "#endif // RT_SUN"));

@@ -320,6 +320,207 @@ bool stripFeatureConditionals(std::string_view text, const Macros& macros, std::
     return true;
 }
 
+// --- unreferenced declarations ---------------------------------------------------------------
+
+namespace {
+
+/// A top-level item of a shader: whole lines, from after the previous item to the line that
+/// ends it (a function's closing brace, or a `;` at depth 0), or one preprocessor line.
+struct Item {
+    std::string text;               // its lines, with their newlines
+    std::string code;               // the code, comments left out
+    long line = 1;                  // the GLSL line number of its first line
+    std::string source = "0";       // and its source string
+    bool directive = false;         // a preprocessor line
+    bool isLine = false;            // a #line directive
+    std::string name;               // the name it defines ("" for none: always kept)
+    std::vector<std::string> words; // the identifiers of its code
+};
+
+std::vector<std::string> identifiers(std::string_view code) {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < code.size();) {
+        if (isIdentStart(code[i]) && (i == 0 || !isIdent(code[i - 1]))) {
+            std::size_t j = i;
+            while (j < code.size() && isIdent(code[j])) ++j;
+            out.emplace_back(code.substr(i, j - i));
+            i = j;
+        } else {
+            ++i;
+        }
+    }
+    return out;
+}
+
+/// The name an item of code defines: a function's or prototype's (the word before its first
+/// `(`), a struct's, or a variable's or constant's (the last word before `=`, `[` or `;`); ""
+/// for layout, precision and other declarations that define nothing to reach.
+std::string definedName(std::string_view code, bool function) {
+    const std::vector<std::string> words = identifiers(code);
+    if (words.empty()) return "";
+    if (words[0] == "layout" || words[0] == "precision") return "";
+    if (words[0] == "struct") return words.size() > 1 ? words[1] : "";
+    const std::size_t paren = code.find('(');
+    const std::size_t stop = code.find_first_of("=[;");
+    if (function || (paren != std::string_view::npos && paren < stop)) {
+        const std::vector<std::string> before = identifiers(code.substr(0, paren));
+        return before.empty() ? "" : before.back();
+    }
+    const std::vector<std::string> before = identifiers(code.substr(0, stop));
+    return before.empty() ? "" : before.back();
+}
+
+} // namespace
+
+bool removeUnreferenced(std::string_view text, std::string& out, std::string* error) {
+    std::vector<Item> items;
+    Item cur;
+    bool curStarted = false, inBlockComment = false, function = false;
+    int depth = 0;
+    char lastCode = 0;
+    long lineNo = 1;
+    std::string source = "0";
+    std::size_t inputLine = 0;
+    auto finish = [&] {
+        cur.words = identifiers(cur.code);
+        if (!cur.directive) cur.name = definedName(cur.code, function);
+        items.push_back(std::move(cur));
+        cur = Item();
+        curStarted = false;
+        function = false;
+        lastCode = 0;
+    };
+    std::size_t start = 0;
+    while (start < text.size()) {
+        std::size_t end = text.find('\n', start);
+        const bool hasNewline = end != std::string_view::npos;
+        if (!hasNewline) end = text.size();
+        const std::string_view line = text.substr(start, end - start);
+        start = end + 1;
+        ++inputLine;
+        const long thisLine = lineNo++;
+        std::string_view name, rest;
+        const bool isDirective = !inBlockComment && directive(line, name, rest);
+        if (isDirective && name == "line") {
+            // #line L [S]: the next line is line L of source string S (also inside a body, where
+            // stripFeatureConditionals put one after a removed block)
+            std::istringstream in{std::string(rest)};
+            long l = 0;
+            std::string s;
+            if (in >> l) {
+                lineNo = l;
+                if (in >> s) source = s;
+            }
+        }
+        if (isDirective && depth == 0 && cur.code.empty()) {
+            if (curStarted) finish(); // comment lines before it: kept as they are
+            cur.text = std::string(line) + (hasNewline ? "\n" : "");
+            cur.line = thisLine;
+            cur.source = source;
+            cur.directive = true;
+            cur.isLine = name == "line";
+            curStarted = true;
+            finish();
+            continue;
+        }
+        if (isDirective) { // inside an item: kept with it, no code to scan
+            cur.text.append(line);
+            if (hasNewline) cur.text += '\n';
+            continue;
+        }
+        if (!curStarted) {
+            cur.line = thisLine;
+            cur.source = source;
+            curStarted = true;
+        }
+        cur.text.append(line);
+        if (hasNewline) cur.text += '\n';
+        bool complete = false;
+        for (std::size_t i = 0; i < line.size(); ++i) {
+            const char c = line[i];
+            if (inBlockComment) {
+                if (c == '*' && i + 1 < line.size() && line[i + 1] == '/') {
+                    inBlockComment = false;
+                    ++i;
+                }
+                continue;
+            }
+            if (c == '/' && i + 1 < line.size() && line[i + 1] == '/') break;
+            if (c == '/' && i + 1 < line.size() && line[i + 1] == '*') {
+                inBlockComment = true;
+                ++i;
+                continue;
+            }
+            cur.code += c;
+            if (c == '{') {
+                if (depth == 0 && lastCode == ')') function = true;
+                ++depth;
+            } else if (c == '}') {
+                if (--depth < 0) {
+                    if (error) *error = "line " + std::to_string(inputLine) + ": unbalanced }";
+                    return false;
+                }
+                if (depth == 0 && function) complete = true;
+            } else if (c == ';' && depth == 0) {
+                complete = true;
+            }
+            if (!std::isspace(static_cast<unsigned char>(c))) lastCode = c;
+        }
+        cur.code += ' ';
+        // a blank line ends a run of comments: a file's header stays when its first function goes
+        if (complete || (trim(cur.code).empty() && trim(line).empty())) finish();
+    }
+    if (curStarted) {
+        if (!trim(cur.code).empty() || depth != 0) {
+            if (error) *error = "the shader ends inside a declaration (unbalanced braces?)";
+            return false;
+        }
+        finish();
+    }
+
+    // what main() reaches
+    std::map<std::string, std::vector<std::size_t>> byName;
+    for (std::size_t i = 0; i < items.size(); ++i)
+        if (!items[i].name.empty()) byName[items[i].name].push_back(i);
+    if (!byName.count("main")) {
+        if (error) *error = "the shader has no main()";
+        return false;
+    }
+    std::vector<bool> keep(items.size(), false);
+    std::vector<std::size_t> work;
+    for (std::size_t i = 0; i < items.size(); ++i)
+        if (items[i].name.empty() || items[i].name == "main") {
+            keep[i] = true;
+            work.push_back(i);
+        }
+    while (!work.empty()) {
+        const std::size_t i = work.back();
+        work.pop_back();
+        for (const std::string& w : items[i].words) {
+            const auto it = byName.find(w);
+            if (it == byName.end()) continue;
+            for (const std::size_t j : it->second)
+                if (!keep[j]) {
+                    keep[j] = true;
+                    work.push_back(j);
+                }
+        }
+    }
+    out.clear();
+    bool resync = false;
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        if (!keep[i]) {
+            resync = true;
+            continue;
+        }
+        if (resync && !items[i].isLine)
+            out += "#line " + std::to_string(items[i].line) + " " + items[i].source + "\n";
+        resync = false;
+        out += items[i].text;
+    }
+    return true;
+}
+
 // --- the parameter block ----------------------------------------------------------------------
 
 bool paramBlockLayout(std::vector<ParamMember>& members, std::size_t* blockSize,
@@ -592,8 +793,9 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
     // the shader nimbus rt compiles, the disabled features' code removed
     const MarchShader m = marchShader(s, p);
     out.features = m.features;
-    std::string stripped;
-    if (!stripFeatureConditionals(m.source, featureMacros(m.features), stripped, error))
+    std::string conditional, stripped;
+    if (!stripFeatureConditionals(m.source, featureMacros(m.features), conditional, error) ||
+        !removeUnreferenced(conditional, stripped, error))
         return false;
     std::ostringstream head;
     const auto macros = featureMacros(m.features);
@@ -618,7 +820,8 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
         std::string f = "(";
         for (std::size_t i = 0; i < macros.size(); ++i)
             f += (i ? ", " : "") + macros[i].first + (macros[i].second ? " on" : " off");
-        say(f + "); the code of the others is not in this text. Parameters: params.json and "
+        say(f + "); the code of the others is not in this text, nor the kernels main() does "
+                "not reach. Parameters: params.json and "
                 "params.bin; bindings, dispatch and output: docs/realtime.md, \"Export for "
                 "engines\". Source-string numbers of #line: 0 this header, the feature defines "
                 "and core/kernels/prelude.glsl,");

@@ -7,7 +7,9 @@
 ///
 /// The shader is the one `nimbus rt` compiles (rt::marchShader, the same assembly code) with the
 /// `#if` blocks of the RT_* feature macros preprocessed away: a disabled feature's code is not in
-/// the text at all (no shadow march without a sun), an enabled one's has no `#if` around it.
+/// the text at all (no shadow march without a sun), an enabled one's has no `#if` around it; then
+/// the functions and declarations nothing reaches from main() are removed (removeUnreferenced:
+/// without a sun the octave and in-scatter kernels go too, and the kernels of other fields).
 /// Every other preprocessor line is left for the engine's compiler; `#line` directives are
 /// re-emitted after every removed line, so compiler messages keep the line numbers of the pass
 /// and kernel files (the shader's header lists the source-string numbers).
@@ -47,6 +49,16 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& fea
 bool stripFeatureConditionals(std::string_view text,
                               const std::vector<std::pair<std::string, bool>>& macros,
                               std::string& out, std::string* error);
+
+/// Removes from GLSL `text` the top-level functions, structs, constants and globals that main()
+/// does not reach, directly or through others (a name counts as reached when it appears as a
+/// word in the code of a kept item, comments left out): the kernels of other fields, the
+/// lighting of a disabled feature. An item's comment lines above it go with it. Preprocessor
+/// lines, `layout` declarations and main() are always kept; `#line` directives keep the
+/// numbering after removed items, as stripFeatureConditionals does. Expects the kernels' form
+/// (top-level items start on a line of their own; a function's body opens after its `)`).
+/// False with *error on unbalanced braces or no main().
+bool removeUnreferenced(std::string_view text, std::string& out, std::string* error);
 
 /// One member of the parameter block (struct RtMarchParams, plugin/realtime/march_params.glsl)
 /// as std430 lays it out.
