@@ -110,7 +110,7 @@ for name, (sets, features) in VARIANTS.items():
     # every line after a #line is the line of the file it names (the header lists the
     # source-string numbers): the renumbering after removed code is right
     sources = dict((int(n), f) for n, f in
-                   re.findall(r"(\d+) ((?:core|plugin)/[\w/]+\.glsl)", text.split("#define")[0]))
+                   re.findall(r"(\d+)\s+(?://\s*)?((?:core|plugin)/[\w/]+\.glsl)", text.split("#define")[0]))
     check(len(sources) >= 3, f"{name}: the header lists no source strings")
     files = {n: open(os.path.join(ROOT, f)).read().split("\n") for n, f in sources.items()}
     src, num, compared = 0, None, 0

@@ -3,6 +3,7 @@
 /// block read from its GLSL text, and the files of an export.
 #include "plugin/realtime/export_glsl.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -827,11 +828,12 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
                 "and core/kernels/prelude.glsl,");
         std::size_t i = 1;
         for (const kern::KernelSource& k : kern::kernelSources())
-            say(std::to_string(i++) + " " + std::string(k.path) + ",");
-        say(std::to_string(i) + " plugin/realtime/march_params.glsl, " + std::to_string(i + 1) +
-            " plugin/realtime/march_pass.glsl.");
+            say(std::to_string(i++) + "\x01" + std::string(k.path) + ","); // one word
+        say(std::to_string(i) + "\x01plugin/realtime/march_params.glsl, " + std::to_string(i + 1) +
+            "\x01plugin/realtime/march_pass.glsl.");
         std::string line = "//";
-        for (const std::string& w : words) {
+        for (std::string w : words) {
+            std::replace(w.begin(), w.end(), '\x01', ' ');
             if (line.size() + 1 + w.size() > 96 && line != "//") {
                 head << line << "\n";
                 line = "//";
