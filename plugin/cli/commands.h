@@ -141,7 +141,18 @@ struct RtOptions {
     bool quiet = false;
 };
 
+/// `nimbus export-glsl`: one frame's march shader for engines, with only the features it uses,
+/// its parameter block and a JSON of the block (export_glsl.cpp, plugin/realtime/export_glsl.h,
+/// docs/realtime.md "Export for engines").
+struct ExportGlslOptions {
+    std::string scene;
+    std::string output;       ///< the folder to write (created)
+    std::optional<int> frame; ///< default: the scene's first frame
+    std::vector<std::string> overrides;
+};
+
 int runConverge(const ConvergeOptions& o);
+int runExportGlsl(const ExportGlslOptions& o);
 int runRt(const RtOptions& o);
 int runStress(const StressOptions& o);
 int runBenchVdb(const BenchVdbOptions& o);

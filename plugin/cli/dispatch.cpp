@@ -71,6 +71,8 @@ extern "C" __attribute__((visibility("default"))) int nimbus_cli_command(int com
             return runStress(*static_cast<const StressOptions*>(options));
         case Command::Rt:
             return runRt(*static_cast<const RtOptions*>(options));
+        case Command::ExportGlsl:
+            return runExportGlsl(*static_cast<const ExportGlslOptions*>(options));
         case Command::Reference:
             std::cout << nimbus::io::sceneFileReference();
             return kExitOk;

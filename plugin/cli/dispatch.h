@@ -9,7 +9,17 @@
 
 namespace nimbus::cli {
 
-enum class Command : int { Render = 0, Converge, Calibrate, Bake, BenchVdb, Reference, Stress, Rt };
+enum class Command : int {
+    Render = 0,
+    Converge,
+    Calibrate,
+    Bake,
+    BenchVdb,
+    Reference,
+    Stress,
+    Rt,
+    ExportGlsl
+};
 
 /// Name of the symbol the executable looks up.
 inline constexpr const char* kDispatchSymbol = "nimbus_cli_command";

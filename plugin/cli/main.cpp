@@ -120,6 +120,8 @@ int mainImpl(int argc, char** argv) {
                "  nimbus bake scene.toml -o clouds.####.vdb --frames 1-24 --voxel 0.05\n"
                "  nimbus bench-vdb-render examples/scenes/smoke1.toml --output-dir out/bench\n"
                "  nimbus stress --quick        # stiff and extreme cases, PASS/DEGRADED/FAIL\n"
+               "  nimbus export-glsl scene.toml -o out/engine/ --frame 1 "
+               "--set 'render.multiple_scattering=\"none\"'\n"
                "  nimbus reference > scene-reference.md\n"
                "Environment:\n"
                "  NIMBUS_VDB_ISOLATE=0        read VDB grids in process (trusted files only; "
@@ -527,6 +529,21 @@ int mainImpl(int argc, char** argv) {
                  "Print the plan of each frame and what the shader is compiled with, and exit");
     rt->add_flag("-q,--quiet", to.quiet, "Only errors and warnings");
 
+    cli::ExportGlslOptions eo; // `nimbus export-glsl`: plugin/cli/export_glsl.cpp
+    auto* exportGlsl = app.add_subcommand(
+        "export-glsl",
+        "Write one frame's GPU march shader for engines to a folder: march.comp (GLSL 4.30 "
+        "compute, only the features the frame uses: the others' code is not in the text), "
+        "params.json (every parameter-block member: name, type, std430 offset, value, meaning, "
+        "units; bindings, workgroup size, dispatch, output layout) and params.bin (the block's "
+        "bytes). Refuses (exit 2) what `nimbus rt` refuses, naming the key (docs/realtime.md, "
+        "\"Export for engines\")");
+    exportGlsl->add_option("scene", eo.scene, "Scene file (TOML)")->required();
+    exportGlsl->add_option("-o,--output", eo.output, "Folder to write (created)")->required();
+    exportGlsl->add_option("--frame", eo.frame, "Frame to export (default: first of the scene)");
+    exportGlsl->add_option("-s,--set", eo.overrides, "Override a scene value (as for render)")
+        ->allow_extra_args(false);
+
     auto* reference = app.add_subcommand("reference", "Print the scene-file reference (Markdown)");
 
     try {
@@ -539,7 +556,8 @@ int mainImpl(int argc, char** argv) {
     // an empty value given on purpose is a mistake, not a request for the scene's value
     for (auto [cmd, opt] :
          {std::pair{render, "--frames"}, std::pair{render, "--output"}, std::pair{bake, "--frames"},
-          std::pair{bake, "--output"}, std::pair{rt, "--frames"}, std::pair{rt, "--output"}})
+          std::pair{bake, "--output"}, std::pair{rt, "--frames"}, std::pair{rt, "--output"},
+          std::pair{exportGlsl, "--output"}})
         if (*cmd && cmd->count(opt) && cmd->get_option(opt)->as<std::string>().empty()) {
             std::fprintf(stderr, "nimbus: error: %s: %s is empty\n", cmd->get_name().c_str(), opt);
             return cli::kExitBadInput;
@@ -598,6 +616,7 @@ int mainImpl(int argc, char** argv) {
     if (*bench) return run(cli::Command::BenchVdb, &vo);
     if (*stress) return run(cli::Command::Stress, &so);
     if (*rt) return run(cli::Command::Rt, &to);
+    if (*exportGlsl) return run(cli::Command::ExportGlsl, &eo);
     if (*reference) return run(cli::Command::Reference, nullptr);
     return 0;
 }

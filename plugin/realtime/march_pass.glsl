@@ -85,6 +85,7 @@ vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
 float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
 float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 
+#if RT_SUN
 // The density integral from p toward direction w (MarchContext::densityIntegral): a jittered
 // march on the shadow schedule from p (or from where the ray enters the box, when p lies outside
 // it), stopped once the transmittance is below 1e-5 in every channel.
@@ -118,6 +119,7 @@ float rtDensityIntegral(CumulusParams C, vec3 p, vec3 w, uint rng) {
     }
     return tau;
 }
+#endif // RT_SUN: the shadow march exists only where the sun is compiled in
 
 struct RtSample {
     vec3 L;

@@ -138,6 +138,13 @@ std::string marchShaderSource(const MarchFeatures& f) {
     return s;
 }
 
+MarchShader marchShader(const SceneDesc& s, const FramePlan& p) {
+    MarchShader m;
+    m.features = marchFeatures(s, p);
+    m.source = marchShaderSource(m.features);
+    return m;
+}
+
 RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p) {
     RtMarchParams P{};
     const Camera cam(s.camera);
@@ -265,7 +272,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, 
     stats.compileSeconds = 0.0;
     if (!program) {
         const auto t0 = Clock::now();
-        program = std::make_unique<gl::ComputeProgram>(marchShaderSource(f));
+        program = std::make_unique<gl::ComputeProgram>(marchShader(s, p).source);
         stats.compileSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     }
     if (!program->valid()) {

@@ -66,6 +66,16 @@ MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan);
 /// The whole compute shader for `features`.
 std::string marchShaderSource(const MarchFeatures& features);
 
+/// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
+struct MarchShader {
+    MarchFeatures features;
+    std::string source; ///< marchShaderSource(features)
+};
+
+/// The shader of frame `plan` of `scene`: what MarchPass::render compiles and what
+/// `nimbus export-glsl` (plugin/realtime/export_glsl.h) preprocesses and writes.
+MarchShader marchShader(const SceneDesc& scene, const FramePlan& plan);
+
 /// What `--explain` prints about the GPU pass of a frame: the features, the kernels and pass
 /// files compiled in, and what is not done on the GPU.
 std::string explainMarch(const SceneDesc& scene, const FramePlan& plan);

@@ -1,0 +1,190 @@
+#!/usr/bin/env python3
+"""`nimbus export-glsl` from the command line (docs/realtime.md, "Export for engines").
+
+Usage: export_glsl_check.py NIMBUS GLSLANG_VALIDATOR SCENE SCRATCH_DIR
+
+For six variants of the scene made with --set (sun on/off, sky ambient on/off, sky background
+on/off, one or four samples per pixel; sixteen combinations would repeat the same checks):
+  - the command exits 0 and writes march.comp, params.json and params.bin;
+  - glslangValidator accepts march.comp;
+  - params.json parses with Python's json module and names the features the variant must have;
+  - the text of march.comp has the code of every enabled feature and none of a disabled one's
+    (the #if blocks are preprocessed away, not set to 0; the kernels only that code calls are
+    gone too), and no #if on an RT_* macro is left;
+  - every line after a `#line N S` is line N of the file S names (the renumbering after removed
+    code is right);
+  - the JSON's members tile the block by the std430 rules (vec4 16-byte aligned, scalars 4),
+    every member has a meaning and units, and each value equals the bytes of params.bin at the
+    member's offset (floats bit for bit);
+`nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
+`nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
+Exit 0 when every check passes; each failure is printed.
+"""
+import json
+import os
+import re
+import shutil
+import struct
+import subprocess
+import sys
+
+NIMBUS, VALIDATOR, SCENE, SCRATCH = sys.argv[1:5]
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(SCENE))))
+FAILURES = []
+
+
+def check(ok, what):
+    if not ok:
+        FAILURES.append(what)
+        print("FAIL:", what)
+    return ok
+
+
+def run(args):
+    p = subprocess.run([NIMBUS] + args, capture_output=True, text=True)
+    return p.returncode, p.stdout + p.stderr
+
+
+BASE = ["--set", 'render.multiple_scattering="none"', "--set", "camera.width=32",
+        "--set", "camera.height=18"]
+
+# name -> (extra --set values, expected features)
+VARIANTS = {
+    "all": ([], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=0)),
+    "no_sun": (["sun.enabled=false"],
+               dict(RT_SUN=0, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=0)),
+    "no_ambient": (["sky.ambient=0"],
+                   dict(RT_SUN=1, RT_AMBIENT=0, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=0)),
+    "transparent_4spp": (['render.background="transparent"', "render.pixel_samples=4"],
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=0, RT_MULTISAMPLE=1)),
+    "none": (["sun.enabled=false", "sky.ambient=0", 'render.background="transparent"'],
+             dict(RT_SUN=0, RT_AMBIENT=0, RT_BACKGROUND_SKY=0, RT_MULTISAMPLE=0)),
+    "all_4spp": (["render.pixel_samples=4"],
+                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=1)),
+}
+
+# code that exists only with the feature (march_pass.glsl): the shadow march and the octaves of
+# the sun, the height-occluded ambient, the sky behind the clouds, the pixel-sample loop's body
+# (and the kernels only that code calls)
+MARKERS = {
+    "RT_SUN": ["rtDensityIntegral(", "octaveSun(vec3(phaseEval(", "inScatterFactor(P.inScatter",
+               "NB_FN vec3 octaveSun(", "NB_FN PhaseParams phaseOctave("],
+    "RT_AMBIENT": ["skyHeightInScatter(rtXyz(P.skySphere)", "NB_FN vec3 skyHeightInScatter("],
+    "RT_BACKGROUND_SKY": ["L += T * rtSkyRadiance(P, d);"],
+    "RT_MULTISAMPLE": ["pixelSampleOffset(k, ns", "atomicAdd(nonFinite",
+                       "NB_FN vec2 pixelSampleOffset("],
+}
+
+SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
+
+shutil.rmtree(SCRATCH, ignore_errors=True)
+os.makedirs(SCRATCH)
+texts = {}
+for name, (sets, features) in VARIANTS.items():
+    out = os.path.join(SCRATCH, name)
+    args = ["export-glsl", SCENE, "-o", out, "--frame", "3"] + BASE
+    for s in sets:
+        args += ["--set", s]
+    rc, log = run(args)
+    if not check(rc == 0, f"{name}: exit {rc}: {log}"):
+        continue
+    shader = os.path.join(out, "march.comp")
+    for f in ("march.comp", "params.json", "params.bin"):
+        check(os.path.isfile(os.path.join(out, f)), f"{name}: {f} not written")
+    v = subprocess.run([VALIDATOR, shader], capture_output=True, text=True)
+    check(v.returncode == 0, f"{name}: glslangValidator: {v.stdout}{v.stderr}")
+    text = open(shader).read()
+    texts[name] = text
+    with open(os.path.join(out, "params.json")) as fh:
+        doc = json.load(fh)
+    check(doc["features"] == {k: bool(x) for k, x in features.items()},
+          f"{name}: features {doc['features']} != {features}")
+    check(doc["frame"] == 3, f"{name}: frame {doc['frame']}")
+    check(not re.search(r"^\s*#\s*(if|ifdef|ifndef|elif)\b.*\bRT_", text, re.M),
+          f"{name}: an #if on an RT_ macro is left in the text")
+    for feature, on in features.items():
+        for marker in MARKERS[feature]:
+            check((marker in text) == bool(on),
+                  f"{name}: {feature} {'on' if on else 'off'} but '{marker}' is "
+                  f"{'absent' if on else 'present'}")
+    # every line after a #line is the line of the file it names (the header lists the
+    # source-string numbers): the renumbering after removed code is right
+    sources = dict((int(n), f) for n, f in
+                   re.findall(r"(\d+)\s+(?://\s*)?((?:core|plugin)/[\w/]+\.glsl)", text.split("#define")[0]))
+    check(len(sources) >= 3, f"{name}: the header lists no source strings")
+    files = {n: open(os.path.join(ROOT, f)).read().split("\n") for n, f in sources.items()}
+    src, num, compared = 0, None, 0
+    for line in text.split("\n"):
+        m = re.match(r"#line (\d+) (\d+)$", line)
+        if m:
+            num, src = int(m.group(1)), int(m.group(2))
+            continue
+        if num is not None and src in files:
+            original = files[src][num - 1] if num - 1 < len(files[src]) else None
+            if not check(original == line, f"{name}: line {num} of {sources[src]} is "
+                                           f"{original!r}, the export has {line!r}"):
+                break
+            compared += 1
+        if num is not None:
+            num += 1
+    check(compared > 300, f"{name}: only {compared} lines compared with their files")
+
+    # the block: std430 offsets, documentation, values = params.bin
+    block = doc["parameter_block"]
+    data = open(os.path.join(out, block["file"]), "rb").read()
+    check(len(data) == block["bytes"], f"{name}: params.bin {len(data)} != {block['bytes']}")
+    offset = 0
+    for m in block["members"]:
+        size = SIZES.get(m["type"])
+        if not check(size is not None, f"{name}: {m['name']}: type {m['type']}"):
+            break
+        offset = (offset + size - 1) // size * size
+        check(m["offset"] == offset, f"{name}: {m['name']} at {m['offset']}, std430 says {offset}")
+        check(m["meaning"] and m["units"], f"{name}: {m['name']} has no meaning or units")
+        raw = data[m["offset"]:m["offset"] + size]
+        if m["type"] == "vec4":
+            want = struct.pack("<4f", *m["value"])
+        else:
+            want = struct.pack({"float": "<f", "int": "<i", "uint": "<I"}[m["type"]], m["value"])
+        check(raw == want, f"{name}: {m['name']} = {m['value']} but params.bin has {raw.hex()}")
+        offset += size
+    check(block["bytes"] == (offset + 15) // 16 * 16, f"{name}: block size {block['bytes']}")
+    groups = doc["dispatch"]["groups"]
+    wg = doc["workgroup_size"]
+    check(groups[0] * wg[0] >= 32 and groups[1] * wg[1] >= 18, f"{name}: dispatch {groups}")
+    check(doc["dispatch"]["passes"] == (4 if features["RT_MULTISAMPLE"] else 1),
+          f"{name}: passes {doc['dispatch']['passes']}")
+    bindings = sorted(b["binding"] for b in doc["buffers"])
+    check(bindings == [0, 1, 2], f"{name}: bindings {bindings}")
+check(len(set(texts.values())) == len(texts), "two variants exported the same text")
+
+# the help
+rc, log = run(["--help"])
+check(rc == 0 and "export-glsl" in log, f"nimbus --help does not list export-glsl: {log}")
+rc, log = run(["export-glsl", "--help"])
+check(rc == 0 and all(w in log for w in ("--output", "--frame", "--set")),
+      f"export-glsl --help: exit {rc}: {log}")
+
+# errors
+rc, log = run(["export-glsl", SCENE] + BASE)
+check(rc == 2 and "--output" in log, f"no -o: exit {rc}: {log}")
+blocker = os.path.join(SCRATCH, "a_file")
+open(blocker, "w").write("x")
+rc, log = run(["export-glsl", SCENE, "-o", os.path.join(blocker, "sub")] + BASE)
+check(rc == 3 and "cannot create the folder" in log, f"folder under a file: exit {rc}: {log}")
+rc, log = run(["export-glsl", SCENE, "-o", blocker] + BASE)
+check(rc == 3 and "cannot create the folder" in log, f"-o names a file: exit {rc}: {log}")
+refused = os.path.join(SCRATCH, "refused")
+rc, log = run(["export-glsl", SCENE, "-o", refused, "--set", "camera.width=32"])
+check(rc == 2 and "render.multiple_scattering" in log and "not supported by the GPU path" in log,
+      f"refused scene: exit {rc}: {log}")
+check(not os.path.exists(refused), "a refused export wrote its folder")
+rc2, log2 = run(["rt", SCENE, "--frames", "1", "--explain", "--set", "camera.width=32"])
+check(rc2 == 2 and log2.strip() == log.strip(),
+      f"nimbus rt refuses with another message: exit {rc2}: {log2} vs {log}")
+rc, log = run(["export-glsl", SCENE, "-o", refused, "--set", 'render.multiple_scattering="none"',
+               "--set", 'medium.phase="mie_table"'])
+check(rc == 2 and "medium.phase" in log, f"mie_table: exit {rc}: {log}")
+
+print(f"{len(VARIANTS)} variants, {len(FAILURES)} failures")
+sys.exit(1 if FAILURES else 0)

@@ -1,0 +1,598 @@
+/// @file test_export_glsl.cpp
+/// @brief `nimbus export-glsl` (plugin/realtime/export_glsl.h): the feature preprocessor and the
+/// removal of unreferenced declarations on texts with known answers, the JSON's std430 offsets
+/// against the C++ struct's offsetof, a disabled feature's code absent from the exported text
+/// (present when enabled), and an export written by the command, read back from its files alone
+/// (march.comp, params.json) and dispatched through the EGL compute context, against `nimbus rt`'s
+/// pass on the same frame. The command line's errors and glslangValidator on every variant:
+/// tests/export_glsl_check.py.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "plugin/host/session.h"
+#include "plugin/realtime/export_glsl.h"
+#include "plugin/realtime/gl_compute.h"
+#include "plugin/realtime/march_params.h"
+#include "plugin/realtime/rt_march.h"
+#include "tests/test_util.h"
+
+using namespace nimbus;
+
+namespace {
+
+const std::string kScene = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/cumulus.toml";
+
+const std::vector<std::pair<std::string, bool>> kMacros = {{"RT_A", true}, {"RT_B", false}};
+
+std::string strip(const std::string& text, std::string* error = nullptr) {
+    std::string out, e;
+    if (!rt::stripFeatureConditionals(text, kMacros, out, &e)) {
+        if (error) *error = e;
+        return "<error: " + e + ">";
+    }
+    return out;
+}
+
+// --- a small JSON reader (the export's JSON only needs objects, arrays, strings, numbers,
+// booleans); numbers keep their text so floats are read with strtof, exactly -----------------
+
+struct Json {
+    enum Kind { Null, Bool, Number, String, Array, Object } kind = Null;
+    bool b = false;
+    std::string text; // number text or string
+    std::vector<Json> items;
+    std::vector<std::pair<std::string, Json>> members;
+
+    const Json& operator[](const std::string& k) const {
+        for (const auto& m : members)
+            if (m.first == k) return m.second;
+        static const Json none;
+        ADD_FAILURE() << "JSON: no member " << k;
+        return none;
+    }
+    long integer() const { return std::strtol(text.c_str(), nullptr, 10); }
+};
+
+class JsonReader {
+  public:
+    explicit JsonReader(const std::string& s) : s_(s) {}
+    bool read(Json& v) {
+        value(v);
+        space();
+        return ok_ && i_ == s_.size();
+    }
+
+  private:
+    void space() {
+        while (i_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[i_]))) ++i_;
+    }
+    bool eat(char c) {
+        space();
+        if (i_ < s_.size() && s_[i_] == c) {
+            ++i_;
+            return true;
+        }
+        return false;
+    }
+    void string(std::string& out) {
+        if (!eat('"')) {
+            ok_ = false;
+            return;
+        }
+        while (i_ < s_.size() && s_[i_] != '"') {
+            if (s_[i_] == '\\' && i_ + 1 < s_.size()) {
+                const char e = s_[++i_];
+                out += e == 'n' ? '\n' : e == 't' ? '\t' : e;
+                if (e == 'u') i_ += 4; // (control characters only; not used by the export)
+            } else {
+                out += s_[i_];
+            }
+            ++i_;
+        }
+        ok_ = ok_ && eat('"');
+    }
+    void value(Json& v) {
+        space();
+        if (i_ >= s_.size()) {
+            ok_ = false;
+            return;
+        }
+        const char c = s_[i_];
+        if (c == '{') {
+            ++i_;
+            v.kind = Json::Object;
+            if (eat('}')) return;
+            do {
+                std::pair<std::string, Json> m;
+                string(m.first);
+                if (!eat(':')) ok_ = false;
+                value(m.second);
+                v.members.push_back(std::move(m));
+            } while (ok_ && eat(','));
+            ok_ = ok_ && eat('}');
+        } else if (c == '[') {
+            ++i_;
+            v.kind = Json::Array;
+            if (eat(']')) return;
+            do {
+                v.items.emplace_back();
+                value(v.items.back());
+            } while (ok_ && eat(','));
+            ok_ = ok_ && eat(']');
+        } else if (c == '"') {
+            v.kind = Json::String;
+            string(v.text);
+        } else if (s_.compare(i_, 4, "true") == 0 || s_.compare(i_, 5, "false") == 0) {
+            v.kind = Json::Bool;
+            v.b = s_[i_] == 't';
+            i_ += v.b ? 4 : 5;
+        } else if (s_.compare(i_, 4, "null") == 0) {
+            i_ += 4;
+        } else {
+            v.kind = Json::Number;
+            const std::size_t j = i_;
+            while (i_ < s_.size() && (std::isdigit(static_cast<unsigned char>(s_[i_])) ||
+                                      std::strchr("+-.eE", s_[i_])))
+                ++i_;
+            v.text = s_.substr(j, i_ - j);
+            ok_ = ok_ && !v.text.empty();
+        }
+    }
+    const std::string& s_;
+    std::size_t i_ = 0;
+    bool ok_ = true;
+};
+
+std::string readFile(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+/// The parameter block packed from the JSON's members alone (name, type, offset, value).
+std::vector<std::uint8_t> packFromJson(const Json& block) {
+    std::vector<std::uint8_t> out(std::size_t(block["bytes"].integer()), 0);
+    for (const Json& m : block["members"].items) {
+        const std::string type = m["type"].text;
+        std::uint8_t* at = out.data() + m["offset"].integer();
+        if (type == "vec4") {
+            for (int c = 0; c < 4; ++c) {
+                const float f =
+                    std::strtof(m["value"].items.at(std::size_t(c)).text.c_str(), nullptr);
+                std::memcpy(at + 4 * c, &f, 4);
+            }
+        } else if (type == "float") {
+            const float f = std::strtof(m["value"].text.c_str(), nullptr);
+            std::memcpy(at, &f, 4);
+        } else if (type == "int") {
+            const std::int32_t x = std::int32_t(std::strtol(m["value"].text.c_str(), nullptr, 10));
+            std::memcpy(at, &x, 4);
+        } else {
+            const std::uint32_t x =
+                std::uint32_t(std::strtoul(m["value"].text.c_str(), nullptr, 10));
+            std::memcpy(at, &x, 4);
+        }
+    }
+    return out;
+}
+
+} // namespace
+
+// --- the preprocessor -------------------------------------------------------------------------
+
+TEST(ExportGlslStrip, KeepsTrueBranchesAndDropsFalseOnes) {
+    EXPECT_EQ(strip("a\n#if RT_A\nb\n#endif\nc\n"), "a\n#line 3 0\nb\n#line 5 0\nc\n");
+    EXPECT_EQ(strip("a\n#if RT_B\nb\n#endif\nc\n"), "a\n#line 5 0\nc\n");
+    EXPECT_EQ(strip("#if RT_B\nb\n#else\nc\n#endif\n"), "#line 4 0\nc\n");
+    EXPECT_EQ(strip("#if RT_B\nb\n#elif RT_A\nc\n#else\nd\n#endif\n"), "#line 4 0\nc\n");
+    EXPECT_EQ(strip("#if !RT_B && (RT_A || RT_B)\nx\n#endif\n"), "#line 2 0\nx\n");
+    EXPECT_EQ(strip("#if RT_A == 0\nx\n#endif\ny\n"), "#line 4 0\ny\n");
+    EXPECT_EQ(strip("#ifdef RT_B\nx\n#endif\n#ifndef RT_A\ny\n#endif\n"), "#line 2 0\nx\n");
+    // nested: an inner block of a removed branch goes with it, whatever its own value
+    EXPECT_EQ(strip("#if RT_B\n#if RT_A\nx\n#endif\n#endif\nz\n"), "#line 6 0\nz\n");
+    // a comment after the directive, indentation
+    EXPECT_EQ(strip("  #  if RT_B // the sun\nx\n  #endif // RT_B\nz"), "#line 4 0\nz");
+    // #line directives renumber: after a removed block the numbering of the source string goes on
+    EXPECT_EQ(strip("#line 1 7\na\n#if RT_B\nb\n#endif\nc\n"), "#line 1 7\na\n#line 5 7\nc\n");
+}
+
+TEST(ExportGlslStrip, LeavesOtherConditionalsToTheCompiler) {
+    EXPECT_EQ(strip("#if FOO\na\n#else\nb\n#endif\n"), "#if FOO\na\n#else\nb\n#endif\n");
+    EXPECT_EQ(strip("#ifdef GL_ES\n#if RT_B\nx\n#endif\ny\n#endif\n"),
+              "#ifdef GL_ES\n#line 5 0\ny\n#endif\n");
+    // a foreign block inside a removed one is removed with it
+    EXPECT_EQ(strip("#if RT_B\n#ifdef GL_ES\nx\n#endif\n#endif\n"), "");
+    EXPECT_EQ(strip("#define RT_A 1\n#version 430\n"), "#define RT_A 1\n#version 430\n");
+}
+
+TEST(ExportGlslStrip, RefusesWhatItCannotDecide) {
+    std::string e;
+    strip("#if RT_A && FOO\nx\n#endif\n", &e);
+    EXPECT_TRUE(contains(e, "mixes the feature macros")) << e;
+    e.clear();
+    strip("#if RT_A\nx\n", &e);
+    EXPECT_TRUE(contains(e, "without its #endif")) << e;
+    e.clear();
+    strip("x\n#endif\n", &e);
+    EXPECT_TRUE(contains(e, "line 2")) << e;
+    e.clear();
+    strip("#if RT_A +\nx\n#endif\n", &e);
+    EXPECT_TRUE(contains(e, "cannot evaluate")) << e;
+    e.clear();
+    strip("#ifdef FOO\n#elif RT_A\n#endif\n", &e);
+    EXPECT_TRUE(contains(e, "names a feature macro")) << e;
+}
+
+// --- unreferenced declarations ---------------------------------------------------------------
+
+std::string prune(const std::string& text, std::string* error = nullptr) {
+    std::string out, e;
+    if (!rt::removeUnreferenced(text, out, &e)) {
+        if (error) *error = e;
+        return "<error: " + e + ">";
+    }
+    return out;
+}
+
+TEST(ExportGlslPrune, KeepsWhatMainReaches) {
+    const std::string text = "#version 430\n"
+                             "const int A = 1;\n"
+                             "const int B = A + 1;\n"
+                             "const int C = 3;\n"
+                             "struct S {\n    int x;\n};\n"
+                             "struct Unused {\n    int y;\n};\n"
+                             "// f's comment\n"
+                             "int f(S s) { return s.x + B; }\n"
+                             "\n"
+                             "// g's comment, with { and ; in it\n"
+                             "int g() {\n    return C; // not A\n}\n"
+                             "int h(int v);\n"
+                             "layout(std430, binding = 0) buffer Out { int o[]; };\n"
+                             "void main() {\n    S s;\n    o[0] = f(s);\n}\n";
+    EXPECT_EQ(prune(text), "#version 430\n"
+                           "const int A = 1;\n"
+                           "const int B = A + 1;\n"
+                           "#line 5 0\n"
+                           "struct S {\n    int x;\n};\n"
+                           "#line 11 0\n"
+                           "// f's comment\n"
+                           "int f(S s) { return s.x + B; }\n"
+                           "\n"
+                           "#line 19 0\n"
+                           "layout(std430, binding = 0) buffer Out { int o[]; };\n"
+                           "void main() {\n    S s;\n    o[0] = f(s);\n}\n");
+    // #line directives, also inside a body, set the numbers the renumbering uses
+    EXPECT_EQ(prune("#line 1 4\nint u() {\n#line 40 4\n return 0;\n}\nint k = 2;\n"
+                    "void main() { k; }\n"),
+              "#line 1 4\n#line 42 4\nint k = 2;\nvoid main() { k; }\n");
+}
+
+TEST(ExportGlslPrune, RefusesWhatItCannotSplit) {
+    std::string e;
+    prune("void main() {\n", &e);
+    EXPECT_TRUE(contains(e, "unbalanced")) << e;
+    e.clear();
+    prune("int f() { return 1; }\n", &e);
+    EXPECT_TRUE(contains(e, "no main()")) << e;
+    e.clear();
+    prune("}\nvoid main() {}\n", &e);
+    EXPECT_TRUE(contains(e, "line 1")) << e;
+}
+
+// --- the parameter block ----------------------------------------------------------------------
+
+// The layout read from march_params.glsl by the std430 rules is the C++ struct's: every member
+// at its offsetof, in order, with nothing left out.
+TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
+    std::vector<rt::ParamMember> members;
+    std::size_t bytes = 0;
+    std::string error;
+    ASSERT_TRUE(rt::paramBlockLayout(members, &bytes, &error)) << error;
+    using P = rt::RtMarchParams;
+    const std::vector<std::pair<std::string, std::size_t>> cpp = {
+#define NB_MEMBER(m) {#m, offsetof(P, m)}
+        NB_MEMBER(camOrigin),
+        NB_MEMBER(camForward),
+        NB_MEMBER(camRight),
+        NB_MEMBER(camUp),
+        NB_MEMBER(boundsLo),
+        NB_MEMBER(boundsHi),
+        NB_MEMBER(sunDirection),
+        NB_MEMBER(sunIrradiance),
+        NB_MEMBER(sigmaS),
+        NB_MEMBER(sigmaT),
+        NB_MEMBER(skyZenith),
+        NB_MEMBER(skyHorizon),
+        NB_MEMBER(skySphere),
+        NB_MEMBER(baseOffset),
+        NB_MEMBER(detailOffset),
+        NB_MEMBER(layerBottom),
+        NB_MEMBER(layerTop),
+        NB_MEMBER(heightA),
+        NB_MEMBER(heightB),
+        NB_MEMBER(coverage),
+        NB_MEMBER(softness),
+        NB_MEMBER(erosion),
+        NB_MEMBER(towerSpacing),
+        NB_MEMBER(towerRadiusMin),
+        NB_MEMBER(towerRadiusMax),
+        NB_MEMBER(towerHeightMin),
+        NB_MEMBER(towerHeightMax),
+        NB_MEMBER(towerProbability),
+        NB_MEMBER(towerAnisotropy),
+        NB_MEMBER(fieldSeed),
+        NB_MEMBER(fieldDensity),
+        NB_MEMBER(basePeriod),
+        NB_MEMBER(baseLattice),
+        NB_MEMBER(baseOctaves),
+        NB_MEMBER(detailPeriod),
+        NB_MEMBER(detailLattice),
+        NB_MEMBER(detailOctaves),
+        NB_MEMBER(phaseKind),
+        NB_MEMBER(phaseG),
+        NB_MEMBER(phaseG2),
+        NB_MEMBER(phaseBlend),
+        NB_MEMBER(phaseAlpha),
+        NB_MEMBER(phaseDiameter),
+        NB_MEMBER(tanHalfY),
+        NB_MEMBER(aspect),
+        NB_MEMBER(width),
+        NB_MEMBER(height),
+        NB_MEMBER(frameKey),
+        NB_MEMBER(jitter),
+        NB_MEMBER(epsilon),
+        NB_MEMBER(step),
+        NB_MEMBER(stepGrowth),
+        NB_MEMBER(shadowStep),
+        NB_MEMBER(shadowGrowth),
+        NB_MEMBER(octaves),
+        NB_MEMBER(octaveContribution),
+        NB_MEMBER(octaveExtinction),
+        NB_MEMBER(octaveEccentricity),
+        NB_MEMBER(inScatter),
+        NB_MEMBER(inScatterC),
+        NB_MEMBER(inScatterStrength),
+        NB_MEMBER(skyKind),
+        NB_MEMBER(ambientGround),
+        NB_MEMBER(pixelSamples),
+        NB_MEMBER(filterKind),
+        NB_MEMBER(filterWidth),
+        NB_MEMBER(sampleIndex),
+#undef NB_MEMBER
+    };
+    ASSERT_EQ(members.size(), cpp.size());
+    for (std::size_t i = 0; i < cpp.size(); ++i) {
+        EXPECT_EQ(members[i].name, cpp[i].first);
+        EXPECT_EQ(members[i].offset, cpp[i].second) << cpp[i].first;
+        EXPECT_FALSE(rt::paramDoc(members[i].name).meaning.empty()) << members[i].name;
+        EXPECT_FALSE(rt::paramDoc(members[i].name).units.empty()) << members[i].name;
+    }
+    EXPECT_EQ(members.back().offset + members.back().size, sizeof(P));
+    EXPECT_EQ(bytes, (sizeof(P) + 15) / 16 * 16);
+}
+
+// The JSON of an export parses, and its offsets and values are the struct's, by offsetof.
+TEST(ExportGlslParams, JsonMatchesTheStruct) {
+    host::Session session;
+    ASSERT_TRUE(session
+                    .load(kScene, {"camera.width=48", "camera.height=27",
+                                   "render.multiple_scattering=\"none\"", "render.pixel_samples=4"})
+                    .ok());
+    const FramePlan plan = session.plan(7);
+    rt::GlslExport e;
+    std::string error;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, e, &error)) << error;
+    Json doc;
+    ASSERT_TRUE(JsonReader(e.json).read(doc)) << e.json;
+    EXPECT_EQ(doc["frame"].integer(), 7);
+    const Json& block = doc["parameter_block"];
+    rt::RtMarchParams P = rt::marchParams(session.scene(), plan);
+    P.sampleIndex = 0;
+    const std::vector<std::uint8_t> packed = packFromJson(block);
+    ASSERT_GE(packed.size(), sizeof P);
+    EXPECT_EQ(std::memcmp(packed.data(), &P, sizeof P), 0);
+    EXPECT_EQ(packed, e.params);
+    for (const Json& m : block["members"].items)
+        if (m["name"].text == "frameKey") {
+            EXPECT_EQ(std::uint32_t(std::strtoul(m["value"].text.c_str(), nullptr, 10)),
+                      P.frameKey);
+            EXPECT_EQ(m["offset"].integer(), long(offsetof(rt::RtMarchParams, frameKey)));
+        }
+    EXPECT_EQ(doc["dispatch"]["passes"].integer(), 4);
+    EXPECT_EQ(doc["workgroup_size"].items.at(0).integer(), 8);
+}
+
+// --- the shader text --------------------------------------------------------------------------
+
+// A disabled feature's code is not in the exported text; an enabled one's is, without its #if.
+TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
+    host::Session session;
+    ASSERT_TRUE(session
+                    .load(kScene, {"camera.width=32", "camera.height=18",
+                                   "render.multiple_scattering=\"none\""})
+                    .ok());
+    SceneDesc on = session.scene();
+    on.render.pixelSamples = 4;
+    SceneDesc off = session.scene();
+    off.sun.enabled = false;
+    off.sky.ambient = 0.0f;
+    off.render.background = Background::Transparent;
+    rt::GlslExport a, b;
+    std::string error;
+    ASSERT_TRUE(rt::exportGlsl(on, planFrame(on, 1), kScene, a, &error)) << error;
+    ASSERT_TRUE(rt::exportGlsl(off, planFrame(off, 1), kScene, b, &error)) << error;
+    EXPECT_TRUE(a.features.sun && a.features.ambient && a.features.backgroundSky &&
+                a.features.multisample);
+    EXPECT_TRUE(!b.features.sun && !b.features.ambient && !b.features.backgroundSky &&
+                !b.features.multisample);
+    const std::vector<std::string> sun = {"float rtDensityIntegral(", "rtDensityIntegral(C, p",
+                                          "octaveSun(vec3(phaseEval("};
+    const std::vector<std::string> others = {"skyHeightInScatter(rtXyz(P.skySphere)",
+                                             "L += T * rtSkyRadiance(P, d);",
+                                             "pixelSampleOffset(k, ns"};
+    for (const std::string& s : sun) {
+        EXPECT_TRUE(contains(a.shader, s)) << s;
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    }
+    for (const std::string& s : others) {
+        EXPECT_TRUE(contains(a.shader, s)) << s;
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    }
+    // the shadow march is gone as a word, not only as a call
+    EXPECT_EQ(b.shader.find("rtDensityIntegral"), std::string::npos);
+    // and the kernels only a disabled feature calls are gone too (removeUnreferenced)
+    for (const std::string s :
+         {"NB_FN vec3 octaveSun(", "NB_FN float inScatterFactor(", "NB_FN PhaseParams phaseOctave(",
+          "NB_FN vec3 skyHeightInScatter(", "NB_FN vec2 pixelSampleOffset(",
+          "NB_FN float pixelFilterWeight("}) {
+        EXPECT_TRUE(contains(a.shader, s)) << s;
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    }
+    // the kernels of other fields are in nimbus rt's text, not in either export
+    const std::string rtText = rt::marchShader(on, planFrame(on, 1)).source;
+    for (const std::string s : {"NB_FN float sdSphere(", "sdBox("}) {
+        EXPECT_TRUE(contains(rtText, s)) << s;
+        EXPECT_FALSE(contains(a.shader, s)) << s;
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    }
+    for (const std::string* t : {&a.shader, &b.shader}) {
+        EXPECT_FALSE(contains(*t, "#if RT_"));
+        EXPECT_FALSE(contains(*t, "#endif // RT_SUN"));
+        EXPECT_EQ(t->rfind("#version 430\n", 0), 0u);
+    }
+    // nimbus rt's own shader of the sunless frame has the shadow march, switched off by #if
+    EXPECT_TRUE(contains(rt::marchShader(off, planFrame(off, 1)).source, "rtDensityIntegral"));
+}
+
+// --- the export on the GPU --------------------------------------------------------------------
+
+/// Exports frame 3 of the default scene with `sets` through the command, then compiles the
+/// written march.comp and dispatches it with buffers and dispatch taken from params.json alone;
+/// returns the PSNR of its RGBA against `nimbus rt`'s pass (MarchPass) on the same frame.
+double exportAgainstRt(const std::vector<std::string>& sets, const std::string& tag) {
+    std::string error;
+    gl::ComputeContext* context = gl::ComputeContext::shared(&error);
+    EXPECT_NE(context, nullptr) << "no headless OpenGL 4.5 context: " << error;
+    if (!context) return 0.0;
+    TempDir dir("export_glsl_" + tag);
+    std::string args = "export-glsl " + kScene + " -o " + dir.string() + " --frame 3";
+    for (const std::string& s : sets) args += " --set '" + s + "'";
+    const CliRun run = runNimbus(args);
+    EXPECT_EQ(run.exitCode, 0) << run.output;
+    Json doc;
+    EXPECT_TRUE(JsonReader(readFile(dir.string() + "/params.json")).read(doc));
+    const std::string shader = readFile(dir.string() + "/march.comp");
+    if (run.exitCode != 0 || shader.empty()) return 0.0;
+
+    // the engine's side: the program, the buffers of the JSON, the passes
+    gl::ComputeProgram program(shader);
+    EXPECT_TRUE(program.valid()) << program.log();
+    if (!program.valid()) return 0.0;
+    const Json& block = doc["parameter_block"];
+    std::vector<std::uint8_t> params = packFromJson(block);
+    EXPECT_EQ(params, std::vector<std::uint8_t>([&] {
+                  const std::string b = readFile(dir.string() + "/params.bin");
+                  return std::vector<std::uint8_t>(b.begin(), b.end());
+              }()));
+    long sampleOffset = -1;
+    for (const Json& m : block["members"].items)
+        if (m["name"].text == "sampleIndex") sampleOffset = m["offset"].integer();
+    EXPECT_GE(sampleOffset, 0);
+    const int w = int(doc["image"]["width"].integer()), h = int(doc["image"]["height"].integer());
+    std::size_t pixelBytes = 0, counterBytes = 0;
+    long pixelBinding = -1, counterBinding = -1;
+    for (const Json& b : doc["buffers"].items) {
+        if (b["block"].text == "RtPixels") {
+            pixelBytes = std::size_t(b["bytes"].integer());
+            pixelBinding = b["binding"].integer();
+        }
+        if (b["block"].text == "RtCounters") {
+            counterBytes = std::size_t(b["bytes"].integer());
+            counterBinding = b["binding"].integer();
+        }
+    }
+    EXPECT_EQ(pixelBytes, std::size_t(w) * std::size_t(h) * 12 * 4);
+    const gl::StorageBuffer pixels(pixelBytes);
+    const gl::StorageBuffer counters(counterBytes);
+    pixels.bind(unsigned(pixelBinding));
+    counters.bind(unsigned(counterBinding));
+    const long passes = doc["dispatch"]["passes"].integer();
+    const Json& groups = doc["dispatch"]["groups"];
+    for (long k = 0; k < passes; ++k) {
+        const std::int32_t index = std::int32_t(k);
+        std::memcpy(params.data() + sampleOffset, &index, 4);
+        const gl::StorageBuffer p(params.size(), params.data());
+        p.bind(unsigned(block["binding"].integer()));
+        program.dispatch(unsigned(groups.items.at(0).integer()),
+                         unsigned(groups.items.at(1).integer()),
+                         unsigned(groups.items.at(2).integer()));
+    }
+    std::vector<float> sums(pixelBytes / 4);
+    pixels.read(sums.data(), pixelBytes);
+    EXPECT_EQ(gl::glErrors(), "");
+    std::vector<float> rgba(std::size_t(w) * std::size_t(h) * 4);
+    std::size_t cloudy = 0; // pixels the export sees clouds in: transmittance (red) below 0.9
+    for (std::size_t i = 0; i < std::size_t(w) * std::size_t(h); ++i) {
+        const float* q = &sums[12 * i];
+        if (q[7] > 0.0f && q[4] / q[7] < 0.9f) ++cloudy;
+        for (int c = 0; c < 4; ++c) rgba[4 * i + std::size_t(c)] = q[7] > 0.0f ? q[c] / q[7] : q[c];
+    }
+
+    // nimbus rt's pass on the same frame
+    host::Session session;
+    EXPECT_TRUE(session.load(kScene, sets).ok());
+    Framebuffer fb;
+    rt::MarchStats stats;
+    rt::MarchPass pass;
+    EXPECT_TRUE(pass.render(session.scene(), session.plan(3), fb, stats, &error)) << error;
+    EXPECT_EQ(fb.rgba.size(), rgba.size());
+    if (fb.rgba.size() != rgba.size()) return 0.0;
+    double peak = 0.0, se = 0.0, maxAbs = 0.0;
+    std::size_t same = 0;
+    for (std::size_t i = 0; i < rgba.size(); ++i) {
+        const double d = double(rgba[i]) - double(fb.rgba[i]);
+        if (std::memcmp(&rgba[i], &fb.rgba[i], 4) == 0) ++same;
+        if (i % 4 == 3) continue;
+        peak = std::max(peak, double(fb.rgba[i]));
+        se += d * d;
+        maxAbs = std::max(maxAbs, std::abs(d));
+    }
+    const double mse = se / double(rgba.size() / 4 * 3);
+    const double psnr = mse > 0.0 ? 10.0 * std::log10(peak * peak / mse) : 1e9;
+    ::testing::Test::RecordProperty("psnr_db_" + tag, std::to_string(psnr));
+    ::testing::Test::RecordProperty("bit_identical_floats_" + tag,
+                                    std::to_string(same) + "/" + std::to_string(rgba.size()));
+    std::printf("[ export ] %s: %dx%d, %ld pass(es), PSNR %s dB, largest difference %.3g, %zu of "
+                "%zu floats bit-identical, %zu cloudy pixels\n",
+                tag.c_str(), w, h, passes, mse > 0.0 ? std::to_string(psnr).c_str() : "inf", maxAbs,
+                same, rgba.size(), cloudy);
+    EXPECT_GT(peak, 0.0) << tag;
+    EXPECT_GT(cloudy, std::size_t(w) * std::size_t(h) / 10) << tag << ": too few cloudy pixels";
+    return psnr;
+}
+
+TEST(ExportGlslGpu, SameImageAsRt) {
+    EXPECT_GE(exportAgainstRt(
+                  {"camera.width=64", "camera.height=36", "render.multiple_scattering=\"none\""},
+                  "sun_ambient_sky"),
+              45.0);
+}
+
+TEST(ExportGlslGpu, SameImageAsRtMultisampleNoSun) {
+    EXPECT_GE(exportAgainstRt({"camera.width=48", "camera.height=27",
+                               "render.multiple_scattering=\"none\"", "sun.enabled=false",
+                               "render.pixel_samples=4", "render.background=\"transparent\""},
+                              "no_sun_4spp_transparent"),
+              45.0);
+}
