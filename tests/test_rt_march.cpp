@@ -30,11 +30,12 @@ namespace {
 
 const std::string kDefaultScene = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/cumulus.toml";
 
-/// The default scene at a small size with multiple scattering off (the GPU subset) and the
-/// noise evaluated directly on the CPU too.
-std::vector<std::string> paritySettings(int w, int h) {
+/// The default scene at a small size with multiple scattering `ms` ("none": octaves and the sky
+/// ambient only; "grid", "photons": the grids computed on the CPU) and the noise evaluated
+/// directly on the CPU too.
+std::vector<std::string> paritySettings(int w, int h, const std::string& ms = "none") {
     return {"camera.width=" + std::to_string(w), "camera.height=" + std::to_string(h),
-            "render.multiple_scattering=\"none\"", "field.evaluation=\"direct\""};
+            "render.multiple_scattering=\"" + ms + "\"", "field.evaluation=\"direct\""};
 }
 
 /// PSNR in dB of `test` against `ref` over the RGB of premultiplied RGBA pixels, the peak being
@@ -98,12 +99,17 @@ TEST(RtMarchSupport, RefusesByKey) {
         for (const rt::Unsupported& u : rt::unsupported(s, planFrame(s, 1))) keys += u.key + ";";
         return keys;
     };
+    // the diffusion and photon grids (with the photons' skin profile) and the Mie table
     SceneDesc s = base;
     s.render.multipleScattering = MultipleScattering::Grid;
-    EXPECT_EQ(keysOf(s), "render.multiple_scattering;");
-    s = base;
+    EXPECT_EQ(keysOf(s), "");
     s.render.multipleScattering = MultipleScattering::Photons;
-    EXPECT_EQ(keysOf(s), "render.multiple_scattering;");
+    EXPECT_EQ(keysOf(s), "");
+    s.render.photonSkin = 0.2f;
+    EXPECT_EQ(keysOf(s), "");
+    s = base;
+    s.medium.phase = PhaseKind::MieTable;
+    EXPECT_EQ(keysOf(s), "");
     s = base;
     s.field.kind = FieldKind::Vdb;
     EXPECT_TRUE(contains(keysOf(s), "field.kind;"));
@@ -123,9 +129,6 @@ TEST(RtMarchSupport, RefusesByKey) {
     s.render.skyScattering = SkyScattering::Single;
     EXPECT_EQ(keysOf(s), "render.sky_scattering;");
     s = base;
-    s.medium.phase = PhaseKind::MieTable;
-    EXPECT_EQ(keysOf(s), "medium.phase;");
-    s = base;
     s.ground.enabled = true;
     EXPECT_EQ(keysOf(s), "ground.enabled;");
 }
@@ -137,6 +140,30 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
     SceneDesc s = session.scene();
     rt::MarchFeatures f = rt::marchFeatures(s, planFrame(s, 1));
     EXPECT_TRUE(f.sun && f.ambient && f.backgroundSky && !f.multisample);
+    EXPECT_TRUE(!f.mieTable && !f.diffusion && !f.photons);
+    EXPECT_TRUE(contains(f.defines(), "#define RT_MIE_TABLE 0\n"));
+    EXPECT_TRUE(contains(f.defines(), "#define RT_MS_DIFFUSION 0\n"));
+    {
+        // the table with the sun; the diffusion grid replaces the sky ambient; photons carry the
+        // sun's higher orders and the diffusion grid the sky's
+        SceneDesc m = s;
+        m.medium.phase = PhaseKind::MieTable;
+        m.render.multipleScattering = MultipleScattering::Grid;
+        rt::MarchFeatures g = rt::marchFeatures(m, planFrame(m, 1));
+        EXPECT_TRUE(g.mieTable && g.diffusion && !g.photons && !g.ambient);
+        EXPECT_TRUE(contains(g.defines(), "#define RT_MIE_TABLE 1\n"));
+        EXPECT_TRUE(contains(g.defines(), "#define RT_MS_DIFFUSION 1\n"));
+        m.render.multipleScattering = MultipleScattering::Photons;
+        g = rt::marchFeatures(m, planFrame(m, 1));
+        EXPECT_TRUE(g.diffusion && g.photons && !g.ambient);
+        EXPECT_TRUE(contains(g.defines(), "#define RT_MS_PHOTONS 1\n"));
+        EXPECT_TRUE(contains(g.defines(), "#define RT_PHOTON_SKIN 0\n"));
+        m.render.photonSkin = 0.2f;
+        EXPECT_TRUE(rt::marchFeatures(m, planFrame(m, 1)).photonSkin);
+        m.sun.enabled = false; // no sun: no octaves, so no table (and no photons)
+        g = rt::marchFeatures(m, planFrame(m, 1));
+        EXPECT_TRUE(!g.mieTable && !g.photons && g.diffusion);
+    }
     s.sun.enabled = false;
     s.sky.kind = SkyKind::None;
     s.render.background = Background::Transparent;
@@ -152,8 +179,8 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
 /// Renders frame `frame` of the default scene with `extra` settings on the CPU (march) and on
 /// the GPU; returns the PSNR of the GPU image against the CPU image (and records it).
 double gpuAgainstCpu(int frame, const std::vector<std::string>& extra, const std::string& tag,
-                     double* maxAbs) {
-    std::vector<std::string> settings = paritySettings(160, 90);
+                     double* maxAbs, const std::string& ms = "none") {
+    std::vector<std::string> settings = paritySettings(160, 90, ms);
     settings.insert(settings.end(), extra.begin(), extra.end());
     host::Session session;
     const host::Status st = session.load(kDefaultScene, settings);
@@ -161,10 +188,16 @@ double gpuAgainstCpu(int frame, const std::vector<std::string>& extra, const std
     Framebuffer cpu, gpu;
     RenderStats cpuStats;
     EXPECT_TRUE(session.render(frame, cpu, cpuStats).ok());
+    const FramePlan plan = session.plan(frame);
+    // the multiple-scattering grids as the CPU frame built them (Renderer::marchGrids)
+    RenderStats gridStats;
+    const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
+    EXPECT_EQ(grids.hasDiffusion, plan.diffusion) << tag;
+    EXPECT_EQ(grids.hasPhotons, plan.photons) << tag;
     rt::MarchPass pass;
     rt::MarchStats gpuStats;
     std::string error;
-    EXPECT_TRUE(pass.render(session.scene(), session.plan(frame), gpu, gpuStats, &error)) << error;
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, gpu, gpuStats, &error)) << error;
     EXPECT_EQ(gpu.rgba.size(), cpu.rgba.size());
     if (gpu.rgba.size() != cpu.rgba.size()) return 0.0;
     EXPECT_EQ(gpuStats.nonFinite, 0u);
@@ -220,56 +253,96 @@ TEST(RtMarchParity, OtherSettings) {
               45.0);
 }
 
-// `nimbus rt` writes the frame through the output code of `nimbus render` (colour conversion to
-// output.color_space, metadata, AOVs): both EXRs of the same frame agree at PSNR >= 45 dB.
-TEST(RtCli, WritesTheSameExrAsRender) {
-    TempDir dir("rt_cli");
-    const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
-                             "'render.multiple_scattering=\"none\"' --set "
-                             "'field.evaluation=\"direct\"'";
-    auto preview = [&](const std::string& name) {
-        return " --set 'output.preview=\"" + dir.string() + "/" + name + ".####.png\"'";
-    };
-    const CliRun gpu = runNimbus("rt " + kDefaultScene + " --frames 3 -o " + dir.string() +
-                                 "/gpu.####.exr" + sets + preview("gpu"));
-    ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
-    EXPECT_TRUE(contains(gpu.output, "frame 3: 64x36,"));
-    const CliRun cpu = runNimbus("render " + kDefaultScene + " --frames 3 --progress none -o " +
-                                 dir.string() + "/cpu.####.exr" + sets + preview("cpu"));
-    ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
-    const io::ExrImage g = io::readExr(dir.string() + "/gpu.0003.exr");
-    const io::ExrImage c = io::readExr(dir.string() + "/cpu.0003.exr");
-    ASSERT_EQ(g.width, 64);
-    ASSERT_EQ(g.height, 36);
-    EXPECT_EQ(g.channels, c.channels);
-    EXPECT_EQ(g.attributes.at("nimbus/colorSpace"), c.attributes.at("nimbus/colorSpace"));
-    EXPECT_TRUE(contains(g.attributes.at("nimbus/settings/renderer"), "GLSL march pass"));
-    const int ia = g.channelIndex("A");
-    ASSERT_GE(ia, 0);
-    std::vector<float> gr, cr;
-    for (int y = 0; y < g.height; ++y)
-        for (int x = 0; x < g.width; ++x)
-            for (const char* ch : {"R", "G", "B", "A"}) {
-                const float gv = g.at(x, y, g.channelIndex(ch));
-                ASSERT_TRUE(std::isfinite(gv));
-                gr.push_back(gv);
-                cr.push_back(c.at(x, y, c.channelIndex(ch)));
-            }
+// the Lorenz-Mie table (render.phase = "mie_table"), read from a buffer as MieTable::eval reads
+// it, through the octaves (PhaseFunction::octave blends it toward isotropic)
+TEST(RtMarchParity, MieTable) {
+    if (!requireContext()) return;
     double maxAbs = 0.0;
-    const double psnr = psnrRgb(cr, gr, &maxAbs);
-    RecordProperty("psnr_db_cli_64x36", std::to_string(psnr));
-    EXPECT_GE(psnr, 45.0);
+    EXPECT_GE(gpuAgainstCpu(1, {"medium.phase=\"mie_table\""}, "mie_table", &maxAbs), 45.0);
+}
+
+// render.multiple_scattering = "grid": the diffusion grid the CPU solved, read trilinearly with
+// its gradient (the P1 radiance), in place of the sky ambient; the default scene as it ships
+TEST(RtMarchParity, DiffusionGrid) {
+    if (!requireContext()) return;
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {}, "ms_grid", &maxAbs, "grid"), 45.0);
+    // with the Mie table too (the diffusion's P1 term takes the table's mean cosine)
+    EXPECT_GE(
+        gpuAgainstCpu(1, {"medium.phase=\"mie_table\""}, "ms_grid_mie_table", &maxAbs, "grid"),
+        45.0);
+}
+
+// render.multiple_scattering = "photons": the sun's photon grid (one octave) and the sky's
+// diffusion grid
+TEST(RtMarchParity, PhotonGrid) {
+    if (!requireContext()) return;
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {}, "ms_photons", &maxAbs, "photons"), 45.0);
+    // with the skin profile (the density integral toward the sun from the light volume)
+    EXPECT_GE(gpuAgainstCpu(1, {"render.photon_skin=0.2"}, "ms_photons_skin", &maxAbs, "photons"),
+              45.0);
+}
+
+// `nimbus rt` writes the frame through the output code of `nimbus render` (colour conversion to
+// output.color_space, metadata, AOVs): both EXRs of the same frame agree at PSNR >= 45 dB; with
+// multiple_scattering = "grid" (the default scene's) the CLI computes the grid on the CPU first.
+TEST(RtCli, WritesTheSameExrAsRender) {
+    for (const std::string ms : {"none", "grid"}) {
+        TempDir dir("rt_cli");
+        const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
+                                 "'render.multiple_scattering=\"" +
+                                 ms + "\"' --set 'field.evaluation=\"direct\"'";
+        auto preview = [&](const std::string& name) {
+            return " --set 'output.preview=\"" + dir.string() + "/" + name + ".####.png\"'";
+        };
+        const CliRun gpu = runNimbus("rt " + kDefaultScene + " --frames 3 -o " + dir.string() +
+                                     "/gpu.####.exr" + sets + preview("gpu"));
+        ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
+        EXPECT_TRUE(contains(gpu.output, "frame 3: 64x36,"));
+        EXPECT_EQ(contains(gpu.output, "multiple-scattering grid computed on the CPU"),
+                  ms == "grid")
+            << gpu.output;
+        const CliRun cpu = runNimbus("render " + kDefaultScene + " --frames 3 --progress none -o " +
+                                     dir.string() + "/cpu.####.exr" + sets + preview("cpu"));
+        ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
+        const io::ExrImage g = io::readExr(dir.string() + "/gpu.0003.exr");
+        const io::ExrImage c = io::readExr(dir.string() + "/cpu.0003.exr");
+        ASSERT_EQ(g.width, 64);
+        ASSERT_EQ(g.height, 36);
+        EXPECT_EQ(g.channels, c.channels);
+        EXPECT_EQ(g.attributes.at("nimbus/colorSpace"), c.attributes.at("nimbus/colorSpace"));
+        EXPECT_TRUE(contains(g.attributes.at("nimbus/settings/renderer"), "GLSL march pass"));
+        const int ia = g.channelIndex("A");
+        ASSERT_GE(ia, 0);
+        std::vector<float> gr, cr;
+        for (int y = 0; y < g.height; ++y)
+            for (int x = 0; x < g.width; ++x)
+                for (const char* ch : {"R", "G", "B", "A"}) {
+                    const float gv = g.at(x, y, g.channelIndex(ch));
+                    ASSERT_TRUE(std::isfinite(gv));
+                    gr.push_back(gv);
+                    cr.push_back(c.at(x, y, c.channelIndex(ch)));
+                }
+        double maxAbs = 0.0;
+        const double psnr = psnrRgb(cr, gr, &maxAbs);
+        RecordProperty("psnr_db_cli_64x36_" + ms, std::to_string(psnr));
+        std::printf("[ rt parity ] cli 64x36 multiple_scattering %s: PSNR %.2f dB\n", ms.c_str(),
+                    psnr);
+        EXPECT_GE(psnr, 45.0) << ms;
+    }
 }
 
 // An unsupported scene is refused before any GPU work, with exit 2 and the key in the message;
 // no file is written.
 TEST(RtCli, RefusesUnsupportedSceneWithExit2) {
     TempDir dir("rt_refuse");
-    // the default scene as it is: multiple_scattering = "grid"
+    // the default scene with the sun's light-attenuation volume
     const CliRun r = runNimbus("rt " + kDefaultScene + " --frames 1 -o " + dir.string() +
-                               "/x.####.exr --set camera.width=32 --set camera.height=18");
+                               "/x.####.exr --set camera.width=32 --set camera.height=18 --set "
+                               "'render.shadow=\"volume\"'");
     EXPECT_EQ(r.exitCode, 2) << r.output;
-    EXPECT_TRUE(contains(r.output, "render.multiple_scattering"));
+    EXPECT_TRUE(contains(r.output, "render.shadow"));
     EXPECT_FALSE(std::filesystem::exists(dir.string() + "/x.0001.exr"));
     const CliRun b = runNimbus("rt " + kDefaultScene +
                                " --frames 1 --set "
