@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "core/fields/cumulus.h"
+#include "core/media/medium.h"
 #include "core/media/phase.h"
 #include "plugin/host/session.h"
 #include "plugin/io/image_output.h"
@@ -174,6 +175,178 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
     EXPECT_TRUE(contains(text, "#define RT_SUN 0\n"));
     EXPECT_TRUE(contains(text, "#define RT_MULTISAMPLE 1\n"));
     EXPECT_TRUE(contains(text, "NB_FN float cumulusDensity(")); // the embedded kernel text
+}
+
+namespace {
+
+/// Runs `body` (GLSL statements over `uint i`, the invocation's index) once per input after the
+/// pass's buffers and lookups (rt::marchDataShaderSource of `f`): the inputs as `testIn[i]`
+/// (vec4, binding 7), the results written to `testOut` (floats, binding 8), `perInput` each.
+/// The parameter block goes to binding 0; the caller binds the data buffers the lookups read.
+std::vector<float> runLookups(const rt::MarchFeatures& f, const rt::RtMarchParams& P,
+                              const std::vector<glm::vec4>& in, std::size_t perInput,
+                              const std::string& body) {
+    const std::string text =
+        rt::marchDataShaderSource(f) +
+        "\nlayout(local_size_x = 64) in;\n"
+        "layout(std430, binding = 7) readonly buffer TestIn { vec4 testIn[]; };\n"
+        "layout(std430, binding = 8) buffer TestOut { float testOut[]; };\n"
+        "void main() {\n"
+        "    uint i = gl_GlobalInvocationID.x;\n"
+        "    if (i >= uint(testIn.length())) return;\n" +
+        body + "\n}\n";
+    const gl::ComputeProgram program(text);
+    EXPECT_TRUE(program.valid()) << program.log();
+    if (!program.valid()) return {};
+    const gl::StorageBuffer params(sizeof P, &P);
+    const gl::StorageBuffer input(in.size() * sizeof(glm::vec4), in.data());
+    const gl::StorageBuffer output(in.size() * perInput * sizeof(float));
+    params.bind(0);
+    input.bind(7);
+    output.bind(8);
+    program.dispatch(unsigned((in.size() + 63) / 64));
+    std::vector<float> out(in.size() * perInput);
+    output.read(out.data(), out.size() * sizeof(float));
+    const std::string e = gl::glErrors();
+    EXPECT_TRUE(e.empty()) << e;
+    return out;
+}
+
+} // namespace
+
+// The Lorenz-Mie table as the shader reads it (march_data.glsl: rtMieEval) equals
+// MieTable::eval on the CPU: at every node, between every two nodes, at 8,192 cosines spread over
+// [-1, 1] and 2,048 in the forward peak, and outside [-1, 1] (clamped).
+TEST(RtMarchLookups, MieTableAsTheCpu) {
+    if (!requireContext()) return;
+    host::Session session;
+    ASSERT_TRUE(session.load(kDefaultScene, {"medium.phase=\"mie_table\""}).ok());
+    const SceneDesc& s = session.scene();
+    const FramePlan plan = session.plan(1);
+    rt::MarchFeatures f = rt::marchFeatures(s, plan);
+    ASSERT_TRUE(f.mieTable);
+    const Medium medium = Medium::fromDesc(s.medium);
+    const MieTable& table = *medium.phase.table();
+    const rt::RtMarchParams P = rt::marchParams(s, plan);
+    const std::vector<float>& cos = table.cosines();
+    ASSERT_EQ(P.mieNodes, int(cos.size()));
+    std::vector<glm::vec4> in;
+    for (std::size_t k = 0; k < cos.size(); ++k) {
+        in.emplace_back(cos[k], 0.0f, 0.0f, 0.0f);
+        if (k + 1 < cos.size()) in.emplace_back(0.5f * (cos[k] + cos[k + 1]), 0.0f, 0.0f, 0.0f);
+    }
+    for (int k = 0; k < 8192; ++k) in.emplace_back(-1.0f + 2.0f * (k + 0.37f) / 8192.0f, 0, 0, 0);
+    for (int k = 0; k < 2048; ++k) in.emplace_back(1.0f - 0.01f * (k + 0.61f) / 2048.0f, 0, 0, 0);
+    for (float mu : {-1.5f, -1.0f, 1.0f, 1.5f}) in.emplace_back(mu, 0.0f, 0.0f, 0.0f);
+    const std::vector<glm::vec4> nodes = rt::mieTableNodes(table);
+    const gl::StorageBuffer mie(nodes.size() * sizeof(glm::vec4), nodes.data());
+    mie.bind(3);
+    const std::vector<float> out = runLookups(f, P, in, 3,
+                                              "vec3 v = rtMieEval(testIn[i].x);\n"
+                                              "testOut[3u * i] = v.x;\n"
+                                              "testOut[3u * i + 1u] = v.y;\n"
+                                              "testOut[3u * i + 2u] = v.z;");
+    ASSERT_EQ(out.size(), 3 * in.size());
+    double worst = 0.0;
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < in.size(); ++i) {
+        const vec3 want = table.eval(in[i].x);
+        for (int c = 0; c < 3; ++c) {
+            const double rel = std::abs(double(out[3 * i + std::size_t(c)]) - want[c]) /
+                               std::max(double(want[c]), 1e-6);
+            worst = std::max(worst, rel);
+            if (!(rel <= 1e-5) && bad++ < 5)
+                ADD_FAILURE() << "mu " << in[i].x << " channel " << c << ": GPU "
+                              << out[3 * i + std::size_t(c)] << ", CPU " << want[c];
+        }
+    }
+    RecordProperty("mie_lookups", std::to_string(in.size()));
+    RecordProperty("mie_max_relative_difference", std::to_string(worst));
+    std::printf("[ rt lookups ] Mie table: %zu cosines, largest relative difference %.3g\n",
+                in.size(), worst);
+    EXPECT_EQ(bad, 0u);
+}
+
+// The multiple-scattering grids as the shader reads them (march_data.glsl) equal the CPU's
+// lookups: DiffusionVolume::sample with its gradient and PhotonVolume::sample with the skin
+// profile, at 4,096 points over the grids' bounds and a margin around them (clamped).
+TEST(RtMarchLookups, GridsAsTheCpu) {
+    if (!requireContext()) return;
+    // photons for the sun (with the skin profile) and the diffusion grid for the sky
+    host::Session skinned;
+    std::vector<std::string> settings = paritySettings(32, 18, "photons");
+    settings.push_back("render.photon_skin=0.2");
+    ASSERT_TRUE(skinned.load(kDefaultScene, settings).ok());
+    const FramePlan skinPlan = skinned.plan(1);
+    ASSERT_TRUE(skinPlan.photons && skinPlan.diffusion);
+    RenderStats stats;
+    const MarchGrids grids = skinned.renderer().marchGrids(skinPlan, skinned.bindings(), stats);
+    ASSERT_TRUE(grids.hasDiffusion && grids.hasPhotons);
+    ASSERT_TRUE(grids.photons.sunTau != nullptr && grids.photons.skinK > 0.0f);
+    const rt::MarchFeatures f = rt::marchFeatures(skinned.scene(), skinPlan);
+    ASSERT_TRUE(f.diffusion && f.photons && f.photonSkin);
+    const rt::RtMarchParams P = rt::marchParams(skinned.scene(), skinPlan, &grids);
+    const gl::StorageBuffer phi(grids.diffusion.phi.size() * sizeof(vec3),
+                                grids.diffusion.phi.data());
+    const gl::StorageBuffer photons(grids.photons.radiance.size() * sizeof(vec3),
+                                    grids.photons.radiance.data());
+    const gl::StorageBuffer tau(grids.photons.sunTau->tau.size() * sizeof(float),
+                                grids.photons.sunTau->tau.data());
+    phi.bind(4);
+    photons.bind(5);
+    tau.bind(6);
+    const Box b = grids.diffusion.bounds;
+    const vec3 margin = 0.1f * (b.hi - b.lo);
+    std::vector<glm::vec4> in;
+    std::uint32_t h = 12345u;
+    auto u = [&] { return kern::hashToUnit(h = kern::pcg(h)); };
+    for (int k = 0; k < 4096; ++k) {
+        const vec3 t(u(), u(), u());
+        const vec3 p = b.lo - margin + t * (b.hi - b.lo + 2.0f * margin);
+        in.emplace_back(p.x, p.y, p.z, 0.0f);
+    }
+    const std::vector<float> out =
+        runLookups(f, P, in, 15,
+                   "vec3 p = vec3(testIn[i].x, testIn[i].y, testIn[i].z);\n"
+                   "vec3 gR, gG, gB;\n"
+                   "vec3 phi = rtDiffusionSample(p, gR, gG, gB);\n"
+                   "vec3 L = rtPhotonSample(p);\n"
+                   "float v[15] = float[15](phi.x, phi.y, phi.z, gR.x, gR.y, gR.z, gG.x, gG.y,\n"
+                   "                        gG.z, gB.x, gB.y, gB.z, L.x, L.y, L.z);\n"
+                   "for (uint k = 0u; k < 15u; k++) testOut[15u * i + k] = v[k];");
+    ASSERT_EQ(out.size(), 15 * in.size());
+    // tolerances relative to each quantity's largest value over the points
+    std::vector<float> want(out.size());
+    for (std::size_t i = 0; i < in.size(); ++i) {
+        const vec3 p(in[i].x, in[i].y, in[i].z);
+        vec3 grad[3];
+        const vec3 phiP = grids.diffusion.sample(p, grad);
+        const vec3 L = grids.photons.sample(p);
+        const float v[15] = {phiP.x,    phiP.y,    phiP.z,    grad[0].x, grad[0].y,
+                             grad[0].z, grad[1].x, grad[1].y, grad[1].z, grad[2].x,
+                             grad[2].y, grad[2].z, L.x,       L.y,       L.z};
+        std::copy(v, v + 15, want.begin() + std::ptrdiff_t(15 * i));
+    }
+    const char* names[3] = {"diffusion phi", "diffusion gradient", "photon radiance"};
+    for (int q = 0; q < 3; ++q) {
+        const int first = q == 0 ? 0 : q == 1 ? 3 : 12, count = q == 1 ? 9 : 3;
+        double scale = 0.0, worst = 0.0;
+        for (std::size_t i = 0; i < in.size(); ++i)
+            for (int c = first; c < first + count; ++c)
+                scale = std::max(scale, double(std::abs(want[15 * i + std::size_t(c)])));
+        ASSERT_GT(scale, 0.0) << names[q];
+        for (std::size_t i = 0; i < in.size(); ++i)
+            for (int c = first; c < first + count; ++c)
+                worst = std::max(worst, std::abs(double(out[15 * i + std::size_t(c)]) -
+                                                 want[15 * i + std::size_t(c)]) /
+                                            scale);
+        RecordProperty(std::string("max_relative_difference_") + std::to_string(q),
+                       std::to_string(worst));
+        std::printf("[ rt lookups ] %s: %zu points, largest difference %.3g of the largest "
+                    "value\n",
+                    names[q], in.size(), worst);
+        EXPECT_LE(worst, 1e-5) << names[q];
+    }
 }
 
 /// Renders frame `frame` of the default scene with `extra` settings on the CPU (march) and on

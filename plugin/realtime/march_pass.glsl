@@ -1,7 +1,9 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN: only the features the scene uses are compiled in), the embedded kernels (core/kernels/source.h), march_params.glsl, then this file.
+// RT_PHOTON_SKIN: only the features the scene uses are compiled in), the embedded kernels
+// (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie
+// table and the multiple-scattering grids, and their lookups), then this file.
 //
 // It is the CPU `march` integrator (core/integrators/march.cpp, MarchContext::renderPixel and
 // traceRay) for the subset rt_march.h lists, written with the same kernels and in the same
@@ -9,40 +11,20 @@
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
 // cumulusDensity evaluated per sample, the sun's transmittance by a shadow march per sample,
-// phaseEval and the octaves (Wrenninge), inScatterFactor, the height-occluded sky ambient,
+// phaseEval (or the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge),
+// inScatterFactor, the multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION,
+// RT_MS_PHOTONS) added as MarchContext::traceRay adds them, the height-occluded sky ambient,
 // marchStep (Hillaire's energy-conserving step) and the early exit at transmittance < epsilon.
-// With RT_MIE_TABLE the phase function is the Lorenz-Mie table (core/media/mie.h), read from a
-// buffer and interpolated as MieTable::eval does; with RT_MS_DIFFUSION and RT_MS_PHOTONS the
-// multiple-scattering grids the CPU computed for the frame (core/lighting/diffusion.h,
-// photons.h) are read from buffers, trilinearly as DiffusionVolume::sample and
-// sampleVoxelCentres (core/geometry.h) do, and added as MarchContext::traceRay adds them.
 // What it does not do: empty-space skipping (every step of the box is visited; the CPU's
 // majorant grid skips only samples of zero density, so the picture is the same), baked noise,
 // light volumes, the column and single-scattered sky, surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(std430, binding = 0) readonly buffer RtParamBlock { RtMarchParams P; };
 // per pixel, row-major from the top-left: the sums of main() below
 layout(std430, binding = 1) buffer RtPixels { float pixels[]; };
 // samples that were NaN or infinite (left out, as on the CPU; the host counts pixels)
 layout(std430, binding = 2) buffer RtCounters { uint nonFinite; };
-#if RT_MIE_TABLE
-// the Lorenz-Mie table: per node (cos theta ascending from -1 to 1, phase R, G, B in 1/sr)
-layout(std430, binding = 3) readonly buffer RtMieTable { vec4 rtMieNode[]; };
-#endif
-#if RT_MS_DIFFUSION
-// the diffusion's fluence phi (RGB) at the voxel centres, 3 floats per voxel, x fastest
-layout(std430, binding = 4) readonly buffer RtDiffusionGrid { float rtDiffusion[]; };
-#endif
-#if RT_MS_PHOTONS
-// the photons' in-scattered radiance (RGB) at the voxel centres, 3 floats per voxel, x fastest
-layout(std430, binding = 5) readonly buffer RtPhotonGrid { float rtPhoton[]; };
-#if RT_PHOTON_SKIN
-// the skin profile's density integral toward the sun at the voxel centres, x fastest
-layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
-#endif
-#endif
 
 const float RT_FLOAT_MAX = 3.402823466e38f;
 const int RT_MAX_STEPS = 1048576; // a bound on any loop over steps (a GPU must not hang)
@@ -101,8 +83,6 @@ bool rtIntersectBox(vec3 o, vec3 d, vec3 lo, vec3 hi, float tmin, float tmax, ou
     return true;
 }
 
-vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
-
 float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
 float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 
@@ -139,144 +119,6 @@ float rtDensityIntegral(CumulusParams C, vec3 p, vec3 w, uint rng) {
     }
     return tau;
 }
-
-#if RT_MIE_TABLE
-// MieTable::interval (core/media/mie.cpp): the interval i of the nodes with
-// cos_i <= mu <= cos_i+1, mu clamped to [-1, 1]. By bisection here; the CPU starts from a guide
-// table and walks to the same interval (the two can differ only when mu is a node itself, where
-// both sides interpolate to the node's value).
-int rtMieInterval(float mu) {
-    mu = clamp(mu, -1.0f, 1.0f);
-    int lo = 0;
-    int hi = P.mieNodes - 1;
-    // invariant: cos_lo <= mu (cos_0 = -1), and lo < hi; 32 halvings cover any table
-    for (int k = 0; k < 32 && hi - lo > 1; k++) {
-        int mid = (lo + hi) / 2;
-        if (rtMieNode[mid].x <= mu) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    return lo;
-}
-
-// MieTable::eval(mu): the phase function per RGB channel, linear in cos theta between the nodes.
-vec3 rtMieEval(float mu) {
-    int i = rtMieInterval(mu);
-    vec4 n0 = rtMieNode[i];
-    vec4 n1 = rtMieNode[i + 1];
-    float t = clamp((mu - n0.x) / (n1.x - n0.x), 0.0f, 1.0f);
-    vec3 v0 = vec3(n0.y, n0.z, n0.w);
-    vec3 v1 = vec3(n1.y, n1.z, n1.w);
-    return v0 + t * (v1 - v0);
-}
-#endif
-
-// glm::mix(x, y, a) of the CPU: x (1 - a) + y a (GLSL's mix may round otherwise).
-vec3 rtMix(vec3 x, vec3 y, float a) { return x * (1.0f - a) + y * a; }
-
-// The trilinear footprint of world point p in a grid of voxel centres lo + (i + 1/2) voxel,
-// clamped to the outermost centres (sampleVoxelCentres, core/geometry.h): corners i0, i1 and
-// weights f.
-void rtVoxelFootprint(vec3 p, vec3 lo, vec3 voxel, ivec3 res, out ivec3 i0, out ivec3 i1,
-                      out vec3 f) {
-    vec3 u = (p - lo) / voxel - vec3(0.5f);
-    u = clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
-    i0 = min(ivec3(u), res - ivec3(1));
-    i1 = min(i0 + ivec3(1), res - ivec3(1));
-    f = u - vec3(i0);
-}
-
-#if RT_MS_DIFFUSION
-vec3 rtDiffusionAt(int x, int y, int z) {
-    int j = 3 * ((z * P.diffusionResY + y) * P.diffusionResX + x);
-    return vec3(rtDiffusion[j], rtDiffusion[j + 1], rtDiffusion[j + 2]);
-}
-
-// DiffusionVolume::sample(p, grad) (core/lighting/diffusion.cpp): the fluence at p and the
-// gradient of the trilinear interpolant, per channel (gradR = d phi_R / d(x, y, z), ...).
-vec3 rtDiffusionSample(vec3 p, out vec3 gradR, out vec3 gradG, out vec3 gradB) {
-    ivec3 res = ivec3(P.diffusionResX, P.diffusionResY, P.diffusionResZ);
-    vec3 voxel = rtXyz(P.diffusionVoxel);
-    ivec3 i0, i1;
-    vec3 f;
-    rtVoxelFootprint(p, rtXyz(P.diffusionLo), voxel, res, i0, i1, f);
-    vec3 c000 = rtDiffusionAt(i0.x, i0.y, i0.z);
-    vec3 c100 = rtDiffusionAt(i1.x, i0.y, i0.z);
-    vec3 c010 = rtDiffusionAt(i0.x, i1.y, i0.z);
-    vec3 c110 = rtDiffusionAt(i1.x, i1.y, i0.z);
-    vec3 c001 = rtDiffusionAt(i0.x, i0.y, i1.z);
-    vec3 c101 = rtDiffusionAt(i1.x, i0.y, i1.z);
-    vec3 c011 = rtDiffusionAt(i0.x, i1.y, i1.z);
-    vec3 c111 = rtDiffusionAt(i1.x, i1.y, i1.z);
-    vec3 c00 = rtMix(c000, c100, f.x);
-    vec3 c10 = rtMix(c010, c110, f.x);
-    vec3 c01 = rtMix(c001, c101, f.x);
-    vec3 c11 = rtMix(c011, c111, f.x);
-    vec3 c0 = rtMix(c00, c10, f.y);
-    vec3 c1 = rtMix(c01, c11, f.y);
-    // a clamped axis (one voxel, or outside the outer centres) has no slope
-    vec3 dx = rtMix(rtMix(c100 - c000, c110 - c010, f.y), rtMix(c101 - c001, c111 - c011, f.y),
-                    f.z) /
-              voxel.x;
-    vec3 dy = rtMix(c10 - c00, c11 - c01, f.z) / voxel.y;
-    vec3 dz = (c1 - c0) / voxel.z;
-    gradR = vec3(dx.x, dy.x, dz.x);
-    gradG = vec3(dx.y, dy.y, dz.y);
-    gradB = vec3(dx.z, dy.z, dz.z);
-    return rtMix(c0, c1, f.z);
-}
-#endif
-
-#if RT_MS_PHOTONS
-vec3 rtPhotonAt(int x, int y, int z) {
-    int j = 3 * ((z * P.photonResY + y) * P.photonResX + x);
-    return vec3(rtPhoton[j], rtPhoton[j + 1], rtPhoton[j + 2]);
-}
-
-#if RT_PHOTON_SKIN
-float rtSkinTauAt(int x, int y, int z) {
-    return rtSkinTau[(z * P.skinResY + y) * P.skinResX + x];
-}
-
-// PhotonVolume::skin(p): max(exp(-skinK tau_sun(p)), skinFloor), tau_sun read as
-// LightVolume::sample reads it (sampleVoxelCentres of a scalar)
-float rtPhotonSkin(vec3 p) {
-    ivec3 res = ivec3(P.skinResX, P.skinResY, P.skinResZ);
-    ivec3 i0, i1;
-    vec3 f;
-    rtVoxelFootprint(p, rtXyz(P.skinLo), rtXyz(P.skinVoxel), res, i0, i1, f);
-    float c00 = rtSkinTauAt(i0.x, i0.y, i0.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i0.y, i0.z) * f.x;
-    float c10 = rtSkinTauAt(i0.x, i1.y, i0.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i1.y, i0.z) * f.x;
-    float c01 = rtSkinTauAt(i0.x, i0.y, i1.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i0.y, i1.z) * f.x;
-    float c11 = rtSkinTauAt(i0.x, i1.y, i1.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i1.y, i1.z) * f.x;
-    float c0 = c00 * (1.0f - f.y) + c10 * f.y;
-    float c1 = c01 * (1.0f - f.y) + c11 * f.y;
-    float tau = c0 * (1.0f - f.z) + c1 * f.z;
-    return max(exp(-P.skinK * tau), P.skinFloor);
-}
-#endif
-
-// PhotonVolume::sample(p): sampleVoxelCentres of the radiance, times the skin profile
-// (RT_PHOTON_SKIN: render.photon_skin > 0) or 1.
-vec3 rtPhotonSample(vec3 p) {
-    ivec3 res = ivec3(P.photonResX, P.photonResY, P.photonResZ);
-    ivec3 i0, i1;
-    vec3 f;
-    rtVoxelFootprint(p, rtXyz(P.photonLo), rtXyz(P.photonVoxel), res, i0, i1, f);
-    vec3 c00 = rtMix(rtPhotonAt(i0.x, i0.y, i0.z), rtPhotonAt(i1.x, i0.y, i0.z), f.x);
-    vec3 c10 = rtMix(rtPhotonAt(i0.x, i1.y, i0.z), rtPhotonAt(i1.x, i1.y, i0.z), f.x);
-    vec3 c01 = rtMix(rtPhotonAt(i0.x, i0.y, i1.z), rtPhotonAt(i1.x, i0.y, i1.z), f.x);
-    vec3 c11 = rtMix(rtPhotonAt(i0.x, i1.y, i1.z), rtPhotonAt(i1.x, i1.y, i1.z), f.x);
-    vec3 L = rtMix(rtMix(c00, c10, f.y), rtMix(c01, c11, f.y), f.z);
-#if RT_PHOTON_SKIN
-    return L * rtPhotonSkin(p);
-#else
-    return L * 1.0f;
-#endif
-}
-#endif
 
 struct RtSample {
     vec3 L;

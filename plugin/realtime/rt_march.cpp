@@ -127,16 +127,31 @@ std::string MarchFeatures::defines() const {
     return d;
 }
 
-std::string marchShaderSource(const MarchFeatures& f) {
+std::string marchDataShaderSource(const MarchFeatures& f) {
     // source-string numbers in compiler messages: 1..K the kernels (core/kernels/source.h),
-    // K + 1 march_params.glsl, K + 2 march_pass.glsl
+    // K + 1 march_params.glsl, K + 2 march_data.glsl, K + 3 march_pass.glsl
     const std::size_t k = kern::kernelSources().size();
     std::string s = "#version 430\n" + f.defines() + kern::glslLibrary();
     s += "#line 1 " + std::to_string(k + 1) + "\n";
     s += march_paramsSource();
     s += "\n#line 1 " + std::to_string(k + 2) + "\n";
+    s += march_dataSource();
+    return s;
+}
+
+std::string marchShaderSource(const MarchFeatures& f) {
+    std::string s = marchDataShaderSource(f);
+    s += "\n#line 1 " + std::to_string(kern::kernelSources().size() + 3) + "\n";
     s += march_passSource();
     return s;
+}
+
+std::vector<glm::vec4> mieTableNodes(const MieTable& t) {
+    const std::vector<float>& cos = t.cosines();
+    std::vector<glm::vec4> nodes(cos.size());
+    for (std::size_t i = 0; i < cos.size(); ++i)
+        nodes[i] = glm::vec4(cos[i], t.values(0)[i], t.values(1)[i], t.values(2)[i]);
+    return nodes;
 }
 
 RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids) {
@@ -263,7 +278,7 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
         if (ch == '\n') ch = ';';
     o << "  GPU shader: #version 430, " << defs << " the kernels";
     for (const kern::KernelSource& k : kern::kernelSources()) o << " " << k.name;
-    o << ", plugin/realtime/march_params.glsl, march_pass.glsl\n";
+    o << ", plugin/realtime/march_params.glsl, march_data.glsl, march_pass.glsl\n";
     o << "  GPU field: cumulus, noise evaluated per sample ("
       << (p.bakeNoise ? "the CPU plan would bake it; the GPU does not" : "as the CPU plan")
       << "), noise octaves " << s.field.cumulus.baseOctaves << " (base) / "
@@ -339,11 +354,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin;
     if (f.mieTable) {
         const Medium m = Medium::fromDesc(s.medium);
-        const MieTable& t = *m.phase.table();
-        const std::vector<float>& cos = t.cosines();
-        std::vector<glm::vec4> nodes(cos.size());
-        for (std::size_t i = 0; i < cos.size(); ++i)
-            nodes[i] = glm::vec4(cos[i], t.values(0)[i], t.values(1)[i], t.values(2)[i]);
+        const std::vector<glm::vec4> nodes = mieTableNodes(*m.phase.table());
         mie = std::make_unique<gl::StorageBuffer>(nodes.size() * sizeof(glm::vec4), nodes.data());
         mie->bind(3);
     }

@@ -5,7 +5,8 @@
 /// The shader is assembled at run time from text embedded at build time: `#version 430`, the
 /// frame's feature #defines (only the features the frame uses are compiled in: the sun's shadow
 /// marches, the sky ambient, the sky background, several samples per pixel), the kernels
-/// (core/kernels/source.h), plugin/realtime/march_params.glsl and march_pass.glsl.
+/// (core/kernels/source.h), plugin/realtime/march_params.glsl, march_data.glsl and
+/// march_pass.glsl.
 ///
 /// Supported (unsupported() names every key that leaves it): field.kind = "cumulus" with its noise
 /// evaluated per sample (not field.evaluation = "baked"), one untransformed volume, no surfaces
@@ -34,6 +35,7 @@
 #include <vector>
 
 #include "core/image.h"
+#include "core/media/mie.h"
 #include "core/plan.h"
 #include "core/render.h"
 #include "core/scene.h"
@@ -73,6 +75,13 @@ MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan);
 
 /// The whole compute shader for `features`.
 std::string marchShaderSource(const MarchFeatures& features);
+/// Its first part, without the pass: #version, the #defines, the kernels, march_params.glsl and
+/// march_data.glsl (the buffers and their lookups). A test appends its own main() to compare
+/// the lookups with the CPU's.
+std::string marchDataShaderSource(const MarchFeatures& features);
+
+/// The Lorenz-Mie table as the shader reads it (binding 3): per node (cos theta, R, G, B).
+std::vector<glm::vec4> mieTableNodes(const MieTable& table);
 
 /// What `--explain` prints about the GPU pass of a frame: the features, the kernels and pass
 /// files compiled in, and what is not done on the GPU.
