@@ -271,6 +271,140 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
     return vs;
 }
 
+namespace {
+
+/// The scene's SDF solids over `surfaces` (null when it has none).
+std::unique_ptr<SdfSurfaces> solidsOver(const SceneDesc& s, const SurfaceQuery* surfaces) {
+    if (s.solids.empty()) return nullptr;
+    std::vector<SdfSolid> list;
+    for (const SolidDesc& d : s.solids) list.push_back(solidFromTree(d.root, d.shading));
+    return std::make_unique<SdfSurfaces>(std::move(list), surfaces);
+}
+
+} // namespace
+
+ScatterVolumes MarchGrids::scatter() const {
+    ScatterVolumes sv;
+    if (column) {
+        const std::size_t first = toward ? 1 : 0;
+        sv.up = &lightVolumes[first];
+        sv.down = &lightVolumes[first + 1];
+    }
+    if (hasSky) sv.sky = &sky;
+    if (hasDiffusion) sv.diffusion = &diffusion;
+    if (hasPhotons) sv.photons = &photons;
+    return sv;
+}
+
+MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const VolumeSet& vs,
+                           const SurfaceQuery* surfaces, RenderStats& stats,
+                           const std::atomic<bool>* cancel) {
+    MarchGrids out;
+    auto t0 = std::chrono::steady_clock::now();
+    // the light-volume grids (attenuation, column sky, diffusion) cover one untransformed
+    // volume: the plan names them only then
+    const Field& field = vs.fields[0];
+    const MajorantGrid* g = vs.useGrid[0] ? &vs.grids[0] : nullptr;
+    // every light-attenuation volume the plan names, from one pass of density lookups;
+    // nothing to light when the one volume is empty (an empty VDB frame)
+    const bool any = !vs.instances.empty();
+    const bool diffusion = plan.diffusion && any;
+    const bool photons = plan.photons && any;
+    out.toward = plan.sunDepthVolume && any;
+    out.column = plan.columnVolumes && any;
+    std::vector<vec3> dirs;
+    if (out.toward) dirs.push_back(s.sun.direction);
+    if (out.column) {
+        dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
+        dirs.push_back(vec3(0.0f, -1.0f, 0.0f));
+    }
+    std::vector<LightVolume>& volumes = out.lightVolumes;
+    std::vector<float>& rho = out.rho;
+    const bool skyVolume = plan.skyVolume && any;
+    // the sky volume shares the densities at the voxel centres when other volumes are built
+    const bool needRho = (plan.densityGrid || (skyVolume && !dirs.empty())) && any;
+    if (!dirs.empty() || needRho) {
+        t0 = std::chrono::steady_clock::now();
+        if (!dirs.empty()) {
+            volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
+                                        needRho ? &rho : nullptr, cancel);
+        } else {
+            // the densities alone, on the grid's geometry: no density integral is needed
+            LightVolume geometry = lightVolumeGrid(field, plan.lightVolumeCell);
+            rho = densityAtCentres(field, geometry.bounds, geometry.res, g, geometry.densityLookups,
+                                   cancel);
+            volumes.push_back(std::move(geometry));
+        }
+        stats.lightVolumeSeconds = secondsSince(t0);
+        stats.lightVolumeLookups = volumes.front().densityLookups;
+        stats.densityGridVoxels = rho.size();
+        for (const LightVolume& v : volumes)
+            if (!v.tau.empty()) {
+                ++stats.lightVolumes;
+                stats.lightVolumeVoxels += v.tau.size();
+            }
+    }
+    const LightVolume* towardVolume = out.towardVolume();
+    if (skyVolume) {
+        t0 = std::chrono::steady_clock::now();
+        out.sky = buildSkyVolume(field, plan.skyDirections, plan.lightVolumeCell, g,
+                                 rho.empty() ? nullptr : &rho, cancel);
+        out.hasSky = true;
+        stats.skyVolumeSeconds = secondsSince(t0);
+        stats.skyVolumeBytes = out.sky.bytes();
+        stats.lightVolumeLookups += out.sky.densityLookups;
+    }
+    if (cancelRequested(cancel)) return out;
+    const Medium medium = Medium::fromDesc(s.medium);
+    if (diffusion) {
+        t0 = std::chrono::steady_clock::now();
+        DiffusionParams dp = diffusionParams(s, plan, medium);
+        dp.cancel = cancel;
+        out.diffusion = solveDiffusion(volumes.front(), rho,
+                                       towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
+        out.hasDiffusion = true;
+        stats.diffusionSeconds = secondsSince(t0);
+        stats.diffusionIterations = out.diffusion.iterations;
+    }
+    if (photons) {
+        t0 = std::chrono::steady_clock::now();
+        PhotonParams pp;
+        pp.sigma_s = medium.sigma_s;
+        pp.sigma_a = medium.sigma_a;
+        pp.sunDirection = s.sun.direction;
+        pp.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+        pp.eye = s.camera.position;
+        pp.photons = s.render.photons;
+        pp.maxDepth = s.render.maxDepth;
+        pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
+        if (s.render.photonSkin > 0.0f) {
+            pp.sunTau = towardVolume;
+            pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
+        }
+        out.photons = tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cancel);
+        out.hasPhotons = true;
+        stats.photonSeconds = secondsSince(t0);
+        stats.photonLookups = out.photons.lookups;
+        stats.photonsTraced = out.photons.traced;
+    }
+    return out;
+}
+
+MarchGrids Renderer::marchGrids(const FramePlan& plan, const FrameBindings& bindings,
+                                RenderStats& stats, const std::atomic<bool>* cancel) {
+    // in an arena of render.threads, as render() builds them
+    const int threads =
+        scene_.render.threads > 0 ? scene_.render.threads : tbb::task_arena::automatic;
+    tbb::task_arena arena(threads);
+    return arena.execute([&] {
+        const VolumeSet vs = volumesFor(plan, bindings, stats, cancel);
+        const SurfaceQuery* surfaces = bindings.geometry ? bindings.geometry->surfaces() : nullptr;
+        std::unique_ptr<SdfSurfaces> solids = solidsOver(scene_, surfaces);
+        if (solids) surfaces = solids.get();
+        return buildMarchGrids(scene_, plan, vs, surfaces, stats, cancel);
+    });
+}
+
 bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
                       RenderStats& stats, const RenderCallbacks& cb) {
     if (plan.rebased && !rebasedCopy_) {
@@ -293,129 +427,29 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             completed = false;
             return;
         }
-        auto t0 = std::chrono::steady_clock::now();
-        // the light-volume grids (attenuation, column sky, diffusion) cover one untransformed
-        // volume: the plan names them only then
-        const Field& field = vs.fields[0];
-        const MajorantGrid* g = vs.useGrid[0] ? &vs.grids[0] : nullptr;
-        // every light-attenuation volume the plan names, from one pass of density lookups;
-        // nothing to light when the one volume is empty (an empty VDB frame)
-        const bool any = !vs.instances.empty();
-        const bool diffusion = plan.diffusion && any;
-        const bool photons = plan.photons && any;
-        const bool toward = plan.sunDepthVolume && any;
-        std::vector<vec3> dirs;
-        if (toward) dirs.push_back(s.sun.direction);
-        if (plan.columnVolumes && any) {
-            dirs.push_back(vec3(0.0f, 1.0f, 0.0f));
-            dirs.push_back(vec3(0.0f, -1.0f, 0.0f));
-        }
-        std::vector<LightVolume> volumes;
-        std::vector<float> rho;
-        const bool skyVolume = plan.skyVolume && any;
-        // the sky volume shares the densities at the voxel centres when other volumes are built
-        const bool needRho = (plan.densityGrid || (skyVolume && !dirs.empty())) && any;
-        if (!dirs.empty() || needRho) {
-            t0 = std::chrono::steady_clock::now();
-            if (!dirs.empty()) {
-                volumes = buildLightVolumes(field, dirs, plan.lightVolumeCell, g,
-                                            needRho ? &rho : nullptr, cb.cancel);
-            } else {
-                // the densities alone, on the grid's geometry: no density integral is needed
-                LightVolume geometry = lightVolumeGrid(field, plan.lightVolumeCell);
-                rho = densityAtCentres(field, geometry.bounds, geometry.res, g,
-                                       geometry.densityLookups, cb.cancel);
-                volumes.push_back(std::move(geometry));
-            }
-            stats.lightVolumeSeconds = secondsSince(t0);
-            stats.lightVolumeLookups = volumes.front().densityLookups;
-            stats.densityGridVoxels = rho.size();
-            for (const LightVolume& v : volumes)
-                if (!v.tau.empty()) {
-                    ++stats.lightVolumes;
-                    stats.lightVolumeVoxels += v.tau.size();
-                }
-        }
-        size_t next = 0;
-        const LightVolume* towardVolume = toward ? &volumes[next++] : nullptr;
-        const LightVolume* lv = plan.lightVolume && any ? towardVolume : nullptr;
-        ScatterVolumes sv;
-        if (plan.columnVolumes && any) {
-            sv.up = &volumes[next++];
-            sv.down = &volumes[next++];
-        }
-        SkyVolume skv;
-        if (skyVolume) {
-            t0 = std::chrono::steady_clock::now();
-            skv = buildSkyVolume(field, plan.skyDirections, plan.lightVolumeCell, g,
-                                 rho.empty() ? nullptr : &rho, cb.cancel);
-            sv.sky = &skv;
-            stats.skyVolumeSeconds = secondsSince(t0);
-            stats.skyVolumeBytes = skv.bytes();
-            stats.lightVolumeLookups += skv.densityLookups;
-        }
-        const Medium medium = Medium::fromDesc(s.medium);
-        DiffusionVolume dv;
-        if (cancelled()) {
-            completed = false;
-            return;
-        }
-        if (diffusion) {
-            t0 = std::chrono::steady_clock::now();
-            DiffusionParams dp = diffusionParams(s, plan, medium);
-            dp.cancel = cb.cancel;
-            dv = solveDiffusion(volumes.front(), rho,
-                                towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
-            sv.diffusion = &dv;
-            stats.diffusionSeconds = secondsSince(t0);
-            stats.diffusionIterations = dv.iterations;
-        }
         const SurfaceQuery* surfaces = bindings.geometry ? bindings.geometry->surfaces() : nullptr;
         // SDF solids (core/sdf/solid.h): sphere traced here, over Embree's surfaces if any
-        std::unique_ptr<SdfSurfaces> solids;
-        if (!s.solids.empty()) {
-            std::vector<SdfSolid> list;
-            for (const SolidDesc& d : s.solids) list.push_back(solidFromTree(d.root, d.shading));
-            solids = std::make_unique<SdfSurfaces>(std::move(list), surfaces);
-            surfaces = solids.get();
-        }
-        PhotonVolume pv;
-        if (photons) {
-            t0 = std::chrono::steady_clock::now();
-            PhotonParams pp;
-            pp.sigma_s = medium.sigma_s;
-            pp.sigma_a = medium.sigma_a;
-            pp.sunDirection = s.sun.direction;
-            pp.sunIrradiance = s.sun.irradiance * s.render.msStrength;
-            pp.eye = s.camera.position;
-            pp.photons = s.render.photons;
-            pp.maxDepth = s.render.maxDepth;
-            pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
-            if (s.render.photonSkin > 0.0f) {
-                pp.sunTau = towardVolume;
-                pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
-            }
-            pv = tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cb.cancel);
-            sv.photons = &pv;
-            stats.photonSeconds = secondsSince(t0);
-            stats.photonLookups = pv.lookups;
-            stats.photonsTraced = pv.traced;
-        }
+        std::unique_ptr<SdfSurfaces> solids = solidsOver(s, surfaces);
+        if (solids) surfaces = solids.get();
+        const MarchGrids grids = buildMarchGrids(s, plan, vs, surfaces, stats, cb.cancel);
         if (cancelled()) {
             completed = false;
             return;
         }
+        const LightVolume* lv = plan.lightVolume ? grids.towardVolume() : nullptr;
+        const ScatterVolumes sv = grids.scatter();
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         stats.aovBytes = fb.aovBytes();
-        t0 = std::chrono::steady_clock::now();
+        const auto t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:
             completed = renderTiles(MarchContext(s, plan, vs, lv, sv, surfaces), s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
-            completed = renderTiles(
-                PathContext(s, plan, vs, surfaces, plan.shadowRoulette ? towardVolume : nullptr), s,
-                fb, stats, cb);
+            completed =
+                renderTiles(PathContext(s, plan, vs, surfaces,
+                                        plan.shadowRoulette ? grids.towardVolume() : nullptr),
+                            s, fb, stats, cb);
             break;
         }
         stats.integrateSeconds = secondsSince(t0);

@@ -18,6 +18,10 @@
 #include "core/bindings.h"
 #include "core/fields/field.h"
 #include "core/image.h"
+#include "core/lighting/diffusion.h"
+#include "core/lighting/light_volume.h"
+#include "core/lighting/photons.h"
+#include "core/lighting/sky_volume.h"
 #include "core/tracking/majorant.h"
 #include "core/scene.h"
 #include "core/plan.h"
@@ -63,6 +67,42 @@ struct RenderStats {
     std::uint64_t lookups() const { return primarySamples + shadowSamples; }
 };
 
+struct ScatterVolumes; // core/integrators/march.h
+
+/// The grids a `march` frame reads beside its volumes, each built only when the plan names it:
+/// the light-attenuation volumes (toward the sun, then straight up and down for the column
+/// sky), the densities at their voxel centres, the single-scattered sky, the diffusion solve
+/// and the photon volume. Built by buildMarchGrids, which Renderer::render calls, so a consumer
+/// of the grids (the GLSL pass, plugin/realtime) reads what the CPU frame reads. Move-only: the
+/// photon volume points into lightVolumes.
+struct MarchGrids {
+    std::vector<LightVolume> lightVolumes;
+    std::vector<float> rho; ///< densities at the light grid's voxel centres (when needed)
+    bool toward = false;    ///< lightVolumes[0] is the density integral toward the sun
+    bool column = false;    ///< the next two are the integrals up and down (column sky)
+    bool hasSky = false, hasDiffusion = false, hasPhotons = false;
+    SkyVolume sky;
+    DiffusionVolume diffusion;
+    PhotonVolume photons;
+
+    MarchGrids() = default;
+    MarchGrids(MarchGrids&&) = default;
+    MarchGrids& operator=(MarchGrids&&) = default;
+    MarchGrids(const MarchGrids&) = delete;
+    MarchGrids& operator=(const MarchGrids&) = delete;
+
+    const LightVolume* towardVolume() const { return toward ? &lightVolumes[0] : nullptr; }
+    /// What MarchContext reads (null where not built).
+    ScatterVolumes scatter() const;
+};
+
+/// Builds the march grids of frame `plan` of `scene` over the first volume of `vs` (the plan
+/// names them only for one untransformed volume); `surfaces` (may be null) stop photons. Adds
+/// timings and counters to `stats`. Stops early, the grids incomplete, once `cancel` is set.
+MarchGrids buildMarchGrids(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& vs,
+                           const SurfaceQuery* surfaces, RenderStats& stats,
+                           const std::atomic<bool>* cancel = nullptr);
+
 struct RenderCallbacks {
     /// Called (from worker threads, serialised) after each finished tile.
     std::function<void(int tilesDone, int tilesTotal)> progress;
@@ -96,6 +136,11 @@ class Renderer {
     VolumeSet volumesFor(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats,
                          const std::atomic<bool>* cancel = nullptr);
     VolumeSet volumesFor(const FramePlan& plan, RenderStats& stats);
+    /// The march grids of a frame as render() builds them (volumesFor, then buildMarchGrids with
+    /// the frame's surfaces and SDF solids), in the scene's own coordinates: not for a frame the
+    /// plan renders translated (plan.rebased).
+    MarchGrids marchGrids(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats,
+                          const std::atomic<bool>* cancel = nullptr);
 
   private:
     SceneDesc scene_;

@@ -45,34 +45,50 @@ def run(args):
     return p.returncode, p.stdout + p.stderr
 
 
-BASE = ["--set", 'render.multiple_scattering="none"', "--set", "camera.width=32",
-        "--set", "camera.height=18"]
+BASE = ["--set", "camera.width=32", "--set", "camera.height=18"]
 
-# name -> (extra --set values, expected features)
+# name -> (extra --set values, expected features); features not named are off
+NONE = 'render.multiple_scattering="none"'
 VARIANTS = {
-    "all": ([], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=0)),
-    "no_sun": (["sun.enabled=false"],
-               dict(RT_SUN=0, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=0)),
-    "no_ambient": (["sky.ambient=0"],
-                   dict(RT_SUN=1, RT_AMBIENT=0, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=0)),
-    "transparent_4spp": (['render.background="transparent"', "render.pixel_samples=4"],
-                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=0, RT_MULTISAMPLE=1)),
-    "none": (["sun.enabled=false", "sky.ambient=0", 'render.background="transparent"'],
-             dict(RT_SUN=0, RT_AMBIENT=0, RT_BACKGROUND_SKY=0, RT_MULTISAMPLE=0)),
-    "all_4spp": (["render.pixel_samples=4"],
+    "all": ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
+    "no_sun": ([NONE, "sun.enabled=false"], dict(RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
+    "no_ambient": ([NONE, "sky.ambient=0"], dict(RT_SUN=1, RT_BACKGROUND_SKY=1)),
+    "transparent_4spp": ([NONE, 'render.background="transparent"', "render.pixel_samples=4"],
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_MULTISAMPLE=1)),
+    "none": ([NONE, "sun.enabled=false", "sky.ambient=0", 'render.background="transparent"'],
+             dict()),
+    "all_4spp": ([NONE, "render.pixel_samples=4"],
                  dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=1)),
+    # the scene as it ships (the diffusion grid, which carries the sky: no ambient) with the
+    # Lorenz-Mie table; then the photon grid (the sun) with its skin profile
+    "grid_mie": (['medium.phase="mie_table"'],
+                 dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MIE_TABLE=1, RT_MS_DIFFUSION=1)),
+    "photons_skin": (['render.multiple_scattering="photons"', "render.photons=20000",
+                      "render.photon_skin=0.2"],
+                     dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_MS_PHOTONS=1,
+                          RT_PHOTON_SKIN=1)),
 }
+ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
+                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN"]
+# the data file of each feature that reads one, and its buffer's binding
+DATA = {"RT_MIE_TABLE": ("mie_table.bin", 3), "RT_MS_DIFFUSION": ("diffusion.bin", 4),
+        "RT_MS_PHOTONS": ("photons.bin", 5), "RT_PHOTON_SKIN": ("skin_tau.bin", 6)}
 
-# code that exists only with the feature (march_pass.glsl): the shadow march and the octaves of
-# the sun, the height-occluded ambient, the sky behind the clouds, the pixel-sample loop's body
-# (and the kernels only that code calls)
+# code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
+# and the octaves of the sun, the height-occluded ambient, the sky behind the clouds, the
+# pixel-sample loop's body, the data buffers and their lookups (and the kernels only that code
+# calls)
 MARKERS = {
-    "RT_SUN": ["rtDensityIntegral(", "octaveSun(vec3(phaseEval(", "inScatterFactor(P.inScatter",
+    "RT_SUN": ["rtDensityIntegral(", "sun += octaveSun(ph, sigmaT", "inScatterFactor(P.inScatter",
                "NB_FN vec3 octaveSun(", "NB_FN PhaseParams phaseOctave("],
     "RT_AMBIENT": ["skyHeightInScatter(rtXyz(P.skySphere)", "NB_FN vec3 skyHeightInScatter("],
     "RT_BACKGROUND_SKY": ["L += T * rtSkyRadiance(P, d);"],
     "RT_MULTISAMPLE": ["pixelSampleOffset(k, ns", "atomicAdd(nonFinite",
                        "NB_FN vec2 pixelSampleOffset("],
+    "RT_MIE_TABLE": ["buffer RtMieTable", "rtMieNode["],
+    "RT_MS_DIFFUSION": ["buffer RtDiffusionGrid", "rtDiffusion["],
+    "RT_MS_PHOTONS": ["buffer RtPhotonGrid", "rtPhoton["],
+    "RT_PHOTON_SKIN": ["buffer RtSkinGrid", "rtSkinTau["],
 }
 
 SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
@@ -80,7 +96,8 @@ SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
 shutil.rmtree(SCRATCH, ignore_errors=True)
 os.makedirs(SCRATCH)
 texts = {}
-for name, (sets, features) in VARIANTS.items():
+for name, (sets, on) in VARIANTS.items():
+    features = {f: int(f in on and on[f]) for f in ALL_FEATURES}
     out = os.path.join(SCRATCH, name)
     args = ["export-glsl", SCENE, "-o", out, "--frame", "3"] + BASE
     for s in sets:
@@ -155,7 +172,19 @@ for name, (sets, features) in VARIANTS.items():
     check(doc["dispatch"]["passes"] == (4 if features["RT_MULTISAMPLE"] else 1),
           f"{name}: passes {doc['dispatch']['passes']}")
     bindings = sorted(b["binding"] for b in doc["buffers"])
-    check(bindings == [0, 1, 2], f"{name}: bindings {bindings}")
+    want = sorted([0, 1, 2] + [DATA[f][1] for f in DATA if features[f]])
+    check(bindings == want, f"{name}: bindings {bindings}, expected {want}")
+    # the data files: written exactly for the features that read them, of the size the JSON says
+    for f, (file, binding) in DATA.items():
+        path = os.path.join(out, file)
+        check(os.path.isfile(path) == bool(features[f]),
+              f"{name}: {file} {'missing' if features[f] else 'written'} with {f} "
+              f"{'on' if features[f] else 'off'}")
+        if features[f]:
+            b = [b for b in doc["buffers"] if b["binding"] == binding]
+            check(len(b) == 1 and b[0].get("file") == file and
+                  b[0]["bytes"] == os.path.getsize(path) > 0,
+                  f"{name}: buffer {binding} {b} vs {file} of {os.path.getsize(path)} bytes")
 check(len(set(texts.values())) == len(texts), "two variants exported the same text")
 
 # the help
@@ -175,16 +204,15 @@ check(rc == 3 and "cannot create the folder" in log, f"folder under a file: exit
 rc, log = run(["export-glsl", SCENE, "-o", blocker] + BASE)
 check(rc == 3 and "cannot create the folder" in log, f"-o names a file: exit {rc}: {log}")
 refused = os.path.join(SCRATCH, "refused")
-rc, log = run(["export-glsl", SCENE, "-o", refused, "--set", "camera.width=32"])
-check(rc == 2 and "render.multiple_scattering" in log and "not supported by the GPU path" in log,
+rc, log = run(["export-glsl", SCENE, "-o", refused, "--set", "camera.width=32",
+               "--set", 'render.shadow="volume"'])
+check(rc == 2 and "render.shadow" in log and "not supported by the GPU path" in log,
       f"refused scene: exit {rc}: {log}")
 check(not os.path.exists(refused), "a refused export wrote its folder")
-rc2, log2 = run(["rt", SCENE, "--frames", "1", "--explain", "--set", "camera.width=32"])
+rc2, log2 = run(["rt", SCENE, "--frames", "1", "--explain", "--set", "camera.width=32",
+                 "--set", 'render.shadow="volume"'])
 check(rc2 == 2 and log2.strip() == log.strip(),
       f"nimbus rt refuses with another message: exit {rc2}: {log2} vs {log}")
-rc, log = run(["export-glsl", SCENE, "-o", refused, "--set", 'render.multiple_scattering="none"',
-               "--set", 'medium.phase="mie_table"'])
-check(rc == 2 and "medium.phase" in log, f"mie_table: exit {rc}: {log}")
 
 print(f"{len(VARIANTS)} variants, {len(FAILURES)} failures")
 sys.exit(1 if FAILURES else 0)

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -61,6 +62,11 @@ struct Json {
         return none;
     }
     long integer() const { return std::strtol(text.c_str(), nullptr, 10); }
+    bool has(const std::string& k) const {
+        for (const auto& m : members)
+            if (m.first == k) return true;
+        return false;
+    }
 };
 
 class JsonReader {
@@ -317,6 +323,13 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(skySphere),
         NB_MEMBER(baseOffset),
         NB_MEMBER(detailOffset),
+        NB_MEMBER(sigmaTr),
+        NB_MEMBER(diffusionLo),
+        NB_MEMBER(diffusionVoxel),
+        NB_MEMBER(photonLo),
+        NB_MEMBER(photonVoxel),
+        NB_MEMBER(skinLo),
+        NB_MEMBER(skinVoxel),
         NB_MEMBER(layerBottom),
         NB_MEMBER(layerTop),
         NB_MEMBER(heightA),
@@ -369,6 +382,20 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(filterKind),
         NB_MEMBER(filterWidth),
         NB_MEMBER(sampleIndex),
+        NB_MEMBER(mieNodes),
+        NB_MEMBER(diffusionResX),
+        NB_MEMBER(diffusionResY),
+        NB_MEMBER(diffusionResZ),
+        NB_MEMBER(photonResX),
+        NB_MEMBER(photonResY),
+        NB_MEMBER(photonResZ),
+        NB_MEMBER(skinResX),
+        NB_MEMBER(skinResY),
+        NB_MEMBER(skinResZ),
+        NB_MEMBER(skinK),
+        NB_MEMBER(skinFloor),
+        NB_MEMBER(msP1),
+        NB_MEMBER(mediumG),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());
@@ -437,7 +464,8 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
     EXPECT_TRUE(!b.features.sun && !b.features.ambient && !b.features.backgroundSky &&
                 !b.features.multisample);
     const std::vector<std::string> sun = {"float rtDensityIntegral(", "rtDensityIntegral(C, p",
-                                          "octaveSun(vec3(phaseEval("};
+                                          "vec3 ph = vec3(phaseEval(octavePhase, cosTheta));",
+                                          "sun += octaveSun(ph, sigmaT"};
     const std::vector<std::string> others = {"skyHeightInScatter(rtXyz(P.skySphere)",
                                              "L += T * rtSkyRadiance(P, d);",
                                              "pixelSampleOffset(k, ns"};
@@ -480,7 +508,8 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
 /// Exports frame 3 of the default scene with `sets` through the command, then compiles the
 /// written march.comp and dispatches it with buffers and dispatch taken from params.json alone;
 /// returns the PSNR of its RGBA against `nimbus rt`'s pass (MarchPass) on the same frame.
-double exportAgainstRt(const std::vector<std::string>& sets, const std::string& tag) {
+double exportAgainstRt(const std::vector<std::string>& sets, const std::string& tag,
+                       std::vector<std::string>& dataFiles) {
     std::string error;
     gl::ComputeContext* context = gl::ComputeContext::shared(&error);
     EXPECT_NE(context, nullptr) << "no headless OpenGL 4.5 context: " << error;
@@ -523,6 +552,17 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
         }
     }
     EXPECT_EQ(pixelBytes, std::size_t(w) * std::size_t(h) * 12 * 4);
+    // the data buffers (Mie table, multiple-scattering grids): the files the JSON names
+    std::vector<std::unique_ptr<gl::StorageBuffer>> data;
+    for (const Json& b : doc["buffers"].items) {
+        if (!b.has("file") || b["block"].text == "RtParamBlock") continue;
+        const std::string bytes = readFile(dir.string() + "/" + b["file"].text);
+        EXPECT_EQ(bytes.size(), std::size_t(b["bytes"].integer())) << b["file"].text;
+        EXPECT_FALSE(bytes.empty()) << b["file"].text;
+        data.push_back(std::make_unique<gl::StorageBuffer>(bytes.size(), bytes.data()));
+        data.back()->bind(unsigned(b["binding"].integer()));
+        dataFiles.push_back(b["file"].text);
+    }
     const gl::StorageBuffer pixels(pixelBytes);
     const gl::StorageBuffer counters(counterBytes);
     pixels.bind(unsigned(pixelBinding));
@@ -555,7 +595,13 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
     Framebuffer fb;
     rt::MarchStats stats;
     rt::MarchPass pass;
-    EXPECT_TRUE(pass.render(session.scene(), session.plan(3), fb, stats, &error)) << error;
+    const FramePlan plan = session.plan(3);
+    MarchGrids grids;
+    if (plan.diffusion || plan.photons) {
+        RenderStats gridStats;
+        grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
+    }
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, fb, stats, &error)) << error;
     EXPECT_EQ(fb.rgba.size(), rgba.size());
     if (fb.rgba.size() != rgba.size()) return 0.0;
     double peak = 0.0, se = 0.0, maxAbs = 0.0;
@@ -583,16 +629,40 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
 }
 
 TEST(ExportGlslGpu, SameImageAsRt) {
+    std::vector<std::string> files;
     EXPECT_GE(exportAgainstRt(
                   {"camera.width=64", "camera.height=36", "render.multiple_scattering=\"none\""},
-                  "sun_ambient_sky"),
+                  "sun_ambient_sky", files),
               45.0);
+    EXPECT_TRUE(files.empty()); // no data buffers without the Mie table or a grid
 }
 
 TEST(ExportGlslGpu, SameImageAsRtMultisampleNoSun) {
+    std::vector<std::string> files;
     EXPECT_GE(exportAgainstRt({"camera.width=48", "camera.height=27",
                                "render.multiple_scattering=\"none\"", "sun.enabled=false",
                                "render.pixel_samples=4", "render.background=\"transparent\""},
-                              "no_sun_4spp_transparent"),
+                              "no_sun_4spp_transparent", files),
               45.0);
+}
+
+TEST(ExportGlslGpu, SameImageAsRtWithTheDiffusionGridAndTheMieTable) {
+    // the default scene as it ships (the diffusion grid) with the Lorenz-Mie phase table: the
+    // grid of the frame and the table go out as files, read back here alone
+    std::vector<std::string> files;
+    EXPECT_GE(exportAgainstRt({"camera.width=64", "camera.height=36", "medium.phase=\"mie_table\""},
+                              "grid_mie_table", files),
+              45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"mie_table.bin", "diffusion.bin"}));
+}
+
+TEST(ExportGlslGpu, SameImageAsRtWithThePhotonGridAndItsSkin) {
+    std::vector<std::string> files;
+    EXPECT_GE(exportAgainstRt({"camera.width=48", "camera.height=27",
+                               "render.multiple_scattering=\"photons\"", "render.photons=50000",
+                               "render.photon_skin=0.2"},
+                              "photons_skin", files),
+              45.0);
+    // the sun's light through the photon grid, the sky's through the diffusion grid
+    EXPECT_EQ(files, (std::vector<std::string>{"diffusion.bin", "photons.bin", "skin_tau.bin"}));
 }

@@ -1,9 +1,11 @@
 /// @file test_rt_march.cpp
 /// @brief The GLSL march pass (plugin/realtime/rt_march.h) against the CPU `march` integrator:
-/// the shared parameter block unpacks to the kernel structs the CPU uses, the default scene's
-/// field renders on the GPU (Mesa llvmpipe through EGL here) at PSNR >= 45 dB against the CPU at
-/// equal settings, unsupported settings are refused by key, and `nimbus rt` writes a valid EXR
-/// through the same output code as `nimbus render` and exits 2 on an unsupported scene.
+/// the shared parameter block unpacks to the kernel structs the CPU uses, the shader's lookups of
+/// the Lorenz-Mie table and of the multiple-scattering grids equal the CPU's on thousands of
+/// inputs, the default scene's field renders on the GPU (Mesa llvmpipe through EGL here) at
+/// PSNR >= 45 dB against the CPU at equal settings (with the Mie table, the diffusion grid and
+/// the photon grid too), unsupported settings are refused by key, and `nimbus rt` writes a valid
+/// EXR through the same output code as `nimbus render` and exits 2 on an unsupported scene.
 ///
 /// Like the kernel parity tests (tests/test_glsl_parity.cpp), the GPU tests fail, with the EGL
 /// error, when no headless OpenGL 4.5 context can be made: the packages are required.
@@ -16,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "core/fields/cumulus.h"
+#include "core/media/medium.h"
 #include "core/media/phase.h"
 #include "plugin/host/session.h"
 #include "plugin/io/image_output.h"
@@ -30,11 +33,12 @@ namespace {
 
 const std::string kDefaultScene = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/cumulus.toml";
 
-/// The default scene at a small size with multiple scattering off (the GPU subset) and the
-/// noise evaluated directly on the CPU too.
-std::vector<std::string> paritySettings(int w, int h) {
+/// The default scene at a small size with multiple scattering `ms` ("none": octaves and the sky
+/// ambient only; "grid", "photons": the grids computed on the CPU) and the noise evaluated
+/// directly on the CPU too.
+std::vector<std::string> paritySettings(int w, int h, const std::string& ms = "none") {
     return {"camera.width=" + std::to_string(w), "camera.height=" + std::to_string(h),
-            "render.multiple_scattering=\"none\"", "field.evaluation=\"direct\""};
+            "render.multiple_scattering=\"" + ms + "\"", "field.evaluation=\"direct\""};
 }
 
 /// PSNR in dB of `test` against `ref` over the RGB of premultiplied RGBA pixels, the peak being
@@ -98,12 +102,17 @@ TEST(RtMarchSupport, RefusesByKey) {
         for (const rt::Unsupported& u : rt::unsupported(s, planFrame(s, 1))) keys += u.key + ";";
         return keys;
     };
+    // the diffusion and photon grids (with the photons' skin profile) and the Mie table
     SceneDesc s = base;
     s.render.multipleScattering = MultipleScattering::Grid;
-    EXPECT_EQ(keysOf(s), "render.multiple_scattering;");
-    s = base;
+    EXPECT_EQ(keysOf(s), "");
     s.render.multipleScattering = MultipleScattering::Photons;
-    EXPECT_EQ(keysOf(s), "render.multiple_scattering;");
+    EXPECT_EQ(keysOf(s), "");
+    s.render.photonSkin = 0.2f;
+    EXPECT_EQ(keysOf(s), "");
+    s = base;
+    s.medium.phase = PhaseKind::MieTable;
+    EXPECT_EQ(keysOf(s), "");
     s = base;
     s.field.kind = FieldKind::Vdb;
     EXPECT_TRUE(contains(keysOf(s), "field.kind;"));
@@ -123,9 +132,6 @@ TEST(RtMarchSupport, RefusesByKey) {
     s.render.skyScattering = SkyScattering::Single;
     EXPECT_EQ(keysOf(s), "render.sky_scattering;");
     s = base;
-    s.medium.phase = PhaseKind::MieTable;
-    EXPECT_EQ(keysOf(s), "medium.phase;");
-    s = base;
     s.ground.enabled = true;
     EXPECT_EQ(keysOf(s), "ground.enabled;");
 }
@@ -137,6 +143,30 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
     SceneDesc s = session.scene();
     rt::MarchFeatures f = rt::marchFeatures(s, planFrame(s, 1));
     EXPECT_TRUE(f.sun && f.ambient && f.backgroundSky && !f.multisample);
+    EXPECT_TRUE(!f.mieTable && !f.diffusion && !f.photons);
+    EXPECT_TRUE(contains(f.defines(), "#define RT_MIE_TABLE 0\n"));
+    EXPECT_TRUE(contains(f.defines(), "#define RT_MS_DIFFUSION 0\n"));
+    {
+        // the table with the sun; the diffusion grid replaces the sky ambient; photons carry the
+        // sun's higher orders and the diffusion grid the sky's
+        SceneDesc m = s;
+        m.medium.phase = PhaseKind::MieTable;
+        m.render.multipleScattering = MultipleScattering::Grid;
+        rt::MarchFeatures g = rt::marchFeatures(m, planFrame(m, 1));
+        EXPECT_TRUE(g.mieTable && g.diffusion && !g.photons && !g.ambient);
+        EXPECT_TRUE(contains(g.defines(), "#define RT_MIE_TABLE 1\n"));
+        EXPECT_TRUE(contains(g.defines(), "#define RT_MS_DIFFUSION 1\n"));
+        m.render.multipleScattering = MultipleScattering::Photons;
+        g = rt::marchFeatures(m, planFrame(m, 1));
+        EXPECT_TRUE(g.diffusion && g.photons && !g.ambient);
+        EXPECT_TRUE(contains(g.defines(), "#define RT_MS_PHOTONS 1\n"));
+        EXPECT_TRUE(contains(g.defines(), "#define RT_PHOTON_SKIN 0\n"));
+        m.render.photonSkin = 0.2f;
+        EXPECT_TRUE(rt::marchFeatures(m, planFrame(m, 1)).photonSkin);
+        m.sun.enabled = false; // no sun: no octaves, so no table (and no photons)
+        g = rt::marchFeatures(m, planFrame(m, 1));
+        EXPECT_TRUE(!g.mieTable && !g.photons && g.diffusion);
+    }
     s.sun.enabled = false;
     s.sky.kind = SkyKind::None;
     s.render.background = Background::Transparent;
@@ -149,11 +179,183 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
     EXPECT_TRUE(contains(text, "NB_FN float cumulusDensity(")); // the embedded kernel text
 }
 
+namespace {
+
+/// Runs `body` (GLSL statements over `uint i`, the invocation's index) once per input after the
+/// pass's buffers and lookups (rt::marchDataShaderSource of `f`): the inputs as `testIn[i]`
+/// (vec4, binding 7), the results written to `testOut` (floats, binding 8), `perInput` each.
+/// The parameter block goes to binding 0; the caller binds the data buffers the lookups read.
+std::vector<float> runLookups(const rt::MarchFeatures& f, const rt::RtMarchParams& P,
+                              const std::vector<glm::vec4>& in, std::size_t perInput,
+                              const std::string& body) {
+    const std::string text =
+        rt::marchDataShaderSource(f) +
+        "\nlayout(local_size_x = 64) in;\n"
+        "layout(std430, binding = 7) readonly buffer TestIn { vec4 testIn[]; };\n"
+        "layout(std430, binding = 8) buffer TestOut { float testOut[]; };\n"
+        "void main() {\n"
+        "    uint i = gl_GlobalInvocationID.x;\n"
+        "    if (i >= uint(testIn.length())) return;\n" +
+        body + "\n}\n";
+    const gl::ComputeProgram program(text);
+    EXPECT_TRUE(program.valid()) << program.log();
+    if (!program.valid()) return {};
+    const gl::StorageBuffer params(sizeof P, &P);
+    const gl::StorageBuffer input(in.size() * sizeof(glm::vec4), in.data());
+    const gl::StorageBuffer output(in.size() * perInput * sizeof(float));
+    params.bind(0);
+    input.bind(7);
+    output.bind(8);
+    program.dispatch(unsigned((in.size() + 63) / 64));
+    std::vector<float> out(in.size() * perInput);
+    output.read(out.data(), out.size() * sizeof(float));
+    const std::string e = gl::glErrors();
+    EXPECT_TRUE(e.empty()) << e;
+    return out;
+}
+
+} // namespace
+
+// The Lorenz-Mie table as the shader reads it (march_data.glsl: rtMieEval) equals
+// MieTable::eval on the CPU: at every node, between every two nodes, at 8,192 cosines spread over
+// [-1, 1] and 2,048 in the forward peak, and outside [-1, 1] (clamped).
+TEST(RtMarchLookups, MieTableAsTheCpu) {
+    if (!requireContext()) return;
+    host::Session session;
+    ASSERT_TRUE(session.load(kDefaultScene, {"medium.phase=\"mie_table\""}).ok());
+    const SceneDesc& s = session.scene();
+    const FramePlan plan = session.plan(1);
+    rt::MarchFeatures f = rt::marchFeatures(s, plan);
+    ASSERT_TRUE(f.mieTable);
+    const Medium medium = Medium::fromDesc(s.medium);
+    const MieTable& table = *medium.phase.table();
+    const rt::RtMarchParams P = rt::marchParams(s, plan);
+    const std::vector<float>& cos = table.cosines();
+    ASSERT_EQ(P.mieNodes, int(cos.size()));
+    std::vector<glm::vec4> in;
+    for (std::size_t k = 0; k < cos.size(); ++k) {
+        in.emplace_back(cos[k], 0.0f, 0.0f, 0.0f);
+        if (k + 1 < cos.size()) in.emplace_back(0.5f * (cos[k] + cos[k + 1]), 0.0f, 0.0f, 0.0f);
+    }
+    for (int k = 0; k < 8192; ++k) in.emplace_back(-1.0f + 2.0f * (k + 0.37f) / 8192.0f, 0, 0, 0);
+    for (int k = 0; k < 2048; ++k) in.emplace_back(1.0f - 0.01f * (k + 0.61f) / 2048.0f, 0, 0, 0);
+    for (float mu : {-1.5f, -1.0f, 1.0f, 1.5f}) in.emplace_back(mu, 0.0f, 0.0f, 0.0f);
+    const std::vector<glm::vec4> nodes = rt::mieTableNodes(table);
+    const gl::StorageBuffer mie(nodes.size() * sizeof(glm::vec4), nodes.data());
+    mie.bind(3);
+    const std::vector<float> out = runLookups(f, P, in, 3,
+                                              "vec3 v = rtMieEval(testIn[i].x);\n"
+                                              "testOut[3u * i] = v.x;\n"
+                                              "testOut[3u * i + 1u] = v.y;\n"
+                                              "testOut[3u * i + 2u] = v.z;");
+    ASSERT_EQ(out.size(), 3 * in.size());
+    double worst = 0.0;
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < in.size(); ++i) {
+        const vec3 want = table.eval(in[i].x);
+        for (int c = 0; c < 3; ++c) {
+            const double rel = std::abs(double(out[3 * i + std::size_t(c)]) - want[c]) /
+                               std::max(double(want[c]), 1e-6);
+            worst = std::max(worst, rel);
+            if (!(rel <= 1e-5) && bad++ < 5)
+                ADD_FAILURE() << "mu " << in[i].x << " channel " << c << ": GPU "
+                              << out[3 * i + std::size_t(c)] << ", CPU " << want[c];
+        }
+    }
+    RecordProperty("mie_lookups", std::to_string(in.size()));
+    RecordProperty("mie_max_relative_difference", std::to_string(worst));
+    std::printf("[ rt lookups ] Mie table: %zu cosines, largest relative difference %.3g\n",
+                in.size(), worst);
+    EXPECT_EQ(bad, 0u);
+}
+
+// The multiple-scattering grids as the shader reads them (march_data.glsl) equal the CPU's
+// lookups: DiffusionVolume::sample with its gradient and PhotonVolume::sample with the skin
+// profile, at 4,096 points over the grids' bounds and a margin around them (clamped).
+TEST(RtMarchLookups, GridsAsTheCpu) {
+    if (!requireContext()) return;
+    // photons for the sun (with the skin profile) and the diffusion grid for the sky
+    host::Session skinned;
+    std::vector<std::string> settings = paritySettings(32, 18, "photons");
+    settings.push_back("render.photon_skin=0.2");
+    ASSERT_TRUE(skinned.load(kDefaultScene, settings).ok());
+    const FramePlan skinPlan = skinned.plan(1);
+    ASSERT_TRUE(skinPlan.photons && skinPlan.diffusion);
+    RenderStats stats;
+    const MarchGrids grids = skinned.renderer().marchGrids(skinPlan, skinned.bindings(), stats);
+    ASSERT_TRUE(grids.hasDiffusion && grids.hasPhotons);
+    ASSERT_TRUE(grids.photons.sunTau != nullptr && grids.photons.skinK > 0.0f);
+    const rt::MarchFeatures f = rt::marchFeatures(skinned.scene(), skinPlan);
+    ASSERT_TRUE(f.diffusion && f.photons && f.photonSkin);
+    const rt::RtMarchParams P = rt::marchParams(skinned.scene(), skinPlan, &grids);
+    const gl::StorageBuffer phi(grids.diffusion.phi.size() * sizeof(vec3),
+                                grids.diffusion.phi.data());
+    const gl::StorageBuffer photons(grids.photons.radiance.size() * sizeof(vec3),
+                                    grids.photons.radiance.data());
+    const gl::StorageBuffer tau(grids.photons.sunTau->tau.size() * sizeof(float),
+                                grids.photons.sunTau->tau.data());
+    phi.bind(4);
+    photons.bind(5);
+    tau.bind(6);
+    const Box b = grids.diffusion.bounds;
+    const vec3 margin = 0.1f * (b.hi - b.lo);
+    std::vector<glm::vec4> in;
+    std::uint32_t h = 12345u;
+    auto u = [&] { return kern::hashToUnit(h = kern::pcg(h)); };
+    for (int k = 0; k < 4096; ++k) {
+        const vec3 t(u(), u(), u());
+        const vec3 p = b.lo - margin + t * (b.hi - b.lo + 2.0f * margin);
+        in.emplace_back(p.x, p.y, p.z, 0.0f);
+    }
+    const std::vector<float> out =
+        runLookups(f, P, in, 15,
+                   "vec3 p = vec3(testIn[i].x, testIn[i].y, testIn[i].z);\n"
+                   "vec3 gR, gG, gB;\n"
+                   "vec3 phi = rtDiffusionSample(p, gR, gG, gB);\n"
+                   "vec3 L = rtPhotonSample(p);\n"
+                   "float v[15] = float[15](phi.x, phi.y, phi.z, gR.x, gR.y, gR.z, gG.x, gG.y,\n"
+                   "                        gG.z, gB.x, gB.y, gB.z, L.x, L.y, L.z);\n"
+                   "for (uint k = 0u; k < 15u; k++) testOut[15u * i + k] = v[k];");
+    ASSERT_EQ(out.size(), 15 * in.size());
+    // tolerances relative to each quantity's largest value over the points
+    std::vector<float> want(out.size());
+    for (std::size_t i = 0; i < in.size(); ++i) {
+        const vec3 p(in[i].x, in[i].y, in[i].z);
+        vec3 grad[3];
+        const vec3 phiP = grids.diffusion.sample(p, grad);
+        const vec3 L = grids.photons.sample(p);
+        const float v[15] = {phiP.x,    phiP.y,    phiP.z,    grad[0].x, grad[0].y,
+                             grad[0].z, grad[1].x, grad[1].y, grad[1].z, grad[2].x,
+                             grad[2].y, grad[2].z, L.x,       L.y,       L.z};
+        std::copy(v, v + 15, want.begin() + std::ptrdiff_t(15 * i));
+    }
+    const char* names[3] = {"diffusion phi", "diffusion gradient", "photon radiance"};
+    for (int q = 0; q < 3; ++q) {
+        const int first = q == 0 ? 0 : q == 1 ? 3 : 12, count = q == 1 ? 9 : 3;
+        double scale = 0.0, worst = 0.0;
+        for (std::size_t i = 0; i < in.size(); ++i)
+            for (int c = first; c < first + count; ++c)
+                scale = std::max(scale, double(std::abs(want[15 * i + std::size_t(c)])));
+        ASSERT_GT(scale, 0.0) << names[q];
+        for (std::size_t i = 0; i < in.size(); ++i)
+            for (int c = first; c < first + count; ++c)
+                worst = std::max(worst, std::abs(double(out[15 * i + std::size_t(c)]) -
+                                                 want[15 * i + std::size_t(c)]) /
+                                            scale);
+        RecordProperty(std::string("max_relative_difference_") + std::to_string(q),
+                       std::to_string(worst));
+        std::printf("[ rt lookups ] %s: %zu points, largest difference %.3g of the largest "
+                    "value\n",
+                    names[q], in.size(), worst);
+        EXPECT_LE(worst, 1e-5) << names[q];
+    }
+}
+
 /// Renders frame `frame` of the default scene with `extra` settings on the CPU (march) and on
 /// the GPU; returns the PSNR of the GPU image against the CPU image (and records it).
 double gpuAgainstCpu(int frame, const std::vector<std::string>& extra, const std::string& tag,
-                     double* maxAbs) {
-    std::vector<std::string> settings = paritySettings(160, 90);
+                     double* maxAbs, const std::string& ms = "none") {
+    std::vector<std::string> settings = paritySettings(160, 90, ms);
     settings.insert(settings.end(), extra.begin(), extra.end());
     host::Session session;
     const host::Status st = session.load(kDefaultScene, settings);
@@ -161,10 +363,16 @@ double gpuAgainstCpu(int frame, const std::vector<std::string>& extra, const std
     Framebuffer cpu, gpu;
     RenderStats cpuStats;
     EXPECT_TRUE(session.render(frame, cpu, cpuStats).ok());
+    const FramePlan plan = session.plan(frame);
+    // the multiple-scattering grids as the CPU frame built them (Renderer::marchGrids)
+    RenderStats gridStats;
+    const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
+    EXPECT_EQ(grids.hasDiffusion, plan.diffusion) << tag;
+    EXPECT_EQ(grids.hasPhotons, plan.photons) << tag;
     rt::MarchPass pass;
     rt::MarchStats gpuStats;
     std::string error;
-    EXPECT_TRUE(pass.render(session.scene(), session.plan(frame), gpu, gpuStats, &error)) << error;
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, gpu, gpuStats, &error)) << error;
     EXPECT_EQ(gpu.rgba.size(), cpu.rgba.size());
     if (gpu.rgba.size() != cpu.rgba.size()) return 0.0;
     EXPECT_EQ(gpuStats.nonFinite, 0u);
@@ -220,56 +428,96 @@ TEST(RtMarchParity, OtherSettings) {
               45.0);
 }
 
-// `nimbus rt` writes the frame through the output code of `nimbus render` (colour conversion to
-// output.color_space, metadata, AOVs): both EXRs of the same frame agree at PSNR >= 45 dB.
-TEST(RtCli, WritesTheSameExrAsRender) {
-    TempDir dir("rt_cli");
-    const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
-                             "'render.multiple_scattering=\"none\"' --set "
-                             "'field.evaluation=\"direct\"'";
-    auto preview = [&](const std::string& name) {
-        return " --set 'output.preview=\"" + dir.string() + "/" + name + ".####.png\"'";
-    };
-    const CliRun gpu = runNimbus("rt " + kDefaultScene + " --frames 3 -o " + dir.string() +
-                                 "/gpu.####.exr" + sets + preview("gpu"));
-    ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
-    EXPECT_TRUE(contains(gpu.output, "frame 3: 64x36,"));
-    const CliRun cpu = runNimbus("render " + kDefaultScene + " --frames 3 --progress none -o " +
-                                 dir.string() + "/cpu.####.exr" + sets + preview("cpu"));
-    ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
-    const io::ExrImage g = io::readExr(dir.string() + "/gpu.0003.exr");
-    const io::ExrImage c = io::readExr(dir.string() + "/cpu.0003.exr");
-    ASSERT_EQ(g.width, 64);
-    ASSERT_EQ(g.height, 36);
-    EXPECT_EQ(g.channels, c.channels);
-    EXPECT_EQ(g.attributes.at("nimbus/colorSpace"), c.attributes.at("nimbus/colorSpace"));
-    EXPECT_TRUE(contains(g.attributes.at("nimbus/settings/renderer"), "GLSL march pass"));
-    const int ia = g.channelIndex("A");
-    ASSERT_GE(ia, 0);
-    std::vector<float> gr, cr;
-    for (int y = 0; y < g.height; ++y)
-        for (int x = 0; x < g.width; ++x)
-            for (const char* ch : {"R", "G", "B", "A"}) {
-                const float gv = g.at(x, y, g.channelIndex(ch));
-                ASSERT_TRUE(std::isfinite(gv));
-                gr.push_back(gv);
-                cr.push_back(c.at(x, y, c.channelIndex(ch)));
-            }
+// the Lorenz-Mie table (render.phase = "mie_table"), read from a buffer as MieTable::eval reads
+// it, through the octaves (PhaseFunction::octave blends it toward isotropic)
+TEST(RtMarchParity, MieTable) {
+    if (!requireContext()) return;
     double maxAbs = 0.0;
-    const double psnr = psnrRgb(cr, gr, &maxAbs);
-    RecordProperty("psnr_db_cli_64x36", std::to_string(psnr));
-    EXPECT_GE(psnr, 45.0);
+    EXPECT_GE(gpuAgainstCpu(1, {"medium.phase=\"mie_table\""}, "mie_table", &maxAbs), 45.0);
+}
+
+// render.multiple_scattering = "grid": the diffusion grid the CPU solved, read trilinearly with
+// its gradient (the P1 radiance), in place of the sky ambient; the default scene as it ships
+TEST(RtMarchParity, DiffusionGrid) {
+    if (!requireContext()) return;
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {}, "ms_grid", &maxAbs, "grid"), 45.0);
+    // with the Mie table too (the diffusion's P1 term takes the table's mean cosine)
+    EXPECT_GE(
+        gpuAgainstCpu(1, {"medium.phase=\"mie_table\""}, "ms_grid_mie_table", &maxAbs, "grid"),
+        45.0);
+}
+
+// render.multiple_scattering = "photons": the sun's photon grid (one octave) and the sky's
+// diffusion grid
+TEST(RtMarchParity, PhotonGrid) {
+    if (!requireContext()) return;
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {}, "ms_photons", &maxAbs, "photons"), 45.0);
+    // with the skin profile (the density integral toward the sun from the light volume)
+    EXPECT_GE(gpuAgainstCpu(1, {"render.photon_skin=0.2"}, "ms_photons_skin", &maxAbs, "photons"),
+              45.0);
+}
+
+// `nimbus rt` writes the frame through the output code of `nimbus render` (colour conversion to
+// output.color_space, metadata, AOVs): both EXRs of the same frame agree at PSNR >= 45 dB; with
+// multiple_scattering = "grid" (the default scene's) the CLI computes the grid on the CPU first.
+TEST(RtCli, WritesTheSameExrAsRender) {
+    for (const std::string ms : {"none", "grid"}) {
+        TempDir dir("rt_cli");
+        const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
+                                 "'render.multiple_scattering=\"" +
+                                 ms + "\"' --set 'field.evaluation=\"direct\"'";
+        auto preview = [&](const std::string& name) {
+            return " --set 'output.preview=\"" + dir.string() + "/" + name + ".####.png\"'";
+        };
+        const CliRun gpu = runNimbus("rt " + kDefaultScene + " --frames 3 -o " + dir.string() +
+                                     "/gpu.####.exr" + sets + preview("gpu"));
+        ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
+        EXPECT_TRUE(contains(gpu.output, "frame 3: 64x36,"));
+        EXPECT_EQ(contains(gpu.output, "multiple-scattering grid computed on the CPU"),
+                  ms == "grid")
+            << gpu.output;
+        const CliRun cpu = runNimbus("render " + kDefaultScene + " --frames 3 --progress none -o " +
+                                     dir.string() + "/cpu.####.exr" + sets + preview("cpu"));
+        ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
+        const io::ExrImage g = io::readExr(dir.string() + "/gpu.0003.exr");
+        const io::ExrImage c = io::readExr(dir.string() + "/cpu.0003.exr");
+        ASSERT_EQ(g.width, 64);
+        ASSERT_EQ(g.height, 36);
+        EXPECT_EQ(g.channels, c.channels);
+        EXPECT_EQ(g.attributes.at("nimbus/colorSpace"), c.attributes.at("nimbus/colorSpace"));
+        EXPECT_TRUE(contains(g.attributes.at("nimbus/settings/renderer"), "GLSL march pass"));
+        const int ia = g.channelIndex("A");
+        ASSERT_GE(ia, 0);
+        std::vector<float> gr, cr;
+        for (int y = 0; y < g.height; ++y)
+            for (int x = 0; x < g.width; ++x)
+                for (const char* ch : {"R", "G", "B", "A"}) {
+                    const float gv = g.at(x, y, g.channelIndex(ch));
+                    ASSERT_TRUE(std::isfinite(gv));
+                    gr.push_back(gv);
+                    cr.push_back(c.at(x, y, c.channelIndex(ch)));
+                }
+        double maxAbs = 0.0;
+        const double psnr = psnrRgb(cr, gr, &maxAbs);
+        RecordProperty("psnr_db_cli_64x36_" + ms, std::to_string(psnr));
+        std::printf("[ rt parity ] cli 64x36 multiple_scattering %s: PSNR %.2f dB\n", ms.c_str(),
+                    psnr);
+        EXPECT_GE(psnr, 45.0) << ms;
+    }
 }
 
 // An unsupported scene is refused before any GPU work, with exit 2 and the key in the message;
 // no file is written.
 TEST(RtCli, RefusesUnsupportedSceneWithExit2) {
     TempDir dir("rt_refuse");
-    // the default scene as it is: multiple_scattering = "grid"
+    // the default scene with the sun's light-attenuation volume
     const CliRun r = runNimbus("rt " + kDefaultScene + " --frames 1 -o " + dir.string() +
-                               "/x.####.exr --set camera.width=32 --set camera.height=18");
+                               "/x.####.exr --set camera.width=32 --set camera.height=18 --set "
+                               "'render.shadow=\"volume\"'");
     EXPECT_EQ(r.exitCode, 2) << r.output;
-    EXPECT_TRUE(contains(r.output, "render.multiple_scattering"));
+    EXPECT_TRUE(contains(r.output, "render.shadow"));
     EXPECT_FALSE(std::filesystem::exists(dir.string() + "/x.0001.exr"));
     const CliRun b = runNimbus("rt " + kDefaultScene +
                                " --frames 1 --set "

@@ -63,9 +63,16 @@ int runExportGlsl(const ExportGlslOptions& o) {
                          session.file().path.c_str(), u.key.c_str(), u.message.c_str());
         return kExitBadInput;
     }
+    // the multiple-scattering grids (when the plan names them), computed on the CPU as
+    // `nimbus rt` does, go out as data files
+    MarchGrids grids;
+    if (plan.diffusion || plan.photons) {
+        RenderStats gridStats;
+        grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
+    }
     rt::GlslExport e;
     std::string error;
-    if (!rt::exportGlsl(scene, plan, session.file().path, e, &error)) {
+    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, e, &error)) {
         std::fprintf(stderr, "nimbus: error: export-glsl: %s\n", error.c_str());
         return kExitInternal;
     }
@@ -83,12 +90,17 @@ int runExportGlsl(const ExportGlslOptions& o) {
         !writeBytes((dir / rt::kExportJsonFile).string(), e.json.data(), e.json.size()) ||
         !writeBytes((dir / rt::kExportParamsFile).string(), e.params.data(), e.params.size()))
         return kExitIo;
+    std::string data;
+    for (const auto& [file, bytes] : e.data) {
+        if (!writeBytes((dir / file).string(), bytes.data(), bytes.size())) return kExitIo;
+        data += ", " + file + " (" + std::to_string(bytes.size()) + " bytes)";
+    }
     std::string features;
     for (const auto& [name, on] : rt::featureMacros(e.features))
         if (on) features += (features.empty() ? "" : ", ") + name;
-    std::printf("frame %d: %s (%s), %s, %s (%zu bytes) -> %s\n", frame, rt::kExportShaderFile,
+    std::printf("frame %d: %s (%s), %s, %s (%zu bytes)%s -> %s\n", frame, rt::kExportShaderFile,
                 features.empty() ? "no optional features" : features.c_str(), rt::kExportJsonFile,
-                rt::kExportParamsFile, e.params.size(), o.output.c_str());
+                rt::kExportParamsFile, e.params.size(), data.c_str(), o.output.c_str());
     return kExitOk;
 }
 

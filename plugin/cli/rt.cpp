@@ -84,7 +84,18 @@ int runRt(const RtOptions& o) {
         const FramePlan plan = session.plan(frame);
         Framebuffer fb;
         rt::MarchStats stats;
-        if (!pass.render(scene, plan, fb, stats, &error)) {
+        // the multiple-scattering grids (when the plan names them) are computed on the CPU, as
+        // `nimbus render` computes them, and read by the shader
+        MarchGrids grids;
+        if (plan.diffusion || plan.photons) {
+            const auto gridStart = std::chrono::steady_clock::now();
+            RenderStats gridStats;
+            grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
+            if (!o.quiet)
+                std::printf("frame %d: multiple-scattering grid computed on the CPU in %.3f s\n",
+                            frame, secondsSince(gridStart));
+        }
+        if (!pass.render(scene, plan, &grids, fb, stats, &error)) {
             std::fprintf(stderr, "nimbus: error: rt: frame %d: %s\n", frame, error.c_str());
             return kExitInternal;
         }

@@ -13,6 +13,9 @@
 #include <sstream>
 
 #include "core/kernels/source.h"
+#include "core/media/medium.h"
+#include "core/media/mie.h"
+#include "core/render.h"
 #include "plugin/realtime/march_params.h"
 #include "plugin/realtime/pass_source.h"
 
@@ -22,7 +25,11 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
     return {{"RT_SUN", f.sun},
             {"RT_AMBIENT", f.ambient},
             {"RT_BACKGROUND_SKY", f.backgroundSky},
-            {"RT_MULTISAMPLE", f.multisample}};
+            {"RT_MULTISAMPLE", f.multisample},
+            {"RT_MIE_TABLE", f.mieTable},
+            {"RT_MS_DIFFUSION", f.diffusion},
+            {"RT_MS_PHOTONS", f.photons},
+            {"RT_PHOTON_SKIN", f.photonSkin}};
 }
 
 namespace {
@@ -579,6 +586,39 @@ bool paramBlockLayout(std::vector<ParamMember>& members, std::size_t* blockSize,
 ParamDoc paramDoc(std::string_view n) {
     static const std::map<std::string_view, ParamDoc> docs = {
         {"camOrigin", {"camera position (xyz; w unused, 0)", "world units"}},
+        {"sigmaTr",
+         {"transport extinction per unit density, sigma_a + sigma_s (1 - g), RGB, density scale "
+          "folded in (w 0): the diffusion grid's P1 term",
+          "1/world unit"}},
+        {"diffusionLo",
+         {"lower corner of the diffusion grid's box (RT_MS_DIFFUSION; w 0)", "world units"}},
+        {"diffusionVoxel", {"the diffusion grid's voxel size (xyz; w 0)", "world units"}},
+        {"photonLo", {"lower corner of the photon grid's box (RT_MS_PHOTONS; w 0)", "world units"}},
+        {"photonVoxel", {"the photon grid's voxel size (xyz; w 0)", "world units"}},
+        {"skinLo",
+         {"lower corner of the light volume holding the density integral toward the sun, for the "
+          "photons' skin profile (RT_PHOTON_SKIN; w 0)",
+          "world units"}},
+        {"skinVoxel", {"that light volume's voxel size (xyz; w 0)", "world units"}},
+        {"mieNodes", {"nodes of the Lorenz-Mie table in mie_table.bin (RT_MIE_TABLE)", "count"}},
+        {"diffusionResX", {"diffusion grid voxels along x (diffusion.bin: x fastest)", "voxels"}},
+        {"diffusionResY", {"diffusion grid voxels along y", "voxels"}},
+        {"diffusionResZ", {"diffusion grid voxels along z", "voxels"}},
+        {"photonResX", {"photon grid voxels along x (photons.bin: x fastest)", "voxels"}},
+        {"photonResY", {"photon grid voxels along y", "voxels"}},
+        {"photonResZ", {"photon grid voxels along z", "voxels"}},
+        {"skinResX",
+         {"skin profile light volume voxels along x (skin_tau.bin: x fastest; 0: none)", "voxels"}},
+        {"skinResY", {"skin profile light volume voxels along y", "voxels"}},
+        {"skinResZ", {"skin profile light volume voxels along z", "voxels"}},
+        {"skinK",
+         {"the skin profile's extinction per unit density integral toward the sun",
+          "1/density integral"}},
+        {"skinFloor", {"the skin profile's lower bound", "1 (a factor)"}},
+        {"msP1",
+         {"render.ms_p1: weight of the diffusion's P1 (gradient) term in its radiance",
+          "1 (a factor)"}},
+        {"mediumG", {"the phase function's mean cosine g (the diffusion's P1 term)", "1 (cosine)"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -779,17 +819,69 @@ std::string bufferMeaning(std::string_view name) {
                "frame's first dispatch (the pass adds to it)";
     if (name == "RtCounters")
         return "one uint: samples that were NaN or infinite (left out); zero it before a frame";
+    if (name == "RtMieTable")
+        return "the Lorenz-Mie phase table: per node a vec4 (cos theta, R, G, B), cos theta "
+               "ascending, the phase function per steradian";
+    if (name == "RtDiffusionGrid")
+        return "the diffusion grid's fluence for this frame: 3 floats (R, G, B) per voxel, x "
+               "fastest, then y, then z; its box, resolution and voxel are in the parameter block";
+    if (name == "RtPhotonGrid")
+        return "the photon grid's in-scattered radiance for this frame: 3 floats (R, G, B) per "
+               "voxel, x fastest, then y, then z; box and resolution in the parameter block";
+    if (name == "RtSkinGrid")
+        return "the density integral toward the sun at the photon grid's voxel centres (1 float "
+               "per voxel, same order), for the photons' skin profile";
     return "";
+}
+
+/// The file a data buffer's bytes go to ("" for buffers the engine makes itself).
+const char* bufferFile(std::string_view name) {
+    if (name == "RtParamBlock") return kExportParamsFile;
+    if (name == "RtMieTable") return "mie_table.bin";
+    if (name == "RtDiffusionGrid") return "diffusion.bin";
+    if (name == "RtPhotonGrid") return "photons.bin";
+    if (name == "RtSkinGrid") return "skin_tau.bin";
+    return "";
+}
+
+template <class T> std::vector<std::uint8_t> bytesOf(const std::vector<T>& v) {
+    std::vector<std::uint8_t> b(v.size() * sizeof(T));
+    if (!b.empty()) std::memcpy(b.data(), v.data(), b.size());
+    return b;
 }
 
 } // namespace
 
 bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scenePath,
-                GlslExport& out, std::string* error) {
+                const MarchGrids* grids, GlslExport& out, std::string* error) {
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
         if (error) *error = no.front().message;
         return false;
+    }
+    {
+        const MarchFeatures f = marchFeatures(s, p);
+        if ((f.diffusion && !(grids && grids->hasDiffusion)) ||
+            (f.photons && !(grids && grids->hasPhotons)) ||
+            (f.photonSkin && !(grids && grids->photons.sunTau))) {
+            if (error)
+                *error = "the frame's multiple-scattering grid was not given to the export (build "
+                         "it with Renderer::marchGrids)";
+            return false;
+        }
+        // the data the shader reads besides the block: the same bytes MarchPass uploads
+        static_assert(sizeof(vec3) == 3 * sizeof(float));
+        out.data.clear();
+        if (f.mieTable)
+            out.data.emplace_back(
+                bufferFile("RtMieTable"),
+                bytesOf(mieTableNodes(*Medium::fromDesc(s.medium).phase.table())));
+        if (f.diffusion)
+            out.data.emplace_back(bufferFile("RtDiffusionGrid"), bytesOf(grids->diffusion.phi));
+        if (f.photons)
+            out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
+        if (f.photonSkin)
+            out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
     }
     // the shader nimbus rt compiles, the disabled features' code removed
     const MarchShader m = marchShader(s, p);
@@ -830,6 +922,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
         for (const kern::KernelSource& k : kern::kernelSources())
             say(std::to_string(i++) + "\x01" + std::string(k.path) + ","); // one word
         say(std::to_string(i) + "\x01plugin/realtime/march_params.glsl, " + std::to_string(i + 1) +
+            "\x01plugin/realtime/march_data.glsl, " + std::to_string(i + 2) +
             "\x01plugin/realtime/march_pass.glsl.");
         std::string line = "//";
         for (std::string w : words) {
@@ -849,7 +942,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
     std::vector<ParamMember> members;
     std::size_t blockSize = 0;
     if (!paramBlockLayout(members, &blockSize, error)) return false;
-    RtMarchParams P = marchParams(s, p);
+    RtMarchParams P = marchParams(s, p, grids);
     P.sampleIndex = 0;
     if (members.empty() || members.back().offset + members.back().size != sizeof P) {
         if (error)
@@ -897,10 +990,12 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
         if (b.name == "RtParamBlock") bytes = blockSize;
         if (b.name == "RtPixels") bytes = std::size_t(w) * std::size_t(h) * 12 * sizeof(float);
         if (b.name == "RtCounters") bytes = 4;
+        for (const auto& [file, data] : out.data)
+            if (file == bufferFile(b.name)) bytes = data.size();
         j << "    {\"binding\": " << b.binding << ", \"block\": " << jsonString(b.name)
           << ", \"layout\": \"std430\", \"access\": \"" << (b.readonly ? "readonly" : "read-write")
           << "\", \"bytes\": " << bytes;
-        if (b.name == "RtParamBlock") j << ", \"file\": " << jsonString(kExportParamsFile);
+        if (*bufferFile(b.name)) j << ", \"file\": " << jsonString(bufferFile(b.name));
         j << ", \"meaning\": " << jsonString(bufferMeaning(b.name)) << "}"
           << (i + 1 < buffers.size() ? "," : "") << "\n";
     }

@@ -35,7 +35,8 @@
 namespace nimbus::rt {
 
 /// The RT_* feature macros of `features` and their values (RT_SUN, RT_AMBIENT,
-/// RT_BACKGROUND_SKY, RT_MULTISAMPLE).
+/// RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
+/// RT_PHOTON_SKIN).
 std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& features);
 
 /// Preprocesses the conditionals on the given macros out of GLSL `text`: `#if`, `#ifdef`,
@@ -89,6 +90,10 @@ struct GlslExport {
     std::string shader;               ///< march.comp
     std::string json;                 ///< params.json
     std::vector<std::uint8_t> params; ///< params.bin: the block, std430, for the frame
+    /// The data buffers the shader reads, (file name, bytes): mie_table.bin (RT_MIE_TABLE),
+    /// diffusion.bin (RT_MS_DIFFUSION), photons.bin (RT_MS_PHOTONS), skin_tau.bin
+    /// (RT_PHOTON_SKIN); their bindings and layouts are in params.json's "buffers".
+    std::vector<std::pair<std::string, std::vector<std::uint8_t>>> data;
 };
 
 /// The names of the files in the output folder.
@@ -100,6 +105,11 @@ inline constexpr const char* kExportParamsFile = "params.bin";
 /// the frame is unsupported (the first unsupported() message; the caller checks and names every
 /// key first), or when the shader or the block cannot be processed.
 bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
-                GlslExport& out, std::string* error);
+                const MarchGrids* grids, GlslExport& out, std::string* error);
+/// The same for a frame without multiple-scattering grids.
+inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
+                       GlslExport& out, std::string* error) {
+    return exportGlsl(scene, plan, scenePath, nullptr, out, error);
+}
 
 } // namespace nimbus::rt

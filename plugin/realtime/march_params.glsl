@@ -25,6 +25,13 @@ struct RtMarchParams {
     vec4 skySphere;     // mean sky over the sphere times sky.ambient (skyMeans().sphere)
     vec4 baseOffset;    // cumulus: wind * time
     vec4 detailOffset;  // cumulus: (wind + detail wind) * time
+    vec4 sigmaTr;       // transport extinction per unit density (Medium::sigma_tr): diffusion
+    vec4 diffusionLo;   // the diffusion grid (RT_MS_DIFFUSION): its bounds' lower corner
+    vec4 diffusionVoxel; // ... and its voxel size
+    vec4 photonLo;      // the photon grid (RT_MS_PHOTONS): its bounds' lower corner
+    vec4 photonVoxel;   // ... and its voxel size
+    vec4 skinLo;        // the photons' skin profile: the density integral toward the sun
+    vec4 skinVoxel;     // (the light volume of core/lighting/light_volume.h), lo and voxel
 
     // the cumulus layer (CloudLayer, core/kernels/cloud.glsl)
     float layerBottom;
@@ -86,6 +93,23 @@ struct RtMarchParams {
     int filterKind;     // FILTER_* (core/kernels/pixel.glsl)
     float filterWidth;
     int sampleIndex;    // the pixel sample a pass adds (RT_MULTISAMPLE: one pass per sample)
+
+    // the Lorenz-Mie table (RT_MIE_TABLE): its node count (core/media/mie.h)
+    int mieNodes;
+    // the multiple-scattering grids: voxels per axis (x fastest in their buffers)
+    int diffusionResX;
+    int diffusionResY;
+    int diffusionResZ;
+    int photonResX;
+    int photonResY;
+    int photonResZ;
+    int skinResX;       // the skin profile's light volume: voxels per axis (0: flat voxels)
+    int skinResY;
+    int skinResZ;
+    float skinK;        // PhotonVolume::skinK: extinction per unit density integral
+    float skinFloor;    // PhotonVolume::skinFloor: the profile's lower bound
+    float msP1;         // render.ms_p1: the P1 term of the diffusion's radiance
+    float mediumG;      // Medium::g, the phase function's mean cosine (the diffusion's P1 term)
 };
 
 // Sky kinds (values = the SkyKind enum of core/scene.h).

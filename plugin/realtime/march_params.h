@@ -12,6 +12,7 @@
 
 #include "core/kernels/kernels.h"
 #include "core/plan.h"
+#include "core/render.h"
 #include "core/scene.h"
 
 namespace nimbus::kern {
@@ -25,13 +26,15 @@ using kern::RtMarchParams;
 // the layout rule of march_params.glsl: std430 puts the vec4s at multiples of 16 and packs the
 // scalars after them; so does C++ when the vec4s come first and are 16 bytes each
 static_assert(sizeof(glm::vec4) == 16);
-static_assert(offsetof(RtMarchParams, detailOffset) == 14 * 16);
-static_assert(offsetof(RtMarchParams, layerBottom) == 15 * 16);
+static_assert(offsetof(RtMarchParams, skinVoxel) == 21 * 16);
+static_assert(offsetof(RtMarchParams, layerBottom) == 22 * 16);
 static_assert(sizeof(RtMarchParams) % 4 == 0);
 
 /// The block for frame `plan` of `scene`: camera, field bounds, sun, medium (density scale
 /// folded in), sky, the cumulus layer at the plan's time, the phase function, the step
 /// schedules of the plan and the march settings. The scene's field must be a cumulus layer.
-RtMarchParams marchParams(const SceneDesc& scene, const FramePlan& plan);
+/// With `grids` (Renderer::marchGrids), the geometry of its diffusion and photon grids too.
+RtMarchParams marchParams(const SceneDesc& scene, const FramePlan& plan,
+                          const MarchGrids* grids = nullptr);
 
 } // namespace nimbus::rt

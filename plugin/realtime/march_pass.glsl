@@ -1,7 +1,9 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
-// RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE: only the features the scene uses are compiled
-// in), the embedded kernels (core/kernels/source.h), march_params.glsl, then this file.
+// RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
+// RT_PHOTON_SKIN: only the features the scene uses are compiled in), the embedded kernels
+// (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie
+// table and the multiple-scattering grids, and their lookups), then this file.
 //
 // It is the CPU `march` integrator (core/integrators/march.cpp, MarchContext::renderPixel and
 // traceRay) for the subset rt_march.h lists, written with the same kernels and in the same
@@ -9,15 +11,16 @@
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
 // cumulusDensity evaluated per sample, the sun's transmittance by a shadow march per sample,
-// phaseEval and the octaves (Wrenninge), inScatterFactor, the height-occluded sky ambient,
+// phaseEval (or the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge),
+// inScatterFactor, the multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION,
+// RT_MS_PHOTONS) added as MarchContext::traceRay adds them, the height-occluded sky ambient,
 // marchStep (Hillaire's energy-conserving step) and the early exit at transmittance < epsilon.
 // What it does not do: empty-space skipping (every step of the box is visited; the CPU's
 // majorant grid skips only samples of zero density, so the picture is the same), baked noise,
-// multiple-scattering grids, light volumes, surfaces.
+// light volumes, the column and single-scattered sky, surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(std430, binding = 0) readonly buffer RtParamBlock { RtMarchParams P; };
 // per pixel, row-major from the top-left: the sums of main() below
 layout(std430, binding = 1) buffer RtPixels { float pixels[]; };
 // samples that were NaN or infinite (left out, as on the CPU; the host counts pixels)
@@ -80,8 +83,6 @@ bool rtIntersectBox(vec3 o, vec3 d, vec3 lo, vec3 hi, float tmin, float tmax, ou
     return true;
 }
 
-vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
-
 float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
 float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 
@@ -128,7 +129,8 @@ struct RtSample {
     float depth;
 };
 
-// One camera ray (MarchContext::traceRay without surfaces or multiple-scattering grids).
+// One camera ray (MarchContext::traceRay without surfaces, light volumes or the column and
+// single-scattered sky).
 RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
                     float jitter) {
     vec3 sunDir = rtXyz(P.sunDirection);
@@ -141,6 +143,10 @@ RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pix
     bool depthSet = false;
     vec3 lo = rtXyz(P.boundsLo);
     vec3 hi = rtXyz(P.boundsHi);
+#if RT_MIE_TABLE
+    // the table at this ray's angle to the sun (PhaseFunction::eval of the table kind)
+    vec3 mie = rtMieEval(cosTheta);
+#endif
     float tIn, tOut;
     if (rtIntersectBox(o, d, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) {
         RtSchedule s = rtSchedule(P.step, P.stepGrowth);
@@ -166,9 +172,25 @@ RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pix
                     float weight = 1.0f;
                     float extinction = 1.0f;
                     PhaseParams octavePhase = phase;
-                    for (int i = 0; i < P.octaves; i++) {
-                        sun += octaveSun(vec3(phaseEval(octavePhase, cosTheta)), sigmaT, tau,
-                                         weight, extinction);
+#if RT_MIE_TABLE
+                    // PhaseFunction::octave of the table: w table + (1 - w) / 4 pi, w scaled by
+                    // the eccentricity per octave
+                    float tableWeight = 1.0f;
+#endif
+#if RT_MS_PHOTONS
+                    // traced photons carry every higher order: the octaves stand down
+                    int octaves = 1;
+#else
+                    int octaves = P.octaves;
+#endif
+                    for (int i = 0; i < octaves; i++) {
+#if RT_MIE_TABLE
+                        vec3 ph = tableWeight * mie + vec3((1.0f - tableWeight) * NB_INV_4PI);
+                        tableWeight *= P.octaveEccentricity;
+#else
+                        vec3 ph = vec3(phaseEval(octavePhase, cosTheta));
+#endif
+                        sun += octaveSun(ph, sigmaT, tau, weight, extinction);
                         weight *= P.octaveContribution;
                         extinction *= P.octaveExtinction;
                         octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
@@ -176,6 +198,22 @@ RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pix
                     S += rtXyz(P.sunIrradiance) * sun *
                          inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
                                          P.inScatterStrength);
+#if RT_MS_PHOTONS
+                    // the sun light scattered more than once (core/lighting/photons.h)
+                    S += rtPhotonSample(p);
+#endif
+#endif
+#if RT_MS_DIFFUSION
+                    // sun light scattered more than once and all sky light (diffusion.h): the P1
+                    // radiance scattered toward the camera by the phase function
+                    vec3 gradR, gradG, gradB;
+                    vec3 phi = rtDiffusionSample(p, gradR, gradG, gradB);
+                    vec3 sigmaTr = rtXyz(P.sigmaTr);
+                    vec3 ms = vec3(
+                        p1Radiance(phi.x, gradR, sigmaTr.x, rho, P.mediumG, P.msP1, -d),
+                        p1Radiance(phi.y, gradG, sigmaTr.y, rho, P.mediumG, P.msP1, -d),
+                        p1Radiance(phi.z, gradB, sigmaTr.z, rho, P.mediumG, P.msP1, -d));
+                    S += ms * NB_INV_4PI;
 #endif
 #if RT_AMBIENT
                     // the sky ambient, occluded by height (MarchContext::skyInScatter)

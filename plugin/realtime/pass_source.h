@@ -11,6 +11,9 @@ namespace nimbus::rt {
 
 /// plugin/realtime/march_params.glsl: the parameter block shared by C++ and GLSL.
 std::string_view march_paramsSource();
+/// plugin/realtime/march_data.glsl: the buffers of the pass (parameter block, Lorenz-Mie table,
+/// multiple-scattering grids) and their lookups.
+std::string_view march_dataSource();
 /// plugin/realtime/march_pass.glsl: the march pass (entry point main()).
 std::string_view march_passSource();
 

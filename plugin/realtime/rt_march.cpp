@@ -15,7 +15,9 @@
 #include "core/kernels/source.h"
 #include "core/media/medium.h"
 #include "core/media/phase.h"
+#include "core/media/mie.h"
 #include "core/media/sky.h"
+#include "core/render.h"
 #include "core/tracking/volumes.h"
 #include "plugin/realtime/march_params.h"
 #include "plugin/realtime/pass_source.h"
@@ -61,7 +63,6 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     auto no = [&](std::string key, std::string message) {
         out.push_back({std::move(key), std::move(message)});
     };
-    const RenderDesc& r = s.render;
     if (!p.refusal.empty()) no("render", "the frame plan refuses the frame: " + p.refusal);
     if (p.pathtrace)
         no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
@@ -83,11 +84,6 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     if (s.ground.enabled) no("ground.enabled", "ground.enabled = true: no surfaces on the GPU yet");
     if (!s.meshes.empty()) no("mesh", "[[mesh]] entries: no surfaces on the GPU yet");
     if (!s.solids.empty()) no("solid", "[[solid]] entries: no SDF solids on the GPU yet");
-    if (p.diffusion || p.photons)
-        no("render.multiple_scattering",
-           std::string("render.multiple_scattering = \"") + (p.photons ? "photons" : "grid") +
-               "\": the multiple-scattering grids are not uploaded to the GPU yet; use \"none\" "
-               "(octaves and the sky ambient)");
     if (p.lightVolume)
         no("render.shadow", "render.shadow = \"volume\": the light-attenuation volume is not "
                             "uploaded to the GPU yet; use \"march\"");
@@ -97,14 +93,10 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     if (p.columnVolumes)
         no("render.sky_occlusion", "render.sky_occlusion = \"column\": the column volumes are not "
                                    "uploaded to the GPU yet; use \"height\"");
-    if (s.medium.phase == PhaseKind::MieTable && p.scatters)
-        no("medium.phase", "medium.phase = \"mie_table\": the Lorenz-Mie table is not uploaded "
-                           "as a texture yet (no HG stand-in); use \"mie_approx\"");
     if (p.rebased)
         no("camera.position",
            "the field or the camera lies far from the origin and the CPU renders this frame "
            "translated (core/rebase.h); the GLSL pass does not rebase yet");
-    (void)r;
     return out;
 }
 
@@ -114,6 +106,11 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
     f.ambient = p.ambient && !p.diffusion && !p.skySingle;
     f.backgroundSky = s.render.background == Background::Sky;
     f.multisample = s.render.pixelSamples > 1;
+    // the table is read where the phase function is: the sun's octaves
+    f.mieTable = f.sun && s.medium.phase == PhaseKind::MieTable;
+    f.diffusion = p.diffusion;
+    f.photons = p.photons;
+    f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
     return f;
 }
 
@@ -123,17 +120,28 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_AMBIENT ") + (ambient ? "1" : "0") + "\n";
     d += std::string("#define RT_BACKGROUND_SKY ") + (backgroundSky ? "1" : "0") + "\n";
     d += std::string("#define RT_MULTISAMPLE ") + (multisample ? "1" : "0") + "\n";
+    d += std::string("#define RT_MIE_TABLE ") + (mieTable ? "1" : "0") + "\n";
+    d += std::string("#define RT_MS_DIFFUSION ") + (diffusion ? "1" : "0") + "\n";
+    d += std::string("#define RT_MS_PHOTONS ") + (photons ? "1" : "0") + "\n";
+    d += std::string("#define RT_PHOTON_SKIN ") + (photonSkin ? "1" : "0") + "\n";
     return d;
 }
 
-std::string marchShaderSource(const MarchFeatures& f) {
+std::string marchDataShaderSource(const MarchFeatures& f) {
     // source-string numbers in compiler messages: 1..K the kernels (core/kernels/source.h),
-    // K + 1 march_params.glsl, K + 2 march_pass.glsl
+    // K + 1 march_params.glsl, K + 2 march_data.glsl, K + 3 march_pass.glsl
     const std::size_t k = kern::kernelSources().size();
     std::string s = "#version 430\n" + f.defines() + kern::glslLibrary();
     s += "#line 1 " + std::to_string(k + 1) + "\n";
     s += march_paramsSource();
     s += "\n#line 1 " + std::to_string(k + 2) + "\n";
+    s += march_dataSource();
+    return s;
+}
+
+std::string marchShaderSource(const MarchFeatures& f) {
+    std::string s = marchDataShaderSource(f);
+    s += "\n#line 1 " + std::to_string(kern::kernelSources().size() + 3) + "\n";
     s += march_passSource();
     return s;
 }
@@ -145,7 +153,15 @@ MarchShader marchShader(const SceneDesc& s, const FramePlan& p) {
     return m;
 }
 
-RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p) {
+std::vector<glm::vec4> mieTableNodes(const MieTable& t) {
+    const std::vector<float>& cos = t.cosines();
+    std::vector<glm::vec4> nodes(cos.size());
+    for (std::size_t i = 0; i < cos.size(); ++i)
+        nodes[i] = glm::vec4(cos[i], t.values(0)[i], t.values(1)[i], t.values(2)[i]);
+    return nodes;
+}
+
+RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids) {
     RtMarchParams P{};
     const Camera cam(s.camera);
     P.camOrigin = v4(cam.origin);
@@ -191,7 +207,12 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p) {
     const Medium m = Medium::fromDesc(s.medium);
     P.sigmaS = v4(m.sigma_s);
     P.sigmaT = v4(m.sigma_t);
-    const kern::PhaseParams ph = phaseParams(s.medium);
+    P.sigmaTr = v4(m.sigma_tr);
+    P.mediumG = m.g;
+    P.msP1 = s.render.msP1;
+    const MieTable* table = m.phase.table();
+    P.mieNodes = table ? int(table->cosines().size()) : 0;
+    const kern::PhaseParams ph = phaseParams(s.medium, table);
     P.phaseKind = ph.kind;
     P.phaseG = ph.g;
     P.phaseG2 = ph.g2;
@@ -223,6 +244,31 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p) {
     P.pixelSamples = std::max(1, r.pixelSamples);
     P.filterKind = int(r.filter);
     P.filterWidth = r.filterWidth;
+    if (grids && grids->hasDiffusion) {
+        const DiffusionVolume& g = grids->diffusion;
+        P.diffusionLo = v4(g.bounds.lo);
+        P.diffusionVoxel = v4(g.voxel);
+        P.diffusionResX = g.res.x;
+        P.diffusionResY = g.res.y;
+        P.diffusionResZ = g.res.z;
+    }
+    if (grids && grids->hasPhotons) {
+        const PhotonVolume& g = grids->photons;
+        P.photonLo = v4(g.bounds.lo);
+        P.photonVoxel = v4(g.voxel);
+        P.photonResX = g.res.x;
+        P.photonResY = g.res.y;
+        P.photonResZ = g.res.z;
+        if (g.sunTau && g.skinK > 0.0f) {
+            P.skinLo = v4(g.sunTau->bounds.lo);
+            P.skinVoxel = v4(g.sunTau->voxel);
+            P.skinResX = g.sunTau->res.x;
+            P.skinResY = g.sunTau->res.y;
+            P.skinResZ = g.sunTau->res.z;
+            P.skinK = g.skinK;
+            P.skinFloor = g.skinFloor;
+        }
+    }
     return P;
 }
 
@@ -239,7 +285,7 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
         if (ch == '\n') ch = ';';
     o << "  GPU shader: #version 430, " << defs << " the kernels";
     for (const kern::KernelSource& k : kern::kernelSources()) o << " " << k.name;
-    o << ", plugin/realtime/march_params.glsl, march_pass.glsl\n";
+    o << ", plugin/realtime/march_params.glsl, march_data.glsl, march_pass.glsl\n";
     o << "  GPU field: cumulus, noise evaluated per sample ("
       << (p.bakeNoise ? "the CPU plan would bake it; the GPU does not" : "as the CPU plan")
       << "), noise octaves " << s.field.cumulus.baseOctaves << " (base) / "
@@ -248,10 +294,17 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
       << p.shadowStep << " (growth " << s.render.shadowGrowth
       << "); no empty-space skipping (every step in the field's box)\n";
     o << "  GPU lighting: " << (f.sun ? "sun by a shadow march per sample, " : "no sun, ")
-      << s.render.octaves << " octave(s), phase kind " << phaseParams(s.medium).kind
+      << (f.photons ? 1 : s.render.octaves) << " octave(s), phase kind "
+      << phaseParams(s.medium).kind << (f.mieTable ? " (the Lorenz-Mie table, a buffer)" : "")
       << (f.ambient ? ", sky ambient (height occlusion)" : ", no sky ambient")
       << (f.backgroundSky ? ", sky background" : ", transparent background")
-      << "; multiple-scattering grids: none\n";
+      << "; multiple-scattering grids: "
+      << (f.diffusion && f.photons ? "photons (sun) and diffusion (sky)"
+          : f.diffusion            ? "diffusion"
+          : f.photons              ? "photons"
+                                   : "none")
+      << (f.photonSkin ? ", the photons' skin profile" : "")
+      << (f.diffusion || f.photons ? " (computed on the CPU, read from buffers)" : "") << "\n";
     o << "  GPU pixels: " << s.render.pixelSamples << " sample(s) per pixel\n";
     return o.str();
 }
@@ -261,6 +314,11 @@ MarchPass::~MarchPass() = default;
 
 bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, MarchStats& stats,
                        std::string* error) {
+    return render(s, p, nullptr, fb, stats, error);
+}
+
+bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
+                       Framebuffer& fb, MarchStats& stats, std::string* error) {
     using Clock = std::chrono::steady_clock;
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
@@ -268,6 +326,14 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, 
         return false;
     }
     const MarchFeatures f = marchFeatures(s, p);
+    if ((f.diffusion && !(grids && grids->hasDiffusion)) ||
+        (f.photons && !(grids && grids->hasPhotons)) ||
+        (f.photonSkin && !(grids->photons.sunTau && grids->photons.skinK > 0.0f))) {
+        if (error)
+            *error = "the frame's multiple-scattering grid was not given to the GLSL pass (build "
+                     "it with Renderer::marchGrids)";
+        return false;
+    }
     std::unique_ptr<gl::ComputeProgram>& program = programs_[f.key()];
     stats.compileSeconds = 0.0;
     if (!program) {
@@ -285,12 +351,37 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, 
     fb.resize(w, h, p.aovs);
     gl::glErrors(); // drop stale errors
     const auto t0 = Clock::now();
-    RtMarchParams P = marchParams(s, p);
+    RtMarchParams P = marchParams(s, p, grids);
     const gl::StorageBuffer pixels(n * 12 * sizeof(float));
     const std::uint32_t zero = 0;
     const gl::StorageBuffer counters(sizeof zero, &zero);
     pixels.bind(1);
     counters.bind(2);
+    // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
+    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin;
+    if (f.mieTable) {
+        const Medium m = Medium::fromDesc(s.medium);
+        const std::vector<glm::vec4> nodes = mieTableNodes(*m.phase.table());
+        mie = std::make_unique<gl::StorageBuffer>(nodes.size() * sizeof(glm::vec4), nodes.data());
+        mie->bind(3);
+    }
+    // the multiple-scattering grids the CPU computed, RGB per voxel (vec3 is 3 packed floats)
+    static_assert(sizeof(vec3) == 3 * sizeof(float));
+    if (f.diffusion) {
+        const std::vector<vec3>& phi = grids->diffusion.phi;
+        diffusion = std::make_unique<gl::StorageBuffer>(phi.size() * sizeof(vec3), phi.data());
+        diffusion->bind(4);
+    }
+    if (f.photons) {
+        const std::vector<vec3>& L = grids->photons.radiance;
+        photons = std::make_unique<gl::StorageBuffer>(L.size() * sizeof(vec3), L.data());
+        photons->bind(5);
+    }
+    if (f.photonSkin) {
+        const std::vector<float>& tau = grids->photons.sunTau->tau;
+        skin = std::make_unique<gl::StorageBuffer>(tau.size() * sizeof(float), tau.data());
+        skin->bind(6);
+    }
     // one pass per pixel sample (march_pass.glsl, main)
     const int passes = f.multisample ? P.pixelSamples : 1;
     for (int k = 0; k < passes; ++k) {

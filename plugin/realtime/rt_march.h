@@ -5,17 +5,21 @@
 /// The shader is assembled at run time from text embedded at build time: `#version 430`, the
 /// frame's feature #defines (only the features the frame uses are compiled in: the sun's shadow
 /// marches, the sky ambient, the sky background, several samples per pixel), the kernels
-/// (core/kernels/source.h), plugin/realtime/march_params.glsl and march_pass.glsl.
+/// (core/kernels/source.h), plugin/realtime/march_params.glsl, march_data.glsl and
+/// march_pass.glsl.
 ///
 /// Supported (unsupported() names every key that leaves it): field.kind = "cumulus" with its noise
 /// evaluated per sample (not field.evaluation = "baked"), one untransformed volume, no surfaces
-/// or solids, render.integrator = "march", render.multiple_scattering = "none" (the diffusion
-/// and photon grids are not uploaded), render.shadow = "march", the sky as the height-occluded
-/// ambient (render.sky_scattering = "ambient", render.sky_occlusion = "height"), every analytic
-/// phase function (isotropic, hg, dual_hg, draine, mie_approx; not the Mie table), octaves,
-/// every in-scatter model, jitter, pixel samples and filters, background sky or transparent,
-/// the transmittance and depth AOVs. Empty space is not skipped: every step in the field's box
-/// is taken (the CPU's majorant grid skips only samples whose density is 0).
+/// or solids, render.integrator = "march", render.multiple_scattering = "none", "grid" (the
+/// diffusion grid) or "photons" (the photon grid, with its skin profile when render.photon_skin
+/// > 0, and the sky's diffusion grid), both grids computed on the CPU (Renderer::marchGrids) and
+/// read from shader storage buffers, render.shadow = "march", the sky as the height-occluded
+/// ambient (render.sky_scattering = "ambient", render.sky_occlusion = "height") when there is no
+/// diffusion grid, every phase function (isotropic, hg, dual_hg, draine, mie_approx, and the
+/// Lorenz-Mie table from a buffer), octaves, every in-scatter model, jitter, pixel samples and
+/// filters, background sky or transparent, the transmittance and depth AOVs. Empty space is not
+/// skipped: every step in the field's box is taken (the CPU's majorant grid skips only samples
+/// whose density is 0).
 ///
 /// @code
 ///   auto context = gl::ComputeContext::create(&error);
@@ -31,7 +35,9 @@
 #include <vector>
 
 #include "core/image.h"
+#include "core/media/mie.h"
 #include "core/plan.h"
+#include "core/render.h"
 #include "core/scene.h"
 #include "plugin/realtime/gl_compute.h"
 
@@ -53,6 +59,10 @@ struct MarchFeatures {
     bool ambient = false;       ///< RT_AMBIENT: the sky ambient, occluded by height
     bool backgroundSky = false; ///< RT_BACKGROUND_SKY: the sky behind the clouds
     bool multisample = false;   ///< RT_MULTISAMPLE: render.pixel_samples > 1, filtered
+    bool mieTable = false;      ///< RT_MIE_TABLE: the Lorenz-Mie table (with the sun only)
+    bool diffusion = false;     ///< RT_MS_DIFFUSION: the diffusion grid (sun and sky, or sky)
+    bool photons = false;       ///< RT_MS_PHOTONS: the photon grid (the sun's higher orders)
+    bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
 
     /// The #define lines.
     std::string defines() const;
@@ -65,6 +75,13 @@ MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan);
 
 /// The whole compute shader for `features`.
 std::string marchShaderSource(const MarchFeatures& features);
+/// Its first part, without the pass: #version, the #defines, the kernels, march_params.glsl and
+/// march_data.glsl (the buffers and their lookups). A test appends its own main() to compare
+/// the lookups with the CPU's.
+std::string marchDataShaderSource(const MarchFeatures& features);
+
+/// The Lorenz-Mie table as the shader reads it (binding 3): per node (cos theta, R, G, B).
+std::vector<glm::vec4> mieTableNodes(const MieTable& table);
 
 /// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
 struct MarchShader {
@@ -98,6 +115,12 @@ class MarchPass {
     /// does not compile (its info log) or GL fails.
     bool render(const SceneDesc& scene, const FramePlan& plan, Framebuffer& fb, MarchStats& stats,
                 std::string* error);
+    /// The same with the frame's march grids (Renderer::marchGrids), which a frame with
+    /// render.multiple_scattering = "grid" or "photons" needs: the pass uploads the diffusion
+    /// and photon grids the CPU computed and reads them as MarchContext does. False with *error
+    /// when the plan names a grid that `grids` lacks.
+    bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
+                Framebuffer& fb, MarchStats& stats, std::string* error);
 
   private:
     std::map<std::string, std::unique_ptr<gl::ComputeProgram>> programs_;
