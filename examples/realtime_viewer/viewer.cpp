@@ -228,8 +228,11 @@ bool parseFloats(const char* text, float* out, int n) {
 
 // --- input -------------------------------------------------------------------------------------
 
+// Taps (P, R, Esc) come from the key callback: at a few frames per second a press and its
+// release can both fall between two polls, which glfwGetKey would miss. Held keys are polled.
 struct Input {
     double scroll = 0.0;
+    bool screenshot = false, reset = false, quit = false;
     bool dragging = false;
     double lastX = 0.0, lastY = 0.0;
     std::string glfwError;
@@ -238,6 +241,13 @@ Input gInput;
 
 void onScroll(GLFWwindow*, double, double dy) {
     gInput.scroll += dy;
+}
+
+void onKey(GLFWwindow*, int key, int, int action, int) {
+    if (action != GLFW_PRESS) return;
+    if (key == GLFW_KEY_P) gInput.screenshot = true;
+    if (key == GLFW_KEY_R) gInput.reset = true;
+    if (key == GLFW_KEY_ESCAPE) gInput.quit = true;
 }
 
 } // namespace
@@ -362,6 +372,7 @@ int main(int argc, char** argv) {
     glfwMakeContextCurrent(window);
     glfwSwapInterval(0); // no vsync: the frame time is the renderer's
     glfwSetScrollCallback(window, onScroll);
+    glfwSetKeyCallback(window, onKey);
     std::printf("GL: %s; %s\n", reinterpret_cast<const char*>(glGetString(GL_RENDERER)),
                 reinterpret_cast<const char*>(glGetString(GL_VERSION)));
 
@@ -440,7 +451,7 @@ int main(int argc, char** argv) {
     double lastTime = glfwGetTime(), reportStart = lastTime, marchSeconds = 0.0;
     int reportFrames = 0, marchFrames = 0;
     std::vector<double> frameMs;
-    bool saveNow = false, pWasDown = false;
+    bool saveNow = false;
     int exitCode = 0;
     for (int frame = 0; frames == 0 || frame < frames; ++frame) {
         glfwPollEvents();
@@ -451,7 +462,7 @@ int main(int argc, char** argv) {
         // --- input (not in --frames runs: their camera is the export's, --move, --turn) ---
         if (frames == 0) {
             auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS; };
-            if (down(GLFW_KEY_ESCAPE)) break;
+            if (gInput.quit) break;
             if (gInput.scroll != 0.0) {
                 speed *= std::pow(2.0f, float(gInput.scroll));
                 gInput.scroll = 0.0;
@@ -460,12 +471,12 @@ int main(int argc, char** argv) {
             if (down(GLFW_KEY_MINUS) || down(GLFW_KEY_KP_SUBTRACT)) speed /= std::pow(2.0f, dt);
             if (down(GLFW_KEY_RIGHT_BRACKET)) exposure *= std::pow(2.0f, dt);
             if (down(GLFW_KEY_LEFT_BRACKET)) exposure /= std::pow(2.0f, dt);
-            if (down(GLFW_KEY_R)) {
+            if (gInput.reset) {
                 camera = exported;
                 cameraChanged = true;
             }
-            saveNow = down(GLFW_KEY_P) && !pWasDown;
-            pWasDown = down(GLFW_KEY_P);
+            saveNow = gInput.screenshot;
+            gInput.reset = gInput.screenshot = false;
             glm::vec3 d(0.0f);
             if (down(GLFW_KEY_W)) d.z += 1.0f;
             if (down(GLFW_KEY_S)) d.z -= 1.0f;
