@@ -11,7 +11,8 @@ usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR
 3. The camera edited through params.json's offsets: `--move 0,0,3` (3 km forward) and
    `--turn 20,5` (degrees) against `nimbus rt` with camera.position / camera.look_at set to the
    same view: >= 45 dB each; and the moved view against the unmoved reference must be far below
-   (< 30 dB), so the comparison can tell views apart.
+   (< 30 dB), so the comparison can tell views apart. Then a 4-pass export (4 pixel samples, no
+   sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB.
 4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
    and a message naming the file and the problem.
 Pixels are read from both files by oiiotool --dumpdata (OpenImageIO), not by this script.
@@ -135,6 +136,22 @@ for tag, viewer_args, sets in cases:
         q = psnr(image, reference)
         print(f"PSNR moved view against the unmoved reference: {q:.2f} dB")
         check(q < 30.0, f"the moved view differs from the unmoved one ({q:.2f} dB < 30)")
+
+# 3b. a multi-pass export (4 pixel samples: one dispatch per sample, sampleIndex at its offset),
+# no sun, transparent background, 64x36
+ms_sets = ["camera.width=64", "camera.height=36", "sun.enabled=false", "render.pixel_samples=4",
+           'render.background="transparent"']
+ms_export = os.path.join(SCRATCH, "export_4spp")
+args = [NIMBUS, "export-glsl", SCENE, "-o", ms_export, "--frame", "1"]
+for s in SETS + ms_sets:
+    args += ["--set", s]
+rc, out = run(args)
+check(rc == 0, "nimbus export-glsl (4 spp) exits 0: " + out.strip())
+image = view("4spp", ms_export, [])
+if image is not None:
+    p = psnr(image, rt_reference("rt_4spp", ms_sets))
+    print(f"PSNR 4 spp, no sun, transparent: {p:.2f} dB")
+    check(p >= 45.0, f"4 spp: PSNR {p:.2f} dB >= 45")
 
 # 4. bad export folders: exit 2 before any window, the file and the problem named
 def broken(tag, edit, expect):
