@@ -14,7 +14,8 @@ usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR
    (< 30 dB), so the comparison can tell views apart. Then a 4-pass export (4 pixel samples, no
    sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB.
 4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
-   and a message naming the file and the problem.
+   and a message naming the file and the problem; a march.comp that does not compile: exit 3 and
+   the compiler's log.
 Pixels are read from both files by oiiotool --dumpdata (OpenImageIO), not by this script.
 """
 import math
@@ -154,13 +155,13 @@ if image is not None:
     check(p >= 45.0, f"4 spp: PSNR {p:.2f} dB >= 45")
 
 # 4. bad export folders: exit 2 before any window, the file and the problem named
-def broken(tag, edit, expect):
+def broken(tag, edit, expect, want=2):
     d = os.path.join(SCRATCH, "bad_" + tag)
     shutil.copytree(export, d)
     edit(d)
     rc, out = xvfb([d, "--frames", "1"])
-    check(rc == 2 and re.search(expect, out) is not None,
-          f"bad export ({tag}): exit {rc} (want 2), output {out.strip()!r} matches {expect!r}")
+    check(rc == want and re.search(expect, out) is not None,
+          f"bad export ({tag}): exit {rc} (want {want}), output {out.strip()!r} matches {expect!r}")
 
 
 def rewrite(name, fn):
@@ -187,6 +188,9 @@ broken("no_camera", rewrite("params.json", lambda b: b.replace(b'"camForward"', 
        r'no vec4 member "camForward"')
 broken("short_bin", rewrite("params.bin", lambda b: b[:-8]),
        r"params\.bin: 440 bytes, parameter_block\.bytes says 448")
+# a shader the driver rejects: exit 3 (GL), with the compiler's log
+broken("bad_shader", rewrite("march.comp", lambda b: b + b"\nthis is not GLSL\n"),
+       r"march\.comp does not compile:\n.*(error|ERROR)", want=3)
 
 if failures:
     print(f"{len(failures)} check(s) failed")

@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -110,9 +111,9 @@ GLuint compile(GLenum kind, const std::string& source, const char* name, std::st
     glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
     glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
     if (!ok) {
-        std::string text(std::size_t(std::max(length, 1)), '\0');
-        glGetShaderInfoLog(shader, length, nullptr, text.data());
-        *log = std::string(name) + " does not compile:\n" + text;
+        std::string info(std::size_t(std::max(length, 1)), '\0');
+        glGetShaderInfoLog(shader, length, nullptr, info.data());
+        *log = std::string(name) + " does not compile:\n" + info;
         glDeleteShader(shader);
         return 0;
     }
@@ -131,9 +132,9 @@ GLuint link(std::initializer_list<GLuint> shaders, const char* name, std::string
     glGetProgramiv(program, GL_LINK_STATUS, &ok);
     if (!ok) {
         glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-        std::string text(std::size_t(std::max(length, 1)), '\0');
-        glGetProgramInfoLog(program, length, nullptr, text.data());
-        *log = std::string(name) + " does not link:\n" + text;
+        std::string info(std::size_t(std::max(length, 1)), '\0');
+        glGetProgramInfoLog(program, length, nullptr, info.data());
+        *log = std::string(name) + " does not link:\n" + info;
         glDeleteProgram(program);
         return 0;
     }
