@@ -565,7 +565,7 @@ int main(int argc, char** argv) {
         glDrawArrays(GL_TRIANGLES, 0, 3);
 
         // --- screenshots: --frames' last frame, or key P ---
-        if (saveNow || (frames > 0 && frame == frames - 1)) {
+        if (saveNow || (frames > 0 && frame == frames - 1 && !screenshots.empty())) {
             const std::vector<std::string> files =
                 screenshots.empty() ? std::vector<std::string>{"nimbus_viewer.pfm"} : screenshots;
             for (const std::string& file : files) {
@@ -601,12 +601,14 @@ int main(int argc, char** argv) {
         ++reportFrames;
         if (end - reportStart >= 1.0 || (frames > 0 && frame == frames - 1)) {
             const double ms = (end - reportStart) * 1e3 / reportFrames;
+            char march[64] = "march: no timer result yet";
+            if (marchFrames > 0) // (the timer is read one frame late)
+                std::snprintf(march, sizeof march, "march %.1f ms on the GPU",
+                              marchSeconds * 1e3 / marchFrames);
             char text[256];
             std::snprintf(text, sizeof text,
-                          "%.1f ms per frame (%.2f fps), march %.1f ms on the GPU, %dx%d, %d "
-                          "pass(es), speed %.3g/s",
-                          ms, 1e3 / ms, marchFrames ? marchSeconds * 1e3 / marchFrames : 0.0,
-                          ex.width, ex.height, ex.passes, speed);
+                          "%.1f ms per frame (%.2f fps), %s, %dx%d, %d pass(es), speed %.3g/s", ms,
+                          1e3 / ms, march, ex.width, ex.height, ex.passes, speed);
             std::printf("%s\n", text);
             std::fflush(stdout);
             glfwSetWindowTitle(window, (std::string("nimbus_viewer: ") + text).c_str());
