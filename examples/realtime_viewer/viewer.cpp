@@ -1,0 +1,632 @@
+/// @file viewer.cpp
+/// @brief nimbus_viewer: flies a camera through the clouds of a `nimbus export-glsl` folder.
+///
+/// Each frame: the camera members of the parameter block (found by name in params.json, written
+/// at the offsets it gives) are updated from the mouse and keys, the pass's work buffers are
+/// zeroed, march.comp is dispatched `dispatch.passes` times (sampleIndex = pass number), a
+/// fragment pass resolves the output buffer (RGBA = sums / sum w, the layout named by
+/// output.floats) into a float texture at the export's size, and a second fragment pass shows it
+/// in the window (ACEScg to sRGB, exposure). The frame time goes to the window title and to
+/// stdout once a second. See README.md for building, running and the controls.
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include <glm/glm.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+#include "export_folder.h"
+
+namespace {
+
+constexpr int kExitUsage = 2; // bad arguments or a bad export folder
+constexpr int kExitGl = 3;    // no window / GL 4.3 core context, a shader that does not compile
+
+const char* const kUsage =
+    "usage: nimbus_viewer EXPORT_DIR [--frames N] [--screenshot FILE.pfm|FILE.ppm]...\n"
+    "                     [--window WxH] [--move RIGHT,UP,FORWARD] [--turn YAW,PITCH]\n"
+    "  EXPORT_DIR     a folder written by `nimbus export-glsl scene.toml -o EXPORT_DIR`\n"
+    "  --frames N     render N frames, write the screenshots of the last one, exit\n"
+    "  --screenshot   .pfm: the resolved linear RGB at the export's size (working space);\n"
+    "                 .ppm: the window as shown (8-bit sRGB). Key P writes them too\n"
+    "  --window WxH   window size (default: the export's image, scaled up to >= 960 wide)\n"
+    "  --move R,U,F   move the camera before the first frame (world units: along its right,\n"
+    "                 the world's up, its forward), as the keys do\n"
+    "  --turn Y,P     turn the camera before the first frame (degrees: yaw left, pitch up)\n"
+    "controls: mouse drag (left button) look; W/S forward/back; A/D left/right; Q/E down/up;\n"
+    "  Shift x5 speed, Ctrl x0.2; +/- (or wheel) double/halve the speed; [/] exposure;\n"
+    "  R reset the camera; P screenshots; Esc quit\n";
+
+// --- the camera, edited in the parameter block at params.json's offsets ------------------------
+
+struct Camera {
+    glm::vec3 origin, forward, right, up;
+    float yaw = 0.0f, pitch = 0.0f; // radians, of forward: yaw about +y from +z, pitch up
+
+    /// Forward from the angles; right and up as core/camera.h makes them for world up +y.
+    void turnTo(float newYaw, float newPitch) {
+        yaw = newYaw;
+        pitch = std::clamp(newPitch, -1.55f, 1.55f);
+        forward = glm::vec3(std::cos(pitch) * std::sin(yaw), std::sin(pitch),
+                            std::cos(pitch) * std::cos(yaw));
+        right = glm::normalize(glm::cross(forward, glm::vec3(0.0f, 1.0f, 0.0f)));
+        up = glm::cross(right, forward);
+    }
+    /// Along the camera's right, the world's up and the camera's forward.
+    void move(const glm::vec3& d) {
+        origin += d.x * right + d.y * glm::vec3(0.0f, 1.0f, 0.0f) + d.z * forward;
+    }
+};
+
+struct CameraMembers {
+    const viewer::Member *origin, *forward, *right, *up;
+};
+
+glm::vec3 getVec3(const std::vector<std::uint8_t>& block, const viewer::Member& m) {
+    float f[3];
+    std::memcpy(f, block.data() + m.offset, sizeof f);
+    return {f[0], f[1], f[2]};
+}
+
+void putVec3(std::vector<std::uint8_t>& block, const viewer::Member& m, const glm::vec3& v) {
+    const float f[3] = {v.x, v.y, v.z}; // w (unused by the pass) stays as exported
+    std::memcpy(block.data() + m.offset, f, sizeof f);
+}
+
+Camera readCamera(const std::vector<std::uint8_t>& block, const CameraMembers& cm) {
+    Camera c;
+    c.origin = getVec3(block, *cm.origin);
+    c.forward = getVec3(block, *cm.forward);
+    c.right = getVec3(block, *cm.right);
+    c.up = getVec3(block, *cm.up);
+    c.yaw = std::atan2(c.forward.x, c.forward.z);
+    c.pitch = std::asin(std::clamp(c.forward.y, -1.0f, 1.0f));
+    return c;
+}
+
+void writeCamera(std::vector<std::uint8_t>& block, const CameraMembers& cm, const Camera& c) {
+    putVec3(block, *cm.origin, c.origin);
+    putVec3(block, *cm.forward, c.forward);
+    putVec3(block, *cm.right, c.right);
+    putVec3(block, *cm.up, c.up);
+}
+
+// --- GL helpers --------------------------------------------------------------------------------
+
+GLuint compile(GLenum kind, const std::string& source, const char* name, std::string* log) {
+    const GLuint shader = glCreateShader(kind);
+    const char* text = source.c_str();
+    glShaderSource(shader, 1, &text, nullptr);
+    glCompileShader(shader);
+    GLint ok = 0, length = 0;
+    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+    if (!ok) {
+        std::string info(std::size_t(std::max(length, 1)), '\0');
+        glGetShaderInfoLog(shader, length, nullptr, info.data());
+        *log = std::string(name) + " does not compile:\n" + info;
+        glDeleteShader(shader);
+        return 0;
+    }
+    return shader;
+}
+
+/// Links the shaders (0 = missing: the compile failed); 0 with *log on failure.
+GLuint link(std::initializer_list<GLuint> shaders, const char* name, std::string* log) {
+    for (GLuint s : shaders)
+        if (!s) return 0;
+    const GLuint program = glCreateProgram();
+    for (GLuint s : shaders) glAttachShader(program, s);
+    glLinkProgram(program);
+    for (GLuint s : shaders) glDeleteShader(s);
+    GLint ok = 0, length = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
+        std::string info(std::size_t(std::max(length, 1)), '\0');
+        glGetProgramInfoLog(program, length, nullptr, info.data());
+        *log = std::string(name) + " does not link:\n" + info;
+        glDeleteProgram(program);
+        return 0;
+    }
+    return program;
+}
+
+const char* const kFullscreenVertex = R"(#version 430
+out vec2 uv;
+void main() { // one triangle over the viewport
+    vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
+    uv = 0.5 * p + 0.5;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+)";
+
+// The export's resolve (params.json output.resolve), per pixel of the export's image; row 0 of
+// the output buffer is the top of the image, row 0 of the texture its bottom.
+const char* const kResolveFragment = R"(#version 430
+layout(std430) readonly buffer Pixels { float sums[]; };
+uniform int width;
+uniform int height;
+uniform int stride;       // output.floats_per_pixel
+uniform ivec4 rgbaIndex;  // of "sum w*R", "sum w*G", "sum w*B", "sum w*alpha"
+uniform int weightIndex;  // of "sum w"
+out vec4 color;
+void main() {
+    int x = int(gl_FragCoord.x), y = height - 1 - int(gl_FragCoord.y);
+    int i = stride * (y * width + x);
+    float w = sums[i + weightIndex];
+    vec4 s = vec4(sums[i + rgbaIndex.x], sums[i + rgbaIndex.y], sums[i + rgbaIndex.z],
+                  sums[i + rgbaIndex.w]);
+    color = w > 0.0 ? s / w : vec4(0.0);
+}
+)";
+
+// Premultiplied RGBA over black, ACEScg (the working space unless $OCIO changed it) to linear
+// Rec.709 (the usual AP1-to-sRGB matrix, Bradford D60 to D65), times the exposure, sRGB-encoded.
+// A preview, not nimbus rt's OpenColorIO output transform.
+const char* const kDisplayFragment = R"(#version 430
+in vec2 uv;
+uniform sampler2D image;
+uniform float exposure;
+out vec4 color;
+const mat3 kAp1ToRec709 = mat3( 1.70505, -0.62179, -0.08326,   // rows, applied as v * M
+                               -0.13026,  1.14080, -0.01055,
+                               -0.02400, -0.12897,  1.15297);
+void main() {
+    vec3 c = clamp((texture(image, uv).rgb * kAp1ToRec709) * exposure, 0.0, 1.0);
+    vec3 srgb = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+    color = vec4(srgb, 1.0);
+}
+)";
+
+bool writePfm(const std::string& path, int w, int h, const std::vector<float>& rgbaBottomUp) {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) return false;
+    std::fprintf(f, "PF\n%d %d\n-1.0\n", w, h); // little-endian, rows bottom to top
+    std::vector<float> rgb(std::size_t(w) * std::size_t(h) * 3);
+    for (std::size_t i = 0; i < rgb.size() / 3; ++i)
+        for (int c = 0; c < 3; ++c)
+            rgb[3 * i + std::size_t(c)] = rgbaBottomUp[4 * i + std::size_t(c)];
+    const bool ok = std::fwrite(rgb.data(), sizeof(float), rgb.size(), f) == rgb.size();
+    return std::fclose(f) == 0 && ok;
+}
+
+bool writePpm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& rgbBottomUp) {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) return false;
+    std::fprintf(f, "P6\n%d %d\n255\n", w, h);
+    bool ok = true;
+    for (int y = h - 1; y >= 0; --y) // PPM rows top to bottom
+        ok = ok && std::fwrite(&rgbBottomUp[std::size_t(y) * std::size_t(w) * 3], 1,
+                               std::size_t(w) * 3, f) == std::size_t(w) * 3;
+    return std::fclose(f) == 0 && ok;
+}
+
+bool endsWith(const std::string& s, const char* suffix) {
+    const std::size_t n = std::strlen(suffix);
+    return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+}
+
+bool parseFloats(const char* text, float* out, int n) {
+    char* end = nullptr;
+    for (int k = 0; k < n; ++k) {
+        out[k] = std::strtof(text, &end);
+        if (end == text || !std::isfinite(out[k])) return false;
+        text = end;
+        if (k + 1 < n && *text++ != ',') return false;
+    }
+    return *end == '\0';
+}
+
+// --- input -------------------------------------------------------------------------------------
+
+// Taps (P, R, Esc) come from the key callback: at a few frames per second a press and its
+// release can both fall between two polls, which glfwGetKey would miss. Held keys are polled.
+struct Input {
+    double scroll = 0.0;
+    bool screenshot = false, reset = false, quit = false;
+    bool dragging = false;
+    double lastX = 0.0, lastY = 0.0;
+    std::string glfwError;
+};
+Input gInput;
+
+void onScroll(GLFWwindow*, double, double dy) {
+    gInput.scroll += dy;
+}
+
+void onKey(GLFWwindow*, int key, int, int action, int) {
+    if (action != GLFW_PRESS) return;
+    if (key == GLFW_KEY_P) gInput.screenshot = true;
+    if (key == GLFW_KEY_R) gInput.reset = true;
+    if (key == GLFW_KEY_ESCAPE) gInput.quit = true;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    std::string dir;
+    int frames = 0;
+    std::vector<std::string> screenshots;
+    int windowW = 0, windowH = 0;
+    float move[3] = {0.0f, 0.0f, 0.0f}, turn[2] = {0.0f, 0.0f};
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        const bool hasValue = i + 1 < argc;
+        if (a == "-h" || a == "--help") {
+            std::fputs(kUsage, stdout);
+            return 0;
+        } else if (a == "--frames" && hasValue) {
+            frames = std::atoi(argv[++i]);
+            if (frames < 1) {
+                std::fprintf(stderr, "nimbus_viewer: --frames wants a count >= 1\n");
+                return kExitUsage;
+            }
+        } else if (a == "--screenshot" && hasValue) {
+            screenshots.push_back(argv[++i]);
+            if (!endsWith(screenshots.back(), ".pfm") && !endsWith(screenshots.back(), ".ppm")) {
+                std::fprintf(stderr, "nimbus_viewer: --screenshot wants a .pfm or .ppm file\n");
+                return kExitUsage;
+            }
+        } else if (a == "--window" && hasValue) {
+            if (std::sscanf(argv[++i], "%dx%d", &windowW, &windowH) != 2 || windowW < 1 ||
+                windowH < 1) {
+                std::fprintf(stderr, "nimbus_viewer: --window wants WxH, e.g. 1280x720\n");
+                return kExitUsage;
+            }
+        } else if (a == "--move" && hasValue) {
+            if (!parseFloats(argv[++i], move, 3)) {
+                std::fprintf(stderr, "nimbus_viewer: --move wants RIGHT,UP,FORWARD\n");
+                return kExitUsage;
+            }
+        } else if (a == "--turn" && hasValue) {
+            if (!parseFloats(argv[++i], turn, 2)) {
+                std::fprintf(stderr, "nimbus_viewer: --turn wants YAW,PITCH in degrees\n");
+                return kExitUsage;
+            }
+        } else if (a[0] != '-' && dir.empty()) {
+            dir = a;
+        } else {
+            std::fprintf(stderr, "nimbus_viewer: unknown or incomplete argument %s\n%s", a.c_str(),
+                         kUsage);
+            return kExitUsage;
+        }
+    }
+    if (dir.empty()) {
+        std::fputs(kUsage, stderr);
+        return kExitUsage;
+    }
+
+    // --- the export, before any window ---
+    viewer::ExportFolder ex;
+    std::string error;
+    if (!viewer::loadExport(dir, ex, &error)) {
+        std::fprintf(stderr, "nimbus_viewer: %s\n", error.c_str());
+        return kExitUsage;
+    }
+    CameraMembers cm{viewer::findMember(ex, "camOrigin", "vec4", &error),
+                     viewer::findMember(ex, "camForward", "vec4", &error),
+                     viewer::findMember(ex, "camRight", "vec4", &error),
+                     viewer::findMember(ex, "camUp", "vec4", &error)};
+    const viewer::Member* sampleIndex =
+        ex.passes > 1 ? viewer::findMember(ex, "sampleIndex", "int", &error) : nullptr;
+    if (!cm.origin || !cm.forward || !cm.right || !cm.up || (ex.passes > 1 && !sampleIndex)) {
+        std::fprintf(stderr, "nimbus_viewer: %s/%s\n", dir.c_str(), error.c_str());
+        return kExitUsage;
+    }
+    const Camera exported = readCamera(ex.params, cm);
+    Camera camera = exported;
+    bool cameraChanged = false;
+    if (turn[0] != 0.0f || turn[1] != 0.0f) {
+        camera.turnTo(camera.yaw + glm::radians(turn[0]), camera.pitch + glm::radians(turn[1]));
+        cameraChanged = true;
+    }
+    if (move[0] != 0.0f || move[1] != 0.0f || move[2] != 0.0f) {
+        camera.move(glm::vec3(move[0], move[1], move[2]));
+        cameraChanged = true;
+    }
+    // speed: a twentieth of the field's box per second when the block has it, else 1 unit/s
+    float speed = 1.0f;
+    {
+        std::string unused;
+        const viewer::Member* lo = viewer::findMember(ex, "boundsLo", "vec4", &unused);
+        const viewer::Member* hi = viewer::findMember(ex, "boundsHi", "vec4", &unused);
+        if (lo && hi) {
+            const float size = glm::length(getVec3(ex.params, *hi) - getVec3(ex.params, *lo));
+            if (std::isfinite(size) && size > 0.0f) speed = size / 20.0f;
+        }
+    }
+
+    // --- window and GL 4.3 core context ---
+    glfwSetErrorCallback([](int code, const char* text) {
+        gInput.glfwError = "GLFW error " + std::to_string(code) + ": " + text;
+    });
+    if (!glfwInit()) {
+        std::fprintf(stderr, "nimbus_viewer: cannot start GLFW: %s\n", gInput.glfwError.c_str());
+        return kExitGl;
+    }
+    if (windowW == 0) {
+        const int scale = std::max(1, 960 / ex.width);
+        windowW = ex.width * scale;
+        windowH = ex.height * scale;
+    }
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    GLFWwindow* window = glfwCreateWindow(windowW, windowH, "nimbus_viewer", nullptr, nullptr);
+    if (!window) {
+        std::fprintf(stderr, "nimbus_viewer: no window with an OpenGL 4.3 core context: %s\n",
+                     gInput.glfwError.c_str());
+        glfwTerminate();
+        return kExitGl;
+    }
+    glfwMakeContextCurrent(window);
+    glfwSwapInterval(0); // no vsync: the frame time is the renderer's
+    glfwSetScrollCallback(window, onScroll);
+    glfwSetKeyCallback(window, onKey);
+    std::printf("GL: %s; %s\n", reinterpret_cast<const char*>(glGetString(GL_RENDERER)),
+                reinterpret_cast<const char*>(glGetString(GL_VERSION)));
+
+    std::string log;
+    const GLuint march =
+        link({compile(GL_COMPUTE_SHADER, ex.shader, "march.comp", &log)}, "march.comp", &log);
+    const GLuint resolve =
+        link({compile(GL_VERTEX_SHADER, kFullscreenVertex, "the fullscreen vertex shader", &log),
+              compile(GL_FRAGMENT_SHADER, kResolveFragment, "the resolve shader", &log)},
+             "the resolve program", &log);
+    const GLuint display =
+        link({compile(GL_VERTEX_SHADER, kFullscreenVertex, "the fullscreen vertex shader", &log),
+              compile(GL_FRAGMENT_SHADER, kDisplayFragment, "the display shader", &log)},
+             "the display program", &log);
+    if (!march || !resolve || !display) {
+        std::fprintf(stderr, "nimbus_viewer: %s\n", log.c_str());
+        glfwTerminate();
+        return kExitGl;
+    }
+
+    // --- buffers: the parameter block and the work buffers of params.json ---
+    GLuint paramBuffer = 0;
+    glGenBuffers(1, &paramBuffer);
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, paramBuffer);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, GLsizeiptr(ex.params.size()), ex.params.data(),
+                 GL_DYNAMIC_DRAW);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, ex.paramBinding, paramBuffer);
+    std::vector<GLuint> work(ex.buffers.size());
+    glGenBuffers(GLsizei(work.size()), work.data());
+    for (std::size_t k = 0; k < work.size(); ++k) {
+        glBindBuffer(GL_SHADER_STORAGE_BUFFER, work[k]);
+        const bool data = !ex.buffers[k].data.empty(); // a data buffer: its file, once
+        glBufferData(GL_SHADER_STORAGE_BUFFER, GLsizeiptr(ex.buffers[k].bytes),
+                     data ? ex.buffers[k].data.data() : nullptr,
+                     data ? GL_STATIC_DRAW : GL_DYNAMIC_COPY);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, ex.buffers[k].binding, work[k]);
+    }
+    // the resolve pass reads the output buffer at output.buffer_binding
+    glShaderStorageBlockBinding(
+        resolve, glGetProgramResourceIndex(resolve, GL_SHADER_STORAGE_BLOCK, "Pixels"),
+        ex.outputBinding);
+    glUseProgram(resolve);
+    glUniform1i(glGetUniformLocation(resolve, "width"), ex.width);
+    glUniform1i(glGetUniformLocation(resolve, "height"), ex.height);
+    glUniform1i(glGetUniformLocation(resolve, "stride"), ex.floatsPerPixel);
+    glUniform4i(glGetUniformLocation(resolve, "rgbaIndex"), ex.rgbaIndex[0], ex.rgbaIndex[1],
+                ex.rgbaIndex[2], ex.rgbaIndex[3]);
+    glUniform1i(glGetUniformLocation(resolve, "weightIndex"), ex.weightIndex);
+
+    // the resolved image: RGBA32F at the export's size
+    GLuint image = 0, framebuffer = 0, vao = 0, timer = 0;
+    glGenTextures(1, &image);
+    glBindTexture(GL_TEXTURE_2D, image);
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, ex.width, ex.height);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glGenFramebuffers(1, &framebuffer);
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, image, 0);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+        std::fprintf(stderr, "nimbus_viewer: an RGBA32F framebuffer is not complete\n");
+        glfwTerminate();
+        return kExitGl;
+    }
+    glGenVertexArrays(1, &vao);
+    glBindVertexArray(vao);
+    glGenQueries(1, &timer);
+    if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
+        std::fprintf(stderr, "nimbus_viewer: GL error 0x%04X while setting up\n", e);
+        glfwTerminate();
+        return kExitGl;
+    }
+
+    float exposure = 1.0f;
+    bool timerPending = false;
+    double lastTime = glfwGetTime(), reportStart = lastTime, marchSeconds = 0.0;
+    int reportFrames = 0, marchFrames = 0;
+    std::vector<double> frameMs;
+    bool saveNow = false;
+    int exitCode = 0;
+    for (int frame = 0; frames == 0 || frame < frames; ++frame) {
+        glfwPollEvents();
+        if (glfwWindowShouldClose(window)) break;
+        const double now = glfwGetTime();
+        const float dt = float(now - lastTime);
+
+        // --- input (not in --frames runs: their camera is the export's, --move, --turn) ---
+        if (frames == 0) {
+            auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS; };
+            if (gInput.quit) break;
+            if (gInput.scroll != 0.0) {
+                speed *= std::pow(2.0f, float(gInput.scroll));
+                gInput.scroll = 0.0;
+            }
+            if (down(GLFW_KEY_EQUAL) || down(GLFW_KEY_KP_ADD)) speed *= std::pow(2.0f, dt);
+            if (down(GLFW_KEY_MINUS) || down(GLFW_KEY_KP_SUBTRACT)) speed /= std::pow(2.0f, dt);
+            if (down(GLFW_KEY_RIGHT_BRACKET)) exposure *= std::pow(2.0f, dt);
+            if (down(GLFW_KEY_LEFT_BRACKET)) exposure /= std::pow(2.0f, dt);
+            if (gInput.reset) {
+                camera = exported;
+                cameraChanged = true;
+            }
+            saveNow = gInput.screenshot;
+            gInput.reset = gInput.screenshot = false;
+            glm::vec3 d(0.0f);
+            if (down(GLFW_KEY_W)) d.z += 1.0f;
+            if (down(GLFW_KEY_S)) d.z -= 1.0f;
+            if (down(GLFW_KEY_D)) d.x += 1.0f;
+            if (down(GLFW_KEY_A)) d.x -= 1.0f;
+            if (down(GLFW_KEY_E)) d.y += 1.0f;
+            if (down(GLFW_KEY_Q)) d.y -= 1.0f;
+            if (d != glm::vec3(0.0f)) {
+                float s = speed * dt;
+                if (down(GLFW_KEY_LEFT_SHIFT) || down(GLFW_KEY_RIGHT_SHIFT)) s *= 5.0f;
+                if (down(GLFW_KEY_LEFT_CONTROL) || down(GLFW_KEY_RIGHT_CONTROL)) s *= 0.2f;
+                camera.move(d * s);
+                cameraChanged = true;
+            }
+            double mx = 0.0, my = 0.0;
+            glfwGetCursorPos(window, &mx, &my);
+            const bool button = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+            if (button && gInput.dragging && (mx != gInput.lastX || my != gInput.lastY)) {
+                const float radiansPerPixel = 0.004f;
+                camera.turnTo(camera.yaw - float(mx - gInput.lastX) * radiansPerPixel,
+                              camera.pitch - float(my - gInput.lastY) * radiansPerPixel);
+                cameraChanged = true;
+            }
+            gInput.dragging = button;
+            gInput.lastX = mx;
+            gInput.lastY = my;
+        }
+        if (cameraChanged) {
+            writeCamera(ex.params, cm, camera);
+            glBindBuffer(GL_SHADER_STORAGE_BUFFER, paramBuffer);
+            glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(ex.params.size()),
+                            ex.params.data());
+            cameraChanged = false;
+        }
+
+        // --- the march: work buffers zeroed, one dispatch per pass ---
+        if (timerPending) {
+            GLuint64 ns = 0;
+            glGetQueryObjectui64v(timer, GL_QUERY_RESULT, &ns);
+            marchSeconds += double(ns) * 1e-9;
+            ++marchFrames;
+        }
+        glBeginQuery(GL_TIME_ELAPSED, timer);
+        for (std::size_t k = 0; k < work.size(); ++k) {
+            if (!ex.buffers[k].data.empty()) continue; // data the pass reads
+            glBindBuffer(GL_SHADER_STORAGE_BUFFER, work[k]);
+            glClearBufferData(GL_SHADER_STORAGE_BUFFER, GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT,
+                              nullptr);
+        }
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        glUseProgram(march);
+        for (int pass = 0; pass < ex.passes; ++pass) {
+            if (sampleIndex) {
+                const std::int32_t k = pass;
+                std::memcpy(ex.params.data() + sampleIndex->offset, &k, sizeof k);
+                glBindBuffer(GL_SHADER_STORAGE_BUFFER, paramBuffer);
+                glBufferSubData(GL_SHADER_STORAGE_BUFFER, GLintptr(sampleIndex->offset), sizeof k,
+                                &k);
+            }
+            glDispatchCompute(ex.groups[0], ex.groups[1], ex.groups[2]);
+            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        }
+        glEndQuery(GL_TIME_ELAPSED);
+        timerPending = true;
+
+        // --- resolve into the float image, then show it letterboxed ---
+        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        glViewport(0, 0, ex.width, ex.height);
+        glUseProgram(resolve);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        int fbW = 0, fbH = 0;
+        glfwGetFramebufferSize(window, &fbW, &fbH);
+        glClearColor(0.1f, 0.1f, 0.1f, 1.0f);
+        glClear(GL_COLOR_BUFFER_BIT);
+        const double aspect = double(ex.width) / double(ex.height);
+        int vw = fbW, vh = int(std::lround(fbW / aspect));
+        if (vh > fbH) {
+            vh = fbH;
+            vw = int(std::lround(fbH * aspect));
+        }
+        glViewport((fbW - vw) / 2, (fbH - vh) / 2, vw, vh);
+        glUseProgram(display);
+        glUniform1f(glGetUniformLocation(display, "exposure"), exposure);
+        glBindTexture(GL_TEXTURE_2D, image);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+
+        // --- screenshots: --frames' last frame, or key P ---
+        if (saveNow || (frames > 0 && frame == frames - 1 && !screenshots.empty())) {
+            const std::vector<std::string> files =
+                screenshots.empty() ? std::vector<std::string>{"nimbus_viewer.pfm"} : screenshots;
+            for (const std::string& file : files) {
+                bool ok = false;
+                if (endsWith(file, ".pfm")) {
+                    std::vector<float> rgba(std::size_t(ex.width) * std::size_t(ex.height) * 4);
+                    glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer);
+                    glReadPixels(0, 0, ex.width, ex.height, GL_RGBA, GL_FLOAT, rgba.data());
+                    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+                    ok = writePfm(file, ex.width, ex.height, rgba);
+                } else {
+                    std::vector<std::uint8_t> rgb(std::size_t(fbW) * std::size_t(fbH) * 3);
+                    glReadBuffer(GL_BACK);
+                    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+                    glReadPixels(0, 0, fbW, fbH, GL_RGB, GL_UNSIGNED_BYTE, rgb.data());
+                    ok = writePpm(file, fbW, fbH, rgb);
+                }
+                std::printf("%s %s\n", ok ? "wrote" : "could not write", file.c_str());
+                if (!ok) exitCode = kExitUsage;
+            }
+        }
+        glfwSwapBuffers(window);
+        if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
+            std::fprintf(stderr, "nimbus_viewer: GL error 0x%04X in frame %d\n", e, frame + 1);
+            exitCode = kExitGl;
+            break;
+        }
+
+        // --- frame time: the title and stdout once a second ---
+        const double end = glfwGetTime();
+        frameMs.push_back((end - lastTime) * 1e3);
+        lastTime = end;
+        ++reportFrames;
+        if (end - reportStart >= 1.0 || (frames > 0 && frame == frames - 1)) {
+            const double ms = (end - reportStart) * 1e3 / reportFrames;
+            char march[64] = "march: no timer result yet";
+            if (marchFrames > 0) // (the timer is read one frame late)
+                std::snprintf(march, sizeof march, "march %.1f ms on the GPU",
+                              marchSeconds * 1e3 / marchFrames);
+            char text[256];
+            std::snprintf(text, sizeof text,
+                          "%.1f ms per frame (%.2f fps), %s, %dx%d, %d pass(es), speed %.3g/s", ms,
+                          1e3 / ms, march, ex.width, ex.height, ex.passes, speed);
+            std::printf("%s\n", text);
+            std::fflush(stdout);
+            glfwSetWindowTitle(window, (std::string("nimbus_viewer: ") + text).c_str());
+            reportStart = end;
+            reportFrames = 0;
+            marchSeconds = 0.0;
+            marchFrames = 0;
+        }
+    }
+    if (frames > 0) {
+        std::printf("frame times (ms):");
+        for (double ms : frameMs) std::printf(" %.1f", ms);
+        std::printf("\n");
+    }
+    glfwDestroyWindow(window);
+    glfwTerminate();
+    return exitCode;
+}

@@ -1,0 +1,220 @@
+#!/usr/bin/python3
+"""Smoke test of examples/realtime_viewer (nimbus_viewer) under Xvfb.
+
+usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR
+
+1. `nimbus export-glsl` of the default scene at 160x90 (render.multiple_scattering = "none",
+   frame 1), then `nimbus_viewer --frames 3 --screenshot view.pfm` on it under xvfb-run (GLX on
+   Mesa llvmpipe): the resolved linear RGB of the displayed frame.
+2. The same view from `nimbus rt` (the headless EGL renderer, EXR in ACEScg = the working space):
+   PSNR over RGB (peak: the reference's largest value) must be >= 45 dB.
+3. The camera edited through params.json's offsets: `--move 0,0,3` (3 km forward) and
+   `--turn 20,5` (degrees) against `nimbus rt` with camera.position / camera.look_at set to the
+   same view: >= 45 dB each; and the moved view against the unmoved reference must be far below
+   (< 30 dB), so the comparison can tell views apart. Then a 4-pass export (4 pixel samples, no
+   sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB.
+4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
+   and a message naming the file and the problem; a march.comp that does not compile: exit 3 and
+   the compiler's log.
+Pixels are read from both files by oiiotool --dumpdata (OpenImageIO), not by this script.
+"""
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+NIMBUS, VIEWER, XVFB_RUN, SCENE, SCRATCH = sys.argv[1:6]
+SIZE = ["camera.width=160", "camera.height=90"]
+SETS = ['render.multiple_scattering="none"', 'output.preview=""'] + SIZE
+ENV = {k: v for k, v in os.environ.items() if k != "OCIO"}  # the working space is ACEScg
+failures = []
+
+
+def run(args, **kw):
+    p = subprocess.run(args, capture_output=True, text=True, env=ENV, timeout=280, **kw)
+    return p.returncode, p.stdout + p.stderr
+
+
+def check(ok, what):
+    print(("ok: " if ok else "FAIL: ") + what, flush=True)
+    if not ok:
+        failures.append(what)
+
+
+def pixels(path):
+    """RGB of an image file (row 0 = top), read by OpenImageIO's oiiotool."""
+    rc, out = run(["oiiotool", "--dumpdata", path])
+    if rc != 0:
+        raise RuntimeError(out)
+    m = re.search(r":\s+(\d+) x\s+(\d+), (\d+) channel", out)
+    w, h, n = int(m.group(1)), int(m.group(2)), int(m.group(3))
+    values = [line.split(":", 1)[1].split() for line in out.splitlines() if "Pixel (" in line]
+    a = np.array(values, dtype=np.float64).reshape(h, w, n)
+    return a[:, :, :3]
+
+
+def psnr(image, reference):
+    mse = float(np.mean((image - reference) ** 2))
+    peak = float(reference.max())
+    return math.inf if mse == 0.0 else 10.0 * math.log10(peak * peak / mse)
+
+
+def xvfb(args):
+    return run([XVFB_RUN, "-a", "-s", "-screen 0 1024x768x24", VIEWER] + args)
+
+
+def rt_reference(name, sets):
+    out = os.path.join(SCRATCH, name + ".####.exr")
+    args = [NIMBUS, "rt", SCENE, "--frames", "1", "-o", out]
+    for s in SETS + sets:
+        args += ["--set", s]
+    rc, text = run(args)
+    if rc != 0:
+        raise RuntimeError("nimbus rt failed:\n" + text)
+    return pixels(out.replace("####", "0001"))
+
+
+def view(tag, export, extra):
+    shot = os.path.join(SCRATCH, tag + ".pfm")
+    rc, out = xvfb([export, "--frames", "3", "--screenshot", shot] + extra)
+    print(out.rstrip())
+    check(rc == 0, f"{tag}: the viewer exits 0 (exit {rc})")
+    check(re.search(r"^GL: .*; 4\.[3-9] \(Core Profile\)", out, re.M) is not None,
+          f"{tag}: a 4.3+ core profile context under Xvfb")
+    return pixels(shot) if rc == 0 else None
+
+
+shutil.rmtree(SCRATCH, ignore_errors=True)
+os.makedirs(SCRATCH)
+export = os.path.join(SCRATCH, "export")
+args = [NIMBUS, "export-glsl", SCENE, "-o", export, "--frame", "1"]
+for s in SETS:
+    args += ["--set", s]
+rc, out = run(args)
+check(rc == 0, "nimbus export-glsl exits 0: " + out.strip())
+
+# 1-2. the scene's own camera
+reference = rt_reference("rt", [])
+spread = float(np.std(reference))
+check(spread > 0.01, f"the reference is not flat (std {spread:.3f})")
+image = view("scene_camera", export, [])
+if image is not None:
+    p = psnr(image, reference)
+    print(f"PSNR scene camera: {p:.2f} dB, largest difference "
+          f"{float(np.abs(image - reference).max()):.3g}")
+    check(p >= 45.0, f"scene camera: PSNR {p:.2f} dB >= 45")
+
+# 3. the camera moved and turned by the viewer, against nimbus rt with the same view set
+position = np.array([0.0, 0.3, -24.0])  # examples/scenes/cumulus.toml [camera]
+look_at = np.array([0.0, 5.5, 0.0])
+forward = (look_at - position) / np.linalg.norm(look_at - position)
+
+
+def vec(v):
+    return "[" + ", ".join(f"{x:.9g}" for x in v) + "]"
+
+
+moved = position + 3.0 * forward
+yaw = math.atan2(forward[0], forward[2]) + math.radians(20.0)
+pitch = math.asin(forward[1]) + math.radians(5.0)
+turned = np.array([math.cos(pitch) * math.sin(yaw), math.sin(pitch),
+                   math.cos(pitch) * math.cos(yaw)])
+cases = [("moved", ["--move", "0,0,3"],
+          [f"camera.position={vec(moved)}", f"camera.look_at={vec(look_at + 3.0 * forward)}"]),
+         ("turned", ["--turn", "20,5"], [f"camera.look_at={vec(position + turned * 24.0)}"])]
+for tag, viewer_args, sets in cases:
+    image = view(tag, export, viewer_args)
+    if image is None:
+        continue
+    p = psnr(image, rt_reference("rt_" + tag, sets))
+    print(f"PSNR {tag}: {p:.2f} dB")
+    check(p >= 45.0, f"{tag}: PSNR {p:.2f} dB >= 45")
+    if tag == "moved":
+        q = psnr(image, reference)
+        print(f"PSNR moved view against the unmoved reference: {q:.2f} dB")
+        check(q < 30.0, f"the moved view differs from the unmoved one ({q:.2f} dB < 30)")
+
+# 3b. a multi-pass export (4 pixel samples: one dispatch per sample, sampleIndex at its offset),
+# no sun, transparent background, 64x36
+ms_sets = ["camera.width=64", "camera.height=36", "sun.enabled=false", "render.pixel_samples=4",
+           'render.background="transparent"']
+ms_export = os.path.join(SCRATCH, "export_4spp")
+args = [NIMBUS, "export-glsl", SCENE, "-o", ms_export, "--frame", "1"]
+for s in SETS + ms_sets:
+    args += ["--set", s]
+rc, out = run(args)
+check(rc == 0, "nimbus export-glsl (4 spp) exits 0: " + out.strip())
+image = view("4spp", ms_export, [])
+if image is not None:
+    p = psnr(image, rt_reference("rt_4spp", ms_sets))
+    print(f"PSNR 4 spp, no sun, transparent: {p:.2f} dB")
+    check(p >= 45.0, f"4 spp: PSNR {p:.2f} dB >= 45")
+
+# 3c. an export with data buffers: the scene as it ships (the diffusion grid of the frame) with
+# the Lorenz-Mie table, 64x36: diffusion.bin and mie_table.bin uploaded from their files
+data_sets = ["camera.width=64", "camera.height=36", 'render.multiple_scattering="grid"',
+             'medium.phase="mie_table"']
+data_export = os.path.join(SCRATCH, "export_data")
+args = [NIMBUS, "export-glsl", SCENE, "-o", data_export, "--frame", "1"]
+for s in SETS + data_sets:
+    args += ["--set", s]
+rc, out = run(args)
+check(rc == 0 and "diffusion.bin" in out and "mie_table.bin" in out,
+      "nimbus export-glsl (grid, Mie table) exits 0 and writes its data: " + out.strip())
+image = view("data", data_export, [])
+if image is not None:
+    p = psnr(image, rt_reference("rt_data", data_sets))
+    print(f"PSNR diffusion grid + Mie table: {p:.2f} dB")
+    check(p >= 45.0, f"diffusion grid + Mie table: PSNR {p:.2f} dB >= 45")
+
+# 4. bad export folders: exit 2 before any window, the file and the problem named
+def broken(tag, edit, expect, want=2):
+    d = os.path.join(SCRATCH, "bad_" + tag)
+    shutil.copytree(export, d)
+    edit(d)
+    rc, out = xvfb([d, "--frames", "1"])
+    check(rc == want and re.search(expect, out) is not None,
+          f"bad export ({tag}): exit {rc} (want {want}), output {out.strip()!r} matches {expect!r}")
+
+
+def rewrite(name, fn):
+    def edit(d):
+        path = os.path.join(d, name)
+        with open(path, "rb") as f:
+            data = f.read()
+        with open(path, "wb") as f:
+            f.write(fn(data))
+    return edit
+
+
+broken("no_params_bin", lambda d: os.remove(os.path.join(d, "params.bin")),
+       r"bad_no_params_bin/params\.bin: cannot open \(No such file or directory\)")
+broken("no_shader", lambda d: os.remove(os.path.join(d, "march.comp")),
+       r"bad_no_shader/march\.comp: cannot open")
+broken("no_json", lambda d: os.remove(os.path.join(d, "params.json")),
+       r"bad_no_json/params\.json: cannot open")
+broken("truncated_json", rewrite("params.json", lambda b: b[: len(b) // 2]),
+       r"params\.json: line \d+, column \d+: ")
+broken("bad_json", rewrite("params.json", lambda b: b.replace(b'"width":', b'"width"', 1)),
+       r"params\.json: line \d+, column \d+: expected ':'")
+broken("no_camera", rewrite("params.json", lambda b: b.replace(b'"camForward"', b'"camFwd"')),
+       r'no vec4 member "camForward"')
+broken("short_bin", rewrite("params.bin", lambda b: b[:-8]),
+       r"params\.bin: (\d+) bytes, parameter_block\.bytes says (\d+)")
+export = data_export  # the data files of an export: missing or short
+broken("no_grid", lambda d: os.remove(os.path.join(d, "diffusion.bin")),
+       r"bad_no_grid/diffusion\.bin: cannot open \(No such file or directory\)")
+broken("short_grid", rewrite("diffusion.bin", lambda b: b[:-12]),
+       r"bad_short_grid/diffusion\.bin: \d+ bytes, buffers\[\]\.bytes of \"RtDiffusionGrid\" says \d+")
+# a shader the driver rejects: exit 3 (GL), with the compiler's log
+broken("bad_shader", rewrite("march.comp", lambda b: b + b"\nthis is not GLSL\n"),
+       r"march\.comp does not compile:\n.*(error|ERROR)", want=3)
+
+if failures:
+    print(f"{len(failures)} check(s) failed")
+    sys.exit(1)
+print("all checks passed")
