@@ -13,7 +13,7 @@ PACKAGES=(
   libembree-dev libtinyobjloader-dev                     # plugin/geom: surfaces, instances
   libgtest-dev libbenchmark-dev glslang-tools            # tests, benchmarks, GLSL kernel checks
   libegl-dev libopengl-dev libgl1-mesa-dri               # tests: GLSL parity on headless GL (llvmpipe)
-  libglfw3-dev xvfb                                      # examples/realtime_viewer (optional target); its test runs it under Xvfb
+  libglfw3-dev xvfb nlohmann-json3-dev                   # examples/realtime_viewer (optional target); its test runs it under Xvfb
   gnuplot-nox                                            # nimbus converge --plot
   imagemagick fonts-dejavu-core                          # examples/automaton_preview.sh: contact sheet (montage), GIF
   clang libclang-rt-14-dev                               # tests: libFuzzer, ASan, UBSan (tests/fuzz)

@@ -1,7 +1,6 @@
 /// @file export_folder.cpp
-/// @brief Reads an export folder (see export_folder.h): a small JSON reader (objects, arrays,
-///        strings, numbers, true/false/null; errors with line and column) and the fields of
-///        params.json the viewer uses.
+/// @brief Reads an export folder (see export_folder.h): params.json through nlohmann::json
+///        (errors with line and column) and the fields of it the viewer uses.
 #include "export_folder.h"
 
 #include <cerrno>
@@ -11,10 +10,12 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <nlohmann/json.hpp>
+
 namespace viewer {
 namespace {
 
-// --- JSON ---------------------------------------------------------------------------------------
+// --- JSON: nlohmann::json parses; a plain tree of the values is what the code below reads ------
 
 struct Json {
     enum Kind { Null, Bool, Number, String, Array, Object } kind = Null;
@@ -35,136 +36,37 @@ struct JsonError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-class JsonReader {
-  public:
-    explicit JsonReader(const std::string& s) : s_(s) {}
-    Json read() {
-        Json v = value(0);
-        space();
-        if (i_ != s_.size()) fail("text after the end of the document");
-        return v;
+Json fromNlohmann(const nlohmann::json& j) {
+    Json v;
+    if (j.is_object()) {
+        v.kind = Json::Object;
+        for (const auto& [key, value] : j.items()) v.members.emplace_back(key, fromNlohmann(value));
+    } else if (j.is_array()) {
+        v.kind = Json::Array;
+        for (const nlohmann::json& x : j) v.items.push_back(fromNlohmann(x));
+    } else if (j.is_string()) {
+        v.kind = Json::String;
+        v.text = j.get<std::string>();
+    } else if (j.is_boolean()) {
+        v.kind = Json::Bool;
+        v.b = j.get<bool>();
+    } else if (j.is_number()) {
+        v.kind = Json::Number;
+        v.number = j.get<double>();
     }
+    return v;
+}
 
-  private:
-    [[noreturn]] void fail(const std::string& what) const {
-        int line = 1, column = 1;
-        for (std::size_t k = 0; k < i_ && k < s_.size(); ++k) {
-            if (s_[k] == '\n') {
-                ++line;
-                column = 1;
-            } else {
-                ++column;
-            }
-        }
-        throw JsonError("line " + std::to_string(line) + ", column " + std::to_string(column) +
-                        ": " + what);
+/// @p text parsed; JsonError with nlohmann's message (line, column and what was expected).
+Json parseJson(const std::string& text) {
+    try {
+        return fromNlohmann(nlohmann::json::parse(text));
+    } catch (const nlohmann::json::parse_error& e) {
+        std::string what = e.what();
+        const std::size_t at = what.find("parse error at "); // drop "[json.exception...] "
+        throw JsonError(at == std::string::npos ? what : what.substr(at + 15));
     }
-    void space() {
-        while (i_ < s_.size() && std::strchr(" \t\r\n", s_[i_]) && s_[i_] != '\0') ++i_;
-    }
-    void expect(char c) {
-        space();
-        if (i_ >= s_.size() || s_[i_] != c) fail(std::string("expected '") + c + "'");
-        ++i_;
-    }
-    bool accept(char c) {
-        space();
-        if (i_ < s_.size() && s_[i_] == c) {
-            ++i_;
-            return true;
-        }
-        return false;
-    }
-    std::string string() {
-        expect('"');
-        std::string out;
-        while (true) {
-            if (i_ >= s_.size()) fail("unterminated string");
-            const char c = s_[i_++];
-            if (c == '"') return out;
-            if (c != '\\') {
-                out += c;
-                continue;
-            }
-            if (i_ >= s_.size()) fail("unterminated string");
-            const char e = s_[i_++];
-            switch (e) {
-            case 'n':
-                out += '\n';
-                break;
-            case 't':
-                out += '\t';
-                break;
-            case 'r':
-                out += '\r';
-                break;
-            case 'b':
-                out += '\b';
-                break;
-            case 'f':
-                out += '\f';
-                break;
-            case 'u': {
-                if (i_ + 4 > s_.size()) fail("bad \\u escape");
-                const unsigned long u = std::strtoul(s_.substr(i_, 4).c_str(), nullptr, 16);
-                i_ += 4;
-                if (u < 0x80)
-                    out += char(u); // (the export escapes control characters only)
-                else
-                    out += '?';
-                break;
-            }
-            default:
-                out += e; // \" \\ \/
-            }
-        }
-    }
-    Json value(int depth) {
-        if (depth > 64) fail("nested too deeply");
-        space();
-        if (i_ >= s_.size()) fail("unexpected end of the document");
-        Json v;
-        const char c = s_[i_];
-        if (c == '{') {
-            ++i_;
-            v.kind = Json::Object;
-            if (accept('}')) return v;
-            do {
-                std::string key = string();
-                expect(':');
-                v.members.emplace_back(std::move(key), value(depth + 1));
-            } while (accept(','));
-            expect('}');
-        } else if (c == '[') {
-            ++i_;
-            v.kind = Json::Array;
-            if (accept(']')) return v;
-            do v.items.push_back(value(depth + 1));
-            while (accept(','));
-            expect(']');
-        } else if (c == '"') {
-            v.kind = Json::String;
-            v.text = string();
-        } else if (s_.compare(i_, 4, "true") == 0 || s_.compare(i_, 5, "false") == 0) {
-            v.kind = Json::Bool;
-            v.b = c == 't';
-            i_ += v.b ? 4 : 5;
-        } else if (s_.compare(i_, 4, "null") == 0) {
-            i_ += 4;
-        } else {
-            const char* begin = s_.c_str() + i_;
-            char* end = nullptr;
-            errno = 0;
-            v.number = std::strtod(begin, &end);
-            if (end == begin || errno == ERANGE) fail("expected a value");
-            v.kind = Json::Number;
-            i_ += std::size_t(end - begin);
-        }
-        return v;
-    }
-    const std::string& s_;
-    std::size_t i_ = 0;
-};
+}
 
 // --- typed access with errors naming the path in the document ---------------------------------
 
@@ -214,7 +116,7 @@ bool loadExport(const std::string& dir, ExportFolder& out, std::string* error) {
     if (!readFile(jsonPath, text, error)) return false;
     Json doc;
     try {
-        doc = JsonReader(text).read();
+        doc = parseJson(text);
     } catch (const JsonError& e) {
         if (error) *error = jsonPath + ": " + e.what();
         return false;
