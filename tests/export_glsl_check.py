@@ -16,6 +16,9 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
   - the JSON's members tile the block by the std430 rules (vec4 16-byte aligned, scalars 4),
     every member has a meaning and units, and each value equals the bytes of params.bin at the
     member's offset (floats bit for bit);
+With the shared data folder beside the repository, the same checks on smoke1 (a VDB field:
+RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at binding 9); without
+it that variant is skipped with a message.
 `nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
 `nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
 Exit 0 when every check passes; each failure is printed.

@@ -5,7 +5,10 @@
 /// inputs, the default scene's field renders on the GPU (Mesa llvmpipe through EGL here) at
 /// PSNR >= 45 dB against the CPU at equal settings (with the Mie table, the diffusion grid and
 /// the photon grid too), unsupported settings are refused by key, and `nimbus rt` writes a valid
-/// EXR through the same output code as `nimbus render` and exits 2 on an unsupported scene.
+/// EXR through the same output code as `nimbus render` and exits 2 on an unsupported scene. VDB
+/// fields (RT_VDB): PNanoVDB's voxel values and the trilinear density against NanoVDB and
+/// GridField::density, and the images, on a grid the test writes (tests/rt_vdb_scene.h) and on
+/// smoke1 (skipped without the shared data folder, NIMBUS_SHARED_VDB_DIR).
 ///
 /// Like the kernel parity tests (tests/test_glsl_parity.cpp), the GPU tests fail, with the EGL
 /// error, when no headless OpenGL 4.5 context can be made: the packages are required.
