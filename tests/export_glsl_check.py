@@ -3,7 +3,7 @@
 
 Usage: export_glsl_check.py NIMBUS GLSLANG_VALIDATOR SCENE SCRATCH_DIR
 
-For six variants of the scene made with --set (sun on/off, sky ambient on/off, sky background
+For the variants of the scene made with --set (sun on/off, sky ambient on/off, sky background
 on/off, one or four samples per pixel; sixteen combinations would repeat the same checks):
   - the command exits 0 and writes march.comp, params.json and params.bin;
   - glslangValidator accepts march.comp;
@@ -16,6 +16,9 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
   - the JSON's members tile the block by the std430 rules (vec4 16-byte aligned, scalars 4),
     every member has a meaning and units, and each value equals the bytes of params.bin at the
     member's offset (floats bit for bit);
+With the shared data folder beside the repository, the same checks on smoke1 (a VDB field:
+RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at binding 9); without
+it that variant is skipped with a message.
 `nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
 `nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
 Exit 0 when every check passes; each failure is printed.
@@ -68,11 +71,22 @@ VARIANTS = {
                      dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_MS_PHOTONS=1,
                           RT_PHOTON_SKIN=1)),
 }
+# a VDB field (RT_VDB): smoke1 (examples/scenes/smoke1.toml) when the shared data folder beside
+# the repository holds its file; skipped, with a message, when it does not
+SMOKE1 = os.path.join(ROOT, "examples", "scenes", "smoke1.toml")
+SMOKE1_VDB = os.path.join(ROOT, "..", "shared", "data", "vdb", "openvdb_smoke1.vdb")
+SCENES = {}
+if os.path.isfile(SMOKE1_VDB):
+    VARIANTS["vdb_smoke1"] = ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_VDB=1))
+    SCENES["vdb_smoke1"] = SMOKE1
+else:
+    print(f"SKIP: the vdb_smoke1 variant: {SMOKE1_VDB} is absent (the shared data folder)")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
-                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN"]
+                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB"]
 # the data file of each feature that reads one, and its buffer's binding
 DATA = {"RT_MIE_TABLE": ("mie_table.bin", 3), "RT_MS_DIFFUSION": ("diffusion.bin", 4),
-        "RT_MS_PHOTONS": ("photons.bin", 5), "RT_PHOTON_SKIN": ("skin_tau.bin", 6)}
+        "RT_MS_PHOTONS": ("photons.bin", 5), "RT_PHOTON_SKIN": ("skin_tau.bin", 6),
+        "RT_VDB": ("vdb_grid.bin", 9)}
 
 # code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
 # and the octaves of the sun, the height-occluded ambient, the sky behind the clouds, the
@@ -89,7 +103,10 @@ MARKERS = {
     "RT_MS_DIFFUSION": ["buffer RtDiffusionGrid", "rtDiffusion["],
     "RT_MS_PHOTONS": ["buffer RtPhotonGrid", "rtPhoton["],
     "RT_PHOTON_SKIN": ["buffer RtSkinGrid", "rtSkinTau["],
+    "RT_VDB": ["buffer RtVdbGrid", "pnanovdb_readaccessor_get_value_address(", "rtVdbDensity("],
 }
+# code only a frame without RT_VDB has (the procedural cumulus)
+CUMULUS = ["cumulusDensity(", "rtCumulusParams("]
 
 SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
 
@@ -99,7 +116,7 @@ texts = {}
 for name, (sets, on) in VARIANTS.items():
     features = {f: int(f in on and on[f]) for f in ALL_FEATURES}
     out = os.path.join(SCRATCH, name)
-    args = ["export-glsl", SCENE, "-o", out, "--frame", "3"] + BASE
+    args = ["export-glsl", SCENES.get(name, SCENE), "-o", out, "--frame", "3"] + BASE
     for s in sets:
         args += ["--set", s]
     rc, log = run(args)
@@ -124,6 +141,10 @@ for name, (sets, on) in VARIANTS.items():
             check((marker in text) == bool(on),
                   f"{name}: {feature} {'on' if on else 'off'} but '{marker}' is "
                   f"{'absent' if on else 'present'}")
+    for marker in CUMULUS:
+        check((marker in text) != bool(features["RT_VDB"]),
+              f"{name}: RT_VDB {features['RT_VDB']} but '{marker}' is "
+              f"{'present' if features['RT_VDB'] else 'absent'}")
     # every line after a #line is the line of the file it names (the header lists the
     # source-string numbers): the renumbering after removed code is right
     sources = dict((int(n), f) for n, f in

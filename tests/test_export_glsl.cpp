@@ -25,6 +25,7 @@
 #include "plugin/realtime/gl_compute.h"
 #include "plugin/realtime/march_params.h"
 #include "plugin/realtime/rt_march.h"
+#include "tests/rt_vdb_scene.h"
 #include "tests/test_util.h"
 
 using namespace nimbus;
@@ -396,6 +397,7 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(skinFloor),
         NB_MEMBER(msP1),
         NB_MEMBER(mediumG),
+        NB_MEMBER(vdbDensity),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());
@@ -463,7 +465,7 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
                 a.features.multisample);
     EXPECT_TRUE(!b.features.sun && !b.features.ambient && !b.features.backgroundSky &&
                 !b.features.multisample);
-    const std::vector<std::string> sun = {"float rtDensityIntegral(", "rtDensityIntegral(C, p",
+    const std::vector<std::string> sun = {"float rtDensityIntegral(", "rtDensityIntegral(F, p",
                                           "vec3 ph = vec3(phaseEval(octavePhase, cosTheta));",
                                           "sun += octaveSun(ph, sigmaT"};
     const std::vector<std::string> others = {"skyHeightInScatter(rtXyz(P.skySphere)",
@@ -509,19 +511,22 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
 /// written march.comp and dispatches it with buffers and dispatch taken from params.json alone;
 /// returns the PSNR of its RGBA against `nimbus rt`'s pass (MarchPass) on the same frame.
 double exportAgainstRt(const std::vector<std::string>& sets, const std::string& tag,
-                       std::vector<std::string>& dataFiles) {
+                       std::vector<std::string>& dataFiles, const std::string& scene = kScene,
+                       int frame = 3, std::string* shaderOut = nullptr) {
     std::string error;
     gl::ComputeContext* context = gl::ComputeContext::shared(&error);
     EXPECT_NE(context, nullptr) << "no headless OpenGL 4.5 context: " << error;
     if (!context) return 0.0;
     TempDir dir("export_glsl_" + tag);
-    std::string args = "export-glsl " + kScene + " -o " + dir.string() + " --frame 3";
+    std::string args =
+        "export-glsl " + scene + " -o " + dir.string() + " --frame " + std::to_string(frame);
     for (const std::string& s : sets) args += " --set '" + s + "'";
     const CliRun run = runNimbus(args);
     EXPECT_EQ(run.exitCode, 0) << run.output;
     Json doc;
     EXPECT_TRUE(JsonReader(readFile(dir.string() + "/params.json")).read(doc));
     const std::string shader = readFile(dir.string() + "/march.comp");
+    if (shaderOut) *shaderOut = shader;
     if (run.exitCode != 0 || shader.empty()) return 0.0;
 
     // the engine's side: the program, the buffers of the JSON, the passes
@@ -591,17 +596,19 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
 
     // nimbus rt's pass on the same frame
     host::Session session;
-    EXPECT_TRUE(session.load(kScene, sets).ok());
+    EXPECT_TRUE(session.load(scene, sets).ok());
+    EXPECT_TRUE(session.bind(frame).ok()); // a VDB field's grid
     Framebuffer fb;
     rt::MarchStats stats;
     rt::MarchPass pass;
-    const FramePlan plan = session.plan(3);
+    const FramePlan plan = session.plan(frame);
     MarchGrids grids;
     if (plan.diffusion || plan.photons) {
         RenderStats gridStats;
         grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     }
-    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, fb, stats, &error)) << error;
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), fb, stats, &error))
+        << error;
     EXPECT_EQ(fb.rgba.size(), rgba.size());
     if (fb.rgba.size() != rgba.size()) return 0.0;
     double peak = 0.0, se = 0.0, maxAbs = 0.0;
@@ -665,4 +672,51 @@ TEST(ExportGlslGpu, SameImageAsRtWithThePhotonGridAndItsSkin) {
               45.0);
     // the sun's light through the photon grid, the sky's through the diffusion grid
     EXPECT_EQ(files, (std::vector<std::string>{"diffusion.bin", "photons.bin", "skin_tau.bin"}));
+}
+
+// A VDB field (a grid the test writes, tests/rt_vdb_scene.h): its NanoVDB grid goes out as
+// vdb_grid.bin (the bytes nimbus rt uploads), the shader reads it through PNanoVDB's functions
+// (only those main() reaches are left) and has no cumulus code; the image is nimbus rt's.
+TEST(ExportGlslGpu, SameImageAsRtWithAVdbGrid) {
+    TempDir dir("export_glsl_vdb_scene");
+    const std::string scene = writeRtVdbScene(dir.string());
+    std::vector<std::string> files;
+    std::string shader;
+    EXPECT_GE(
+        exportAgainstRt({"camera.width=64", "camera.height=36"}, "vdb", files, scene, 1, &shader),
+        45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"vdb_grid.bin"}));
+    EXPECT_TRUE(contains(shader, "buffer RtVdbGrid { uint pnanovdb_buf_data[]; };"));
+    EXPECT_TRUE(contains(shader, "pnanovdb_readaccessor_get_value_address("));
+    EXPECT_TRUE(contains(shader, "#define RT_VDB 1"));
+    EXPECT_FALSE(contains(shader, "cumulusDensity(")); // (the word stays in comments)
+    EXPECT_FALSE(contains(shader, "rtCumulusParams("));
+    EXPECT_FALSE(contains(shader, "NB_FN float perlinNoise(")); // the cumulus' noise kernels
+    EXPECT_FALSE(contains(shader, "#if RT_"));
+    // PNanoVDB functions the pass does not call are gone (its HDDA, its double reads)
+    EXPECT_FALSE(contains(shader, "pnanovdb_hdda_"));
+    EXPECT_FALSE(contains(shader, "pnanovdb_uint64_as_double"));
+    // the bytes of the file are the grid's
+    host::Session session;
+    ASSERT_TRUE(session.load(scene, {}).ok());
+    ASSERT_TRUE(session.bind(1).ok());
+    std::string error;
+    const rt::VdbGridBytes g = rt::vdbGridBytes(&session.bindings(), &error);
+    ASSERT_NE(g.data, nullptr) << error;
+    rt::GlslExport e;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), session.plan(1), scene, nullptr,
+                               &session.bindings(), e, &error))
+        << error;
+    ASSERT_EQ(e.data.size(), 1u);
+    EXPECT_EQ(e.data[0].first, "vdb_grid.bin");
+    ASSERT_EQ(e.data[0].second.size(), g.size);
+    EXPECT_EQ(std::memcmp(e.data[0].second.data(), g.data, g.size), 0);
+    // a cumulus export has no PNanoVDB
+    host::Session cumulus;
+    ASSERT_TRUE(cumulus.load(kScene, {"render.multiple_scattering=\"none\""}).ok());
+    rt::GlslExport c;
+    ASSERT_TRUE(rt::exportGlsl(cumulus.scene(), cumulus.plan(1), kScene, c, &error)) << error;
+    EXPECT_FALSE(contains(c.shader, "pnanovdb"));
+    EXPECT_FALSE(contains(c.shader, "RtVdbGrid"));
+    EXPECT_TRUE(contains(c.shader, "cumulusDensity("));
 }

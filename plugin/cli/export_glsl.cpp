@@ -1,7 +1,9 @@
 /// @file export_glsl.cpp
 /// @brief `nimbus export-glsl`: writes one frame's march shader for engines to a folder:
 /// march.comp (only the features the frame uses), params.json (the parameter block's members,
-/// the bindings, the dispatch) and params.bin (the block's std430 bytes). A scene that uses what
+/// the bindings, the dispatch), params.bin (the block's std430 bytes) and the data buffers the
+/// frame's shader reads (the Mie table, the multiple-scattering grids, a VDB field's NanoVDB
+/// grid as vdb_grid.bin). A scene that uses what
 /// `nimbus rt` refuses is refused the same way (exit 2, every key named); nothing is written.
 #include <cstdio>
 #include <filesystem>
@@ -54,6 +56,8 @@ int runExportGlsl(const ExportGlslOptions& o) {
         }
     }
     const SceneDesc& scene = session.scene();
+    // the frame's grids (a VDB field's grid goes out as a data file), bound as `nimbus rt` does
+    if (int rc = report(session.bind(frame))) return rc;
     const FramePlan plan = session.plan(frame);
     // the refusals of `nimbus rt`, with its message, before anything is written
     const std::vector<rt::Unsupported> no = rt::unsupported(scene, plan);
@@ -72,7 +76,7 @@ int runExportGlsl(const ExportGlslOptions& o) {
     }
     rt::GlslExport e;
     std::string error;
-    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, e, &error)) {
+    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, &session.bindings(), e, &error)) {
         std::fprintf(stderr, "nimbus: error: export-glsl: %s\n", error.c_str());
         return kExitInternal;
     }

@@ -47,17 +47,19 @@ int runRt(const RtOptions& o) {
                 return kExitBadInput;
             }
 
-    // every frame is checked before the first is rendered: a refusal costs no GPU time
+    // every frame is checked before the first is rendered: a refusal costs no GPU time (a VDB
+    // field's frame again once its grid is bound: its bounds decide whether it is rebased)
     const SceneDesc& scene = session.scene();
+    auto refused = [&](const FramePlan& plan) {
+        const std::vector<rt::Unsupported> no = rt::unsupported(scene, plan);
+        for (const rt::Unsupported& u : no)
+            std::fprintf(stderr, "nimbus: error: %s: %s (not supported by the GPU path: %s)\n",
+                         session.file().path.c_str(), u.key.c_str(), u.message.c_str());
+        return !no.empty();
+    };
     for (int frame : frames) {
         const FramePlan plan = session.plan(frame);
-        const std::vector<rt::Unsupported> no = rt::unsupported(scene, plan);
-        if (!no.empty()) {
-            for (const rt::Unsupported& u : no)
-                std::fprintf(stderr, "nimbus: error: %s: %s (not supported by the GPU path: %s)\n",
-                             session.file().path.c_str(), u.key.c_str(), u.message.c_str());
-            return kExitBadInput;
-        }
+        if (refused(plan)) return kExitBadInput;
         if (o.explain) {
             std::printf("%s%s  output: %s\n", plan.explain().c_str(),
                         rt::explainMarch(scene, plan).c_str(), session.outputPath(frame).c_str());
@@ -81,7 +83,10 @@ int runRt(const RtOptions& o) {
 
     rt::MarchPass pass;
     for (int frame : frames) {
+        // the frame's grids (a VDB field's), bound as `nimbus render` binds them
+        if (int rc = report(session.bind(frame))) return rc;
         const FramePlan plan = session.plan(frame);
+        if (refused(plan)) return kExitBadInput;
         Framebuffer fb;
         rt::MarchStats stats;
         // the multiple-scattering grids (when the plan names them) are computed on the CPU, as
@@ -95,7 +100,7 @@ int runRt(const RtOptions& o) {
                 std::printf("frame %d: multiple-scattering grid computed on the CPU in %.3f s\n",
                             frame, secondsSince(gridStart));
         }
-        if (!pass.render(scene, plan, &grids, fb, stats, &error)) {
+        if (!pass.render(scene, plan, &grids, &session.bindings(), fb, stats, &error)) {
             std::fprintf(stderr, "nimbus: error: rt: frame %d: %s\n", frame, error.c_str());
             return kExitInternal;
         }

@@ -29,7 +29,8 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_MIE_TABLE", f.mieTable},
             {"RT_MS_DIFFUSION", f.diffusion},
             {"RT_MS_PHOTONS", f.photons},
-            {"RT_PHOTON_SKIN", f.photonSkin}};
+            {"RT_PHOTON_SKIN", f.photonSkin},
+            {"RT_VDB", f.vdb}};
 }
 
 namespace {
@@ -619,6 +620,10 @@ ParamDoc paramDoc(std::string_view n) {
          {"render.ms_p1: weight of the diffusion's P1 (gradient) term in its radiance",
           "1 (a factor)"}},
         {"mediumG", {"the phase function's mean cosine g (the diffusion's P1 term)", "1 (cosine)"}},
+        {"vdbDensity",
+         {"RT_VDB: the field's density scale (field.density), multiplying the grid's values; the "
+          "grid's box is boundsLo/Hi",
+          "1 (factor)"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -759,6 +764,12 @@ std::string jsonString(std::string_view s) {
 /// A float that reads back to the same bits (9 significant digits); false for NaN/Inf.
 bool jsonFloat(float v, std::string& o) {
     if (!std::isfinite(v)) return false;
+    // -0 as "-0.0": JSON readers take "-0" for the integer 0 and lose the sign (Python's json
+    // did; smoke1's camera has an up vector with a z of -0)
+    if (v == 0.0f && std::signbit(v)) {
+        o += "-0.0";
+        return true;
+    }
     char b[32];
     std::snprintf(b, sizeof b, "%.9g", double(v));
     o += b;
@@ -831,6 +842,12 @@ std::string bufferMeaning(std::string_view name) {
     if (name == "RtSkinGrid")
         return "the density integral toward the sun at the photon grid's voxel centres (1 float "
                "per voxel, same order), for the photons' skin profile";
+    if (name == "RtVdbGrid")
+        return "the field's NanoVDB grid: the bytes of one nanovdb::FloatGrid (NanoVDB's in-memory "
+               "layout, not an .nvdb file: no file header, no compression), from its GridData at "
+               "byte 0 to gridSize(), read as uints through PNanoVDB (the grid at address 0); its "
+               "own map (world to index) is inside it, its box is boundsLo/Hi and its density "
+               "scale vdbDensity in the parameter block";
     return "";
 }
 
@@ -841,6 +858,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtDiffusionGrid") return "diffusion.bin";
     if (name == "RtPhotonGrid") return "photons.bin";
     if (name == "RtSkinGrid") return "skin_tau.bin";
+    if (name == "RtVdbGrid") return "vdb_grid.bin";
     return "";
 }
 
@@ -853,7 +871,8 @@ template <class T> std::vector<std::uint8_t> bytesOf(const std::vector<T>& v) {
 } // namespace
 
 bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scenePath,
-                const MarchGrids* grids, GlslExport& out, std::string* error) {
+                const MarchGrids* grids, const FrameBindings* bindings, GlslExport& out,
+                std::string* error) {
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
         if (error) *error = no.front().message;
@@ -882,6 +901,13 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
         if (f.photonSkin)
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
+        if (f.vdb) {
+            const VdbGridBytes g = vdbGridBytes(bindings, error);
+            if (!g.data) return false;
+            const auto* b = static_cast<const std::uint8_t*>(g.data);
+            out.data.emplace_back(bufferFile("RtVdbGrid"),
+                                  std::vector<std::uint8_t>(b, b + g.size));
+        }
     }
     // the shader nimbus rt compiles, the disabled features' code removed
     const MarchShader m = marchShader(s, p);
@@ -923,7 +949,10 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             say(std::to_string(i++) + "\x01" + std::string(k.path) + ","); // one word
         say(std::to_string(i) + "\x01plugin/realtime/march_params.glsl, " + std::to_string(i + 1) +
             "\x01plugin/realtime/march_data.glsl, " + std::to_string(i + 2) +
-            "\x01plugin/realtime/march_pass.glsl.");
+            "\x01plugin/realtime/march_pass.glsl" +
+            (m.features.vdb ? ", " + std::to_string(i + 3) +
+                                  "\x01nanovdb/PNanoVDB.h\x01(preprocessed\x01for\x01GLSL)."
+                            : std::string(".")));
         std::string line = "//";
         for (std::string w : words) {
             std::replace(w.begin(), w.end(), '\x01', ' ');
@@ -942,7 +971,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
     std::vector<ParamMember> members;
     std::size_t blockSize = 0;
     if (!paramBlockLayout(members, &blockSize, error)) return false;
-    RtMarchParams P = marchParams(s, p, grids);
+    RtMarchParams P = marchParams(s, p, grids, bindings);
     P.sampleIndex = 0;
     if (members.empty() || members.back().offset + members.back().size != sizeof P) {
         if (error)

@@ -36,7 +36,7 @@ namespace nimbus::rt {
 
 /// The RT_* feature macros of `features` and their values (RT_SUN, RT_AMBIENT,
 /// RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-/// RT_PHOTON_SKIN).
+/// RT_PHOTON_SKIN, RT_VDB).
 std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& features);
 
 /// Preprocesses the conditionals on the given macros out of GLSL `text`: `#if`, `#ifdef`,
@@ -92,7 +92,8 @@ struct GlslExport {
     std::vector<std::uint8_t> params; ///< params.bin: the block, std430, for the frame
     /// The data buffers the shader reads, (file name, bytes): mie_table.bin (RT_MIE_TABLE),
     /// diffusion.bin (RT_MS_DIFFUSION), photons.bin (RT_MS_PHOTONS), skin_tau.bin
-    /// (RT_PHOTON_SKIN); their bindings and layouts are in params.json's "buffers".
+    /// (RT_PHOTON_SKIN), vdb_grid.bin (RT_VDB: the field's NanoVDB grid, vdbGridBytes); their
+    /// bindings and layouts are in params.json's "buffers".
     std::vector<std::pair<std::string, std::vector<std::uint8_t>>> data;
 };
 
@@ -101,11 +102,18 @@ inline constexpr const char* kExportShaderFile = "march.comp";
 inline constexpr const char* kExportJsonFile = "params.json";
 inline constexpr const char* kExportParamsFile = "params.bin";
 
-/// Exports frame `plan` of `scene` (`scenePath` is recorded in the JSON). False with *error when
+/// Exports frame `plan` of `scene` (`scenePath` is recorded in the JSON; `bindings`: what the
+/// host bound to the frame, which a VDB field's grid comes from). False with *error when
 /// the frame is unsupported (the first unsupported() message; the caller checks and names every
 /// key first), or when the shader or the block cannot be processed.
 bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
-                const MarchGrids* grids, GlslExport& out, std::string* error);
+                const MarchGrids* grids, const FrameBindings* bindings, GlslExport& out,
+                std::string* error);
+/// The same for a frame with nothing bound (no VDB field).
+inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
+                       const MarchGrids* grids, GlslExport& out, std::string* error) {
+    return exportGlsl(scene, plan, scenePath, grids, nullptr, out, error);
+}
 /// The same for a frame without multiple-scattering grids.
 inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
                        GlslExport& out, std::string* error) {

@@ -4,7 +4,8 @@
 // shader storage buffer, with their lookups written as the CPU's host code reads them:
 // MieTable::eval (core/media/mie.cpp), DiffusionVolume::sample with its gradient
 // (core/lighting/diffusion.cpp), PhotonVolume::sample with its skin profile
-// (core/lighting/photons.h) and sampleVoxelCentres (core/geometry.h). Shader storage buffers and
+// (core/lighting/photons.h) and sampleVoxelCentres (core/geometry.h); and the field's NanoVDB
+// grid (RT_VDB) through PNanoVDB, sampled as GridField::density. Shader storage buffers and
 // trilinear interpolation by hand rather than textures: a texture unit's filtering weights are
 // fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. Assembled after
 // march_params.glsl; tests/test_rt_march.cpp compiles it with its own main() to compare each
@@ -27,8 +28,86 @@ layout(std430, binding = 5) readonly buffer RtPhotonGrid { float rtPhoton[]; };
 layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
 #endif
 #endif
+#if RT_VDB
+// the field's NanoVDB grid (a nanovdb::FloatGrid, the bytes the CPU samples), read through
+// PNanoVDB; its name is the one PNanoVDB's GLSL buffer functions read
+layout(std430, binding = 9) readonly buffer RtVdbGrid { uint pnanovdb_buf_data[]; };
+// @pnanovdb: plugin/realtime/rt_march.cpp puts the text of PNanoVDB.h here (pnanovdbSource())
+#endif
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
+
+#if RT_VDB
+// GridField::density (core/fields/grid.cpp) through PNanoVDB: world to index by the grid's
+// inverse map in float (mVecF, mInvMatF: NanoVDB's worldToIndexF, with the CPU's order of
+// operations; `precise`: no fused multiply-adds the CPU does not do), trilinear over the voxels
+// floor(x) .. floor(x) + 1 with the CPU's lerps (NanoVDB's SampleFromVoxels<1>), max(0, value)
+// times the field's density scale; 0 outside the field's box (Field::density). One read
+// accessor per invocation, kept between lookups (the CPU keeps one per thread): successive
+// samples along a ray mostly fall in the same leaf.
+const uint RT_GRID_TYPE_FLOAT = 1u; // PNANOVDB_GRID_TYPE_FLOAT (nanovdb::GridType::Float)
+pnanovdb_readaccessor_t rtVdbAccessor;
+bool rtVdbAccessorReady = false;
+
+float rtVdbValue(ivec3 ijk) {
+    pnanovdb_buf_t buf = pnanovdb_buf_t(0u);
+    if (!rtVdbAccessorReady) {
+        pnanovdb_grid_handle_t grid = pnanovdb_grid_handle_t(pnanovdb_address_null());
+        pnanovdb_readaccessor_init(rtVdbAccessor,
+                                   pnanovdb_tree_get_root(buf, pnanovdb_grid_get_tree(buf, grid)));
+        rtVdbAccessorReady = true;
+    }
+    pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address(RT_GRID_TYPE_FLOAT, buf,
+                                                                   rtVdbAccessor, ijk);
+    return pnanovdb_read_float(buf, a);
+}
+
+// the index-space point of world point p (Map::applyInverseMapF)
+vec3 rtVdbWorldToIndex(vec3 p) {
+    pnanovdb_buf_t buf = pnanovdb_buf_t(0u);
+    pnanovdb_map_handle_t map =
+        pnanovdb_grid_get_map(buf, pnanovdb_grid_handle_t(pnanovdb_address_null()));
+    precise float d0 = p.x - pnanovdb_map_get_vecf(buf, map, 0u);
+    precise float d1 = p.y - pnanovdb_map_get_vecf(buf, map, 1u);
+    precise float d2 = p.z - pnanovdb_map_get_vecf(buf, map, 2u);
+    precise vec3 x;
+    x.x = d0 * pnanovdb_map_get_invmatf(buf, map, 0u) +
+          d1 * pnanovdb_map_get_invmatf(buf, map, 1u) + d2 * pnanovdb_map_get_invmatf(buf, map, 2u);
+    x.y = d0 * pnanovdb_map_get_invmatf(buf, map, 3u) +
+          d1 * pnanovdb_map_get_invmatf(buf, map, 4u) + d2 * pnanovdb_map_get_invmatf(buf, map, 5u);
+    x.z = d0 * pnanovdb_map_get_invmatf(buf, map, 6u) +
+          d1 * pnanovdb_map_get_invmatf(buf, map, 7u) + d2 * pnanovdb_map_get_invmatf(buf, map, 8u);
+    return x;
+}
+
+// a + t (b - a), unfused (the CPU's lerp in GridField::density)
+float rtLerp(float a, float b, float t) {
+    precise float r = a + t * (b - a);
+    return r;
+}
+
+float rtVdbDensity(vec3 p, float scale) {
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+    if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z))
+        return 0.0f;
+    vec3 x = rtVdbWorldToIndex(p);
+    vec3 fl = floor(x);
+    precise vec3 f = x - fl;
+    ivec3 i = ivec3(fl);
+    float c000 = rtVdbValue(i);
+    float c001 = rtVdbValue(i + ivec3(0, 0, 1));
+    float c010 = rtVdbValue(i + ivec3(0, 1, 0));
+    float c011 = rtVdbValue(i + ivec3(0, 1, 1));
+    float c100 = rtVdbValue(i + ivec3(1, 0, 0));
+    float c101 = rtVdbValue(i + ivec3(1, 0, 1));
+    float c110 = rtVdbValue(i + ivec3(1, 1, 0));
+    float c111 = rtVdbValue(i + ivec3(1, 1, 1));
+    float v = rtLerp(rtLerp(rtLerp(c000, c001, f.z), rtLerp(c010, c011, f.z), f.y),
+                     rtLerp(rtLerp(c100, c101, f.z), rtLerp(c110, c111, f.z), f.y), f.x);
+    return max(0.0f, v) * scale;
+}
+#endif
 
 #if RT_MIE_TABLE
 // MieTable::interval (core/media/mie.cpp): the interval i of the nodes with

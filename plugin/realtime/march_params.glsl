@@ -110,6 +110,9 @@ struct RtMarchParams {
     float skinFloor;    // PhotonVolume::skinFloor: the profile's lower bound
     float msP1;         // render.ms_p1: the P1 term of the diffusion's radiance
     float mediumG;      // Medium::g, the phase function's mean cosine (the diffusion's P1 term)
+    // the VDB grid (RT_VDB): the field's density scale (field.density, GridField::scale); the
+    // box is boundsLo/Hi, the grid's own map is read from its buffer
+    float vdbDensity;
 };
 
 // Sky kinds (values = the SkyKind enum of core/scene.h).

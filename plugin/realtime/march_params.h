@@ -32,9 +32,13 @@ static_assert(sizeof(RtMarchParams) % 4 == 0);
 
 /// The block for frame `plan` of `scene`: camera, field bounds, sun, medium (density scale
 /// folded in), sky, the cumulus layer at the plan's time, the phase function, the step
-/// schedules of the plan and the march settings. The scene's field must be a cumulus layer.
-/// With `grids` (Renderer::marchGrids), the geometry of its diffusion and photon grids too.
+/// schedules of the plan and the march settings. The scene's field must be a cumulus layer or a
+/// VDB grid.
+/// With `grids` (Renderer::marchGrids), the geometry of its diffusion and photon grids too. For a
+/// VDB field (field.kind = "vdb") the box is the bounds of the grid `bindings` holds (the field's
+/// box on the CPU, Field::box) and the density scale is field.density.
 RtMarchParams marchParams(const SceneDesc& scene, const FramePlan& plan,
-                          const MarchGrids* grids = nullptr);
+                          const MarchGrids* grids = nullptr,
+                          const FrameBindings* bindings = nullptr);
 
 } // namespace nimbus::rt

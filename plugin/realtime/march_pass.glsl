@@ -1,7 +1,7 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN: only the features the scene uses are compiled in), the embedded kernels
+// RT_PHOTON_SKIN, RT_VDB: only the features the scene uses are compiled in), the embedded kernels
 // (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie
 // table and the multiple-scattering grids, and their lookups), then this file.
 //
@@ -10,11 +10,12 @@
 // order of operations: pixel-centre rays of the same pinhole camera (core/camera.h), the same
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
-// cumulusDensity evaluated per sample, the sun's transmittance by a shadow march per sample,
-// phaseEval (or the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge),
-// inScatterFactor, the multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION,
-// RT_MS_PHOTONS) added as MarchContext::traceRay adds them, the height-occluded sky ambient,
-// marchStep (Hillaire's energy-conserving step) and the early exit at transmittance < epsilon.
+// cumulusDensity evaluated per sample (or, RT_VDB, the field's NanoVDB grid through PNanoVDB),
+// the sun's transmittance by a shadow march per sample, phaseEval (or the Lorenz-Mie table,
+// RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the multiple-scattering grids the
+// CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added as MarchContext::traceRay
+// adds them, the height-occluded sky ambient, marchStep (Hillaire's energy-conserving step) and
+// the early exit at transmittance < epsilon.
 // What it does not do: empty-space skipping (every step of the box is visited; the CPU's
 // majorant grid skips only samples of zero density, so the picture is the same), baked noise,
 // light volumes, the column and single-scattered sky, surfaces.
@@ -86,11 +87,39 @@ bool rtIntersectBox(vec3 o, vec3 d, vec3 lo, vec3 hi, float tmin, float tmax, ou
 float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
 float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 
+// The field the pass marches (Field::density): the procedural cumulus, its noise evaluated per
+// sample, or (RT_VDB) the NanoVDB grid read through PNanoVDB (march_data.glsl, rtVdbDensity).
+#if RT_VDB
+struct RtField {
+    float scale; // field.density
+};
+
+RtField rtField() {
+    RtField F;
+    F.scale = P.vdbDensity;
+    return F;
+}
+
+float rtDensity(RtField F, vec3 p) { return rtVdbDensity(p, F.scale); }
+#else
+struct RtField {
+    CumulusParams cumulus;
+};
+
+RtField rtField() {
+    RtField F;
+    F.cumulus = rtCumulusParams(P);
+    return F;
+}
+
+float rtDensity(RtField F, vec3 p) { return cumulusDensity(F.cumulus, p); }
+#endif
+
 #if RT_SUN
 // The density integral from p toward direction w (MarchContext::densityIntegral): a jittered
 // march on the shadow schedule from p (or from where the ray enters the box, when p lies outside
 // it), stopped once the transmittance is below 1e-5 in every channel.
-float rtDensityIntegral(CumulusParams C, vec3 p, vec3 w, uint rng) {
+float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
     float jitter = P.jitter != 0 ? hashToUnit(pcg(rng)) : 0.5f;
     float tauStop = 11.5f / max(rtMinComponent(rtXyz(P.sigmaT)), 1e-12f);
     vec3 lo = rtXyz(P.boundsLo);
@@ -112,7 +141,7 @@ float rtDensityIntegral(CumulusParams C, vec3 p, vec3 w, uint rng) {
         float tB = min(rtScheduleT(s, float(n + 1)), tOut);
         if (tB > tA) {
             float ts = tA + jitter * (tB - tA);
-            tau += cumulusDensity(C, o + w * ts) * (tB - tA);
+            tau += rtDensity(F, o + w * ts) * (tB - tA);
             marching = tau <= tauStop;
         } else {
             marching = tA < tOut;
@@ -131,7 +160,7 @@ struct RtSample {
 
 // One camera ray (MarchContext::traceRay without surfaces, light volumes or the column and
 // single-scattered sky).
-RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
+RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
                     float jitter) {
     vec3 sunDir = rtXyz(P.sunDirection);
     float cosTheta = dot(d, sunDir);
@@ -162,11 +191,11 @@ RtSample rtTraceRay(CumulusParams C, PhaseParams phase, vec3 o, vec3 d, uint pix
                 float t = tA + jitter * (tB - tA);
                 float dt = tB - tA;
                 vec3 p = o + d * t;
-                float rho = cumulusDensity(C, p);
+                float rho = rtDensity(F, p);
                 if (rho > 0.0f) {
                     vec3 S = vec3(0.0f);
 #if RT_SUN
-                    float tau = rtDensityIntegral(C, p, sunDir,
+                    float tau = rtDensityIntegral(F, p, sunDir,
                                                   pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
                     vec3 sun = vec3(0.0f);
                     float weight = 1.0f;
@@ -265,7 +294,7 @@ void main() {
     int x = int(gl_GlobalInvocationID.x);
     int y = int(gl_GlobalInvocationID.y);
     if (x >= P.width || y >= P.height) return;
-    CumulusParams C = rtCumulusParams(P);
+    RtField F = rtField();
     PhaseParams phase = rtPhaseParams(P);
     vec3 origin = rtXyz(P.camOrigin);
     uint pixelKey = pcg(uint(x) ^ pcg(uint(y) ^ pcg(P.frameKey)));
@@ -282,7 +311,7 @@ void main() {
     if (!(w > 0.0f)) return;
     float jitter = P.jitter != 0 ? hashToUnit(key) : 0.5f;
     RtSample smp = rtTraceRay(
-        C, phase, origin, rtCameraDirection(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y),
+        F, phase, origin, rtCameraDirection(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y),
         key, jitter);
     if (!rtFinite(smp.L)) {
         atomicAdd(nonFinite, 1u);
@@ -291,7 +320,7 @@ void main() {
 #else
     float w = 1.0f;
     float jitter = P.jitter != 0 ? hashToUnit(pixelKey) : 0.5f;
-    RtSample smp = rtTraceRay(C, phase, origin,
+    RtSample smp = rtTraceRay(F, phase, origin,
                               rtCameraDirection(float(x) + 0.5f, float(y) + 0.5f), pixelKey,
                               jitter);
 #endif

@@ -16,5 +16,9 @@ std::string_view march_paramsSource();
 std::string_view march_dataSource();
 /// plugin/realtime/march_pass.glsl: the march pass (entry point main()).
 std::string_view march_passSource();
+/// PNanoVDB.h (libnanovdb-dev) as GLSL: the installed header run through the C preprocessor
+/// with PNANOVDB_GLSL at build time (CMakeLists.txt), so its text is plain GLSL 4.30 (no macros,
+/// no C or HLSL branches). march_data.glsl reads VDB grids through it (RT_VDB).
+std::string_view pnanovdbSource();
 
 } // namespace nimbus::rt

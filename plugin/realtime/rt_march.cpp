@@ -2,12 +2,14 @@
 /// @brief The GLSL march pass: support check, parameter block, shader assembly, dispatch.
 #include "plugin/realtime/rt_march.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
 
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/glcorearb.h>
+#include <nanovdb/NanoVDB.h>
 
 #include "core/camera.h"
 #include "core/fields/cumulus.h"
@@ -27,6 +29,8 @@ namespace nimbus::rt {
 static_assert(int(SkyKind::None) == kern::RT_SKY_NONE);
 static_assert(int(SkyKind::Uniform) == kern::RT_SKY_UNIFORM);
 static_assert(int(SkyKind::Gradient) == kern::RT_SKY_GRADIENT);
+// march_data.glsl's RT_GRID_TYPE_FLOAT (PNANOVDB_GRID_TYPE_FLOAT): the grid type the accessor reads
+static_assert(int(nanovdb::GridType::Float) == 1);
 // the in-scatter and pixel-filter values are checked once, beside their other user
 // (core/integrators/march.cpp)
 
@@ -68,12 +72,12 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
         no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
     if (s.field.advect.enabled)
         no("field.advect", "[field.advect]: the GLSL pass does not advect fields yet");
-    if (s.field.kind != FieldKind::Cumulus)
+    if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb)
         no("field.kind", std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
-                             "\": the GLSL pass renders the procedural cumulus field only (VDB "
-                             "grids through PNanoVDB, SDF, Gardner and homogeneous fields are "
-                             "not ported yet)");
-    else if (s.field.cumulus.eval == NoiseEval::Baked)
+                             "\": the GLSL pass renders the procedural cumulus field and VDB "
+                             "grids only (SDF, Gardner, automaton and homogeneous fields are not "
+                             "ported yet)");
+    else if (s.field.kind == FieldKind::Cumulus && s.field.cumulus.eval == NoiseEval::Baked)
         no("field.evaluation",
            "field.evaluation = \"baked\": the GLSL pass evaluates the noise per sample (baked "
            "3D noise textures are not ported yet); use \"direct\" or \"auto\"");
@@ -111,6 +115,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
     f.diffusion = p.diffusion;
     f.photons = p.photons;
     f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
+    f.vdb = s.field.kind == FieldKind::Vdb;
     return f;
 }
 
@@ -124,6 +129,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_MS_DIFFUSION ") + (diffusion ? "1" : "0") + "\n";
     d += std::string("#define RT_MS_PHOTONS ") + (photons ? "1" : "0") + "\n";
     d += std::string("#define RT_PHOTON_SKIN ") + (photonSkin ? "1" : "0") + "\n";
+    d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
     return d;
 }
 
@@ -135,7 +141,23 @@ std::string marchDataShaderSource(const MarchFeatures& f) {
     s += "#line 1 " + std::to_string(k + 1) + "\n";
     s += march_paramsSource();
     s += "\n#line 1 " + std::to_string(k + 2) + "\n";
-    s += march_dataSource();
+    // PNanoVDB's text (source string K + 4) where march_data.glsl marks it, inside its RT_VDB
+    // block: the shader has it only with RT_VDB, after the buffer its functions read
+    const std::string_view data = march_dataSource();
+    const std::string_view marker = "// @pnanovdb";
+    const std::size_t at = data.find(marker);
+    if (!f.vdb || at == std::string_view::npos) {
+        s += data;
+        return s;
+    }
+    const std::size_t eol = data.find('\n', at);
+    const std::size_t line =
+        1 + std::size_t(std::count(data.begin(), data.begin() + long(at), '\n'));
+    s += data.substr(0, eol + 1);
+    s += "#line 1 " + std::to_string(k + 4) + "\n";
+    s += pnanovdbSource();
+    s += "#line " + std::to_string(line + 1) + " " + std::to_string(k + 2) + "\n";
+    s += data.substr(eol + 1);
     return s;
 }
 
@@ -161,7 +183,33 @@ std::vector<glm::vec4> mieTableNodes(const MieTable& t) {
     return nodes;
 }
 
-RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids) {
+VdbGridBytes vdbGridBytes(const FrameBindings* bindings, std::string* error) {
+    const GridBinding* b = bindings ? &bindings->grid(0) : nullptr;
+    const auto* g = b ? static_cast<const nanovdb::FloatGrid*>(b->grid) : nullptr;
+    if (!g) {
+        if (error)
+            *error = "the field's VDB grid was not loaded for the frame (no density to upload)";
+        return {};
+    }
+    if (b->shift != glm::dvec3(0.0)) {
+        if (error)
+            *error =
+                "the field's VDB grid is rendered shifted (core/rebase.h); the GLSL pass reads "
+                "the grid's own map";
+        return {};
+    }
+    // PNanoVDB's GLSL addresses are 32-bit byte offsets
+    if (g->gridSize() >= (std::uint64_t(1) << 32)) {
+        if (error)
+            *error = "the field's VDB grid has " + std::to_string(g->gridSize()) +
+                     " bytes, more than PNanoVDB's 32-bit GLSL addresses reach";
+        return {};
+    }
+    return {g, std::size_t(g->gridSize())};
+}
+
+RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
+                          const FrameBindings* bindings) {
     RtMarchParams P{};
     const Camera cam(s.camera);
     P.camOrigin = v4(cam.origin);
@@ -201,6 +249,13 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
     P.detailOctaves = C.detailOctaves;
     P.baseOffset = v4(C.baseOffset);
     P.detailOffset = v4(C.detailOffset);
+    if (s.field.kind == FieldKind::Vdb) {
+        // the field's box on the CPU (makeField: the grid binding's bounds) and its scale
+        const Box b = bindings ? bindings->grid(0).bounds : Box{};
+        P.boundsLo = v4(b.lo);
+        P.boundsHi = v4(b.hi);
+        P.vdbDensity = s.field.vdb.density;
+    }
 
     P.sunDirection = v4(s.sun.direction);
     P.sunIrradiance = v4(s.sun.irradiance);
@@ -285,11 +340,17 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
         if (ch == '\n') ch = ';';
     o << "  GPU shader: #version 430, " << defs << " the kernels";
     for (const kern::KernelSource& k : kern::kernelSources()) o << " " << k.name;
-    o << ", plugin/realtime/march_params.glsl, march_data.glsl, march_pass.glsl\n";
-    o << "  GPU field: cumulus, noise evaluated per sample ("
-      << (p.bakeNoise ? "the CPU plan would bake it; the GPU does not" : "as the CPU plan")
-      << "), noise octaves " << s.field.cumulus.baseOctaves << " (base) / "
-      << s.field.cumulus.detailOctaves << " (detail)\n";
+    o << ", plugin/realtime/march_params.glsl, march_data.glsl"
+      << (f.vdb ? " (with PNanoVDB.h)" : "") << ", march_pass.glsl\n";
+    if (f.vdb)
+        o << "  GPU field: vdb, the NanoVDB float grid in a storage buffer read through "
+             "PNanoVDB, trilinear as on the CPU, density scale "
+          << s.field.vdb.density << "\n";
+    else
+        o << "  GPU field: cumulus, noise evaluated per sample ("
+          << (p.bakeNoise ? "the CPU plan would bake it; the GPU does not" : "as the CPU plan")
+          << "), noise octaves " << s.field.cumulus.baseOctaves << " (base) / "
+          << s.field.cumulus.detailOctaves << " (detail)\n";
     o << "  GPU march: steps " << p.step << " (growth " << s.render.stepGrowth << "), shadow "
       << p.shadowStep << " (growth " << s.render.shadowGrowth
       << "); no empty-space skipping (every step in the field's box)\n";
@@ -319,6 +380,12 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, Framebuffer& fb, 
 
 bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
                        Framebuffer& fb, MarchStats& stats, std::string* error) {
+    return render(s, p, grids, nullptr, fb, stats, error);
+}
+
+bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
+                       const FrameBindings* bindings, Framebuffer& fb, MarchStats& stats,
+                       std::string* error) {
     using Clock = std::chrono::steady_clock;
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
@@ -333,6 +400,20 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
             *error = "the frame's multiple-scattering grid was not given to the GLSL pass (build "
                      "it with Renderer::marchGrids)";
         return false;
+    }
+    VdbGridBytes vdb;
+    if (f.vdb) {
+        vdb = vdbGridBytes(bindings, error);
+        if (!vdb.data) return false;
+        GLint64 maxBlock = 0;
+        glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
+        if (std::uint64_t(maxBlock) < vdb.size) {
+            if (error)
+                *error = "the field's VDB grid (" + std::to_string(vdb.size) +
+                         " bytes) is larger than this GL's largest shader storage block (" +
+                         std::to_string(maxBlock) + " bytes)";
+            return false;
+        }
     }
     std::unique_ptr<gl::ComputeProgram>& program = programs_[f.key()];
     stats.compileSeconds = 0.0;
@@ -351,14 +432,19 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     fb.resize(w, h, p.aovs);
     gl::glErrors(); // drop stale errors
     const auto t0 = Clock::now();
-    RtMarchParams P = marchParams(s, p, grids);
+    RtMarchParams P = marchParams(s, p, grids, bindings);
     const gl::StorageBuffer pixels(n * 12 * sizeof(float));
     const std::uint32_t zero = 0;
     const gl::StorageBuffer counters(sizeof zero, &zero);
     pixels.bind(1);
     counters.bind(2);
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
-    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin;
+    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid;
+    // the field's NanoVDB grid, its bytes as the CPU samples them (PNanoVDB reads address 0 on)
+    if (f.vdb) {
+        grid = std::make_unique<gl::StorageBuffer>(vdb.size, vdb.data);
+        grid->bind(9);
+    }
     if (f.mieTable) {
         const Medium m = Medium::fromDesc(s.medium);
         const std::vector<glm::vec4> nodes = mieTableNodes(*m.phase.table());

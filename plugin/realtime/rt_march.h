@@ -1,6 +1,7 @@
 /// @file rt_march.h
 /// @brief The GLSL march pass: the CPU `march` integrator (core/integrators/march.h) on the GPU
-/// for the procedural cumulus field, one compute invocation per pixel, through the same kernels.
+/// for the procedural cumulus field and VDB grids, one compute invocation per pixel, through the
+/// same kernels.
 ///
 /// The shader is assembled at run time from text embedded at build time: `#version 430`, the
 /// frame's feature #defines (only the features the frame uses are compiled in: the sun's shadow
@@ -9,7 +10,9 @@
 /// march_pass.glsl.
 ///
 /// Supported (unsupported() names every key that leaves it): field.kind = "cumulus" with its noise
-/// evaluated per sample (not field.evaluation = "baked"), one untransformed volume, no surfaces
+/// evaluated per sample (not field.evaluation = "baked") or "vdb" (the NanoVDB float grid the host
+/// loaded, in a shader storage buffer, read through PNanoVDB and sampled as GridField::density:
+/// the same map, trilinear weights and density scale), one untransformed volume, no surfaces
 /// or solids, render.integrator = "march", render.multiple_scattering = "none", "grid" (the
 /// diffusion grid) or "photons" (the photon grid, with its skin profile when render.photon_skin
 /// > 0, and the sky's diffusion grid), both grids computed on the CPU (Renderer::marchGrids) and
@@ -63,6 +66,7 @@ struct MarchFeatures {
     bool diffusion = false;     ///< RT_MS_DIFFUSION: the diffusion grid (sun and sky, or sky)
     bool photons = false;       ///< RT_MS_PHOTONS: the photon grid (the sun's higher orders)
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
+    bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
 
     /// The #define lines.
     std::string defines() const;
@@ -76,12 +80,23 @@ MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan);
 /// The whole compute shader for `features`.
 std::string marchShaderSource(const MarchFeatures& features);
 /// Its first part, without the pass: #version, the #defines, the kernels, march_params.glsl and
-/// march_data.glsl (the buffers and their lookups). A test appends its own main() to compare
-/// the lookups with the CPU's.
+/// march_data.glsl (the buffers and their lookups; with RT_VDB, PNanoVDB's GLSL text,
+/// pnanovdbSource(), where march_data.glsl says `// @pnanovdb`). A test appends its own main() to
+/// compare the lookups with the CPU's.
 std::string marchDataShaderSource(const MarchFeatures& features);
 
 /// The Lorenz-Mie table as the shader reads it (binding 3): per node (cos theta, R, G, B).
 std::vector<glm::vec4> mieTableNodes(const MieTable& table);
+
+/// The bytes of the field's NanoVDB grid as the shader reads them (binding 9, RT_VDB): the
+/// nanovdb::FloatGrid of `bindings.grid(0)`, from its first byte, gridSize() bytes (PNanoVDB
+/// finds the grid at address 0). Empty with *error when the scene's field has no loaded grid,
+/// the grid is rendered shifted (core/rebase.h) or it is too large for 32-bit addresses.
+struct VdbGridBytes {
+    const void* data = nullptr;
+    std::size_t size = 0;
+};
+VdbGridBytes vdbGridBytes(const FrameBindings* bindings, std::string* error);
 
 /// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
 struct MarchShader {
@@ -121,6 +136,12 @@ class MarchPass {
     /// when the plan names a grid that `grids` lacks.
     bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
                 Framebuffer& fb, MarchStats& stats, std::string* error);
+    /// The same with what the host bound to the frame (host::Session::bindings): a VDB field's
+    /// grid (field.kind = "vdb") is uploaded from there. False with *error when the field is a
+    /// VDB grid and `bindings` holds none (vdbGridBytes).
+    bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
+                const FrameBindings* bindings, Framebuffer& fb, MarchStats& stats,
+                std::string* error);
 
   private:
     std::map<std::string, std::unique_ptr<gl::ComputeProgram>> programs_;
