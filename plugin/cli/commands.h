@@ -137,6 +137,7 @@ struct RtOptions {
     std::string frames; ///< default: the scene's
     std::vector<std::string> overrides;
     std::string output; ///< EXR path pattern; default: the scene's output.path
+    int accumulate = 1; ///< each frame the average of this many jittered renders (>= 1)
     bool explain = false;
     bool quiet = false;
 };

@@ -59,8 +59,9 @@ int runRt(const RtOptions& o) {
             return kExitBadInput;
         }
         if (o.explain) {
-            std::printf("%s%s  output: %s\n", plan.explain().c_str(),
-                        rt::explainMarch(scene, plan).c_str(), session.outputPath(frame).c_str());
+            std::printf("%s%s  GPU accumulation: %d pass(es) per frame\n  output: %s\n",
+                        plan.explain().c_str(), rt::explainMarch(scene, plan).c_str(), o.accumulate,
+                        session.outputPath(frame).c_str());
         }
     }
     if (o.explain) return kExitOk;
@@ -80,6 +81,7 @@ int runRt(const RtOptions& o) {
         std::printf("GPU: %s (context in %.3f s)\n", device.c_str(), secondsSince(contextStart));
 
     rt::MarchPass pass;
+    pass.setAccumulation(o.accumulate);
     for (int frame : frames) {
         const FramePlan plan = session.plan(frame);
         Framebuffer fb;
@@ -104,6 +106,7 @@ int runRt(const RtOptions& o) {
         md.settings["scene"] = session.file().path;
         md.settings["plan"] = plan.explain() + rt::explainMarch(scene, plan);
         md.settings["renderer"] = "nimbus rt: the GLSL march pass on " + device;
+        md.settings["rt.accumulate"] = std::to_string(o.accumulate);
         md.seed = scene.render.seed;
         md.renderSeconds = stats.frameSeconds;
         // not the CPU's hash: `nimbus render --resume` renders a GPU frame again
@@ -112,8 +115,11 @@ int runRt(const RtOptions& o) {
         printWarnings(session);
         if (int rc = report(st)) return rc;
         if (!o.quiet)
-            std::printf("frame %d: %dx%d, %.4f s on the GPU%s -> %s\n", frame, fb.width, fb.height,
-                        stats.frameSeconds,
+            std::printf("frame %d: %dx%d, %.4f s on the GPU%s%s -> %s\n", frame, fb.width,
+                        fb.height, stats.frameSeconds,
+                        o.accumulate > 1
+                            ? (" (" + std::to_string(o.accumulate) + " accumulated passes)").c_str()
+                            : "",
                         stats.compileSeconds > 0.0
                             ? (" (shader compiled in " + std::to_string(stats.compileSeconds) +
                                " s before)")
