@@ -14,6 +14,7 @@
 #include "plugin/cli/common.h"
 #include "plugin/io/frames.h"
 #include "plugin/realtime/gl_compute.h"
+#include "plugin/realtime/ocio_gpu.h"
 #include "plugin/realtime/rt_march.h"
 
 namespace nimbus::cli {
@@ -80,6 +81,42 @@ int runRt(const RtOptions& o) {
     if (!o.quiet)
         std::printf("GPU: %s (context in %.3f s)\n", device.c_str(), secondsSince(contextStart));
 
+    // the preview's display transform on the GPU: OCIO's shader for the working space to
+    // output.display / output.view, with its LUTs, made once for every frame
+    std::unique_ptr<rt::GpuDisplayTransform> display;
+    double displaySeconds = 0.0;
+    const io::OutputDesc& out = session.file().output;
+    if (o.gpuDisplay && out.preview.empty())
+        std::fprintf(stderr, "nimbus: warning: rt: --gpu-display: the scene writes no preview "
+                             "(output.preview is empty)\n");
+    if (o.gpuDisplay && !out.preview.empty()) {
+        io::GpuDisplayShader shader;
+        try {
+            shader = session.colors().displayViewGpuShader(session.workingSpace(), out.display,
+                                                           out.view);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: rt: --gpu-display: %s\n", e.what());
+            return kExitBadInput;
+        }
+        display = std::make_unique<rt::GpuDisplayTransform>(shader);
+        if (!display->valid()) {
+            std::fprintf(stderr, "nimbus: error: rt: --gpu-display: %s\n",
+                         display->error().c_str());
+            return kExitInternal;
+        }
+        if (!o.quiet)
+            std::printf("preview: the display transform \"%s\" / \"%s\" from %s on the GPU "
+                        "(OpenColorIO's GLSL, %zu LUT texture(s))\n",
+                        out.display.c_str(), out.view.c_str(), session.workingSpace().c_str(),
+                        display->textureCount());
+    }
+    const host::Session::DisplayTransformFn gpuDisplay =
+        display ? host::Session::DisplayTransformFn(
+                      [&](std::vector<float>& rgb, int w, int h, std::string* e) {
+                          return display->apply(rgb, w, h, e, &displaySeconds);
+                      })
+                : host::Session::DisplayTransformFn();
+
     rt::MarchPass pass;
     pass.setAccumulation(o.accumulate);
     for (int frame : frames) {
@@ -111,7 +148,7 @@ int runRt(const RtOptions& o) {
         md.renderSeconds = stats.frameSeconds;
         // not the CPU's hash: `nimbus render --resume` renders a GPU frame again
         md.sceneHash = "glsl-" + session.sceneHash();
-        const host::Status st = session.writeFrame(frame, fb, md, stats.nonFinite);
+        const host::Status st = session.writeFrame(frame, fb, md, stats.nonFinite, gpuDisplay);
         printWarnings(session);
         if (int rc = report(st)) return rc;
         if (!o.quiet)
@@ -126,6 +163,9 @@ int runRt(const RtOptions& o) {
                                   .c_str()
                             : "",
                         session.outputPath(frame).c_str());
+        if (!o.quiet && display)
+            std::printf("frame %d: preview's display transform %.4f s on the GPU -> %s\n", frame,
+                        displaySeconds, io::expandFramePattern(out.preview, frame).c_str());
     }
     return kExitOk;
 }
