@@ -3,7 +3,9 @@
 /// (plugin/realtime/rt_march.h) over a headless OpenGL 4.5 context, written through the same
 /// output code as `nimbus render` (host::Session::writeFrame: the EXR with its metadata, the
 /// preview). A scene that uses what the GPU path does not support is refused with exit 2 and a
-/// message naming the key; there is no fallback to the CPU.
+/// message naming the key; there is no fallback to the CPU. `--accumulate N` averages N renders
+/// of each frame with their own jitter (rt::MarchPass::setAccumulation); `--gpu-display` applies
+/// the preview's OCIO display/view transform on the GPU (plugin/realtime/ocio_gpu.h).
 #include <chrono>
 #include <cstdio>
 #include <memory>
