@@ -136,7 +136,9 @@ struct RtOptions {
     std::string scene;
     std::string frames; ///< default: the scene's
     std::vector<std::string> overrides;
-    std::string output; ///< EXR path pattern; default: the scene's output.path
+    std::string output;      ///< EXR path pattern; default: the scene's output.path
+    int accumulate = 1;      ///< each frame the average of this many jittered renders (>= 1)
+    bool gpuDisplay = false; ///< the preview's OCIO display transform on the GPU
     bool explain = false;
     bool quiet = false;
 };

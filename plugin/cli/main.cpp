@@ -525,6 +525,16 @@ int mainImpl(int argc, char** argv) {
     rt->add_option("-s,--set", to.overrides, "Override a scene value (as for render)")
         ->allow_extra_args(false);
     rt->add_option("-o,--output", to.output, "EXR path pattern (default: the scene's output.path)");
+    rt->add_option("--accumulate", to.accumulate,
+                   "Temporal accumulation: each frame is the average of N renders of it, each "
+                   "with its own jitter (the step and shadow jitter and the pixel-sample offsets; "
+                   "pass 1 is the frame without accumulation); with a coarser render.step this "
+                   "converges toward the fine-step image (docs/realtime.md)")
+        ->check(CLI::Range(1, 4096));
+    rt->add_flag("--gpu-display", to.gpuDisplay,
+                 "Apply the preview's display/view transform (output.display, output.view) on "
+                 "the GPU: OpenColorIO's GLSL shader with its LUT textures, instead of OCIO's "
+                 "CPU processor (the EXR is unchanged; docs/realtime.md)");
     rt->add_flag("--explain", to.explain,
                  "Print the plan of each frame and what the shader is compiled with, and exit");
     rt->add_flag("-q,--quiet", to.quiet, "Only errors and warnings");

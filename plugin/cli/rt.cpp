@@ -3,7 +3,9 @@
 /// (plugin/realtime/rt_march.h) over a headless OpenGL 4.5 context, written through the same
 /// output code as `nimbus render` (host::Session::writeFrame: the EXR with its metadata, the
 /// preview). A scene that uses what the GPU path does not support is refused with exit 2 and a
-/// message naming the key; there is no fallback to the CPU.
+/// message naming the key; there is no fallback to the CPU. `--accumulate N` averages N renders
+/// of each frame with their own jitter (rt::MarchPass::setAccumulation); `--gpu-display` applies
+/// the preview's OCIO display/view transform on the GPU (plugin/realtime/ocio_gpu.h).
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -14,6 +16,7 @@
 #include "plugin/cli/common.h"
 #include "plugin/io/frames.h"
 #include "plugin/realtime/gl_compute.h"
+#include "plugin/realtime/ocio_gpu.h"
 #include "plugin/realtime/rt_march.h"
 
 namespace nimbus::cli {
@@ -61,8 +64,9 @@ int runRt(const RtOptions& o) {
         const FramePlan plan = session.plan(frame);
         if (refused(plan)) return kExitBadInput;
         if (o.explain) {
-            std::printf("%s%s  output: %s\n", plan.explain().c_str(),
-                        rt::explainMarch(scene, plan).c_str(), session.outputPath(frame).c_str());
+            std::printf("%s%s  GPU accumulation: %d pass(es) per frame\n  output: %s\n",
+                        plan.explain().c_str(), rt::explainMarch(scene, plan).c_str(), o.accumulate,
+                        session.outputPath(frame).c_str());
         }
     }
     if (o.explain) return kExitOk;
@@ -81,7 +85,44 @@ int runRt(const RtOptions& o) {
     if (!o.quiet)
         std::printf("GPU: %s (context in %.3f s)\n", device.c_str(), secondsSince(contextStart));
 
+    // the preview's display transform on the GPU: OCIO's shader for the working space to
+    // output.display / output.view, with its LUTs, made once for every frame
+    std::unique_ptr<rt::GpuDisplayTransform> display;
+    double displaySeconds = 0.0;
+    const io::OutputDesc& out = session.file().output;
+    if (o.gpuDisplay && out.preview.empty())
+        std::fprintf(stderr, "nimbus: warning: rt: --gpu-display: the scene writes no preview "
+                             "(output.preview is empty)\n");
+    if (o.gpuDisplay && !out.preview.empty()) {
+        io::GpuDisplayShader shader;
+        try {
+            shader = session.colors().displayViewGpuShader(session.workingSpace(), out.display,
+                                                           out.view);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "nimbus: error: rt: --gpu-display: %s\n", e.what());
+            return kExitBadInput;
+        }
+        display = std::make_unique<rt::GpuDisplayTransform>(shader);
+        if (!display->valid()) {
+            std::fprintf(stderr, "nimbus: error: rt: --gpu-display: %s\n",
+                         display->error().c_str());
+            return kExitInternal;
+        }
+        if (!o.quiet)
+            std::printf("preview: the display transform \"%s\" / \"%s\" from %s on the GPU "
+                        "(OpenColorIO's GLSL, %zu LUT texture(s))\n",
+                        out.display.c_str(), out.view.c_str(), session.workingSpace().c_str(),
+                        display->textureCount());
+    }
+    const host::Session::DisplayTransformFn gpuDisplay =
+        display ? host::Session::DisplayTransformFn(
+                      [&](std::vector<float>& rgb, int w, int h, std::string* e) {
+                          return display->apply(rgb, w, h, e, &displaySeconds);
+                      })
+                : host::Session::DisplayTransformFn();
+
     rt::MarchPass pass;
+    pass.setAccumulation(o.accumulate);
     for (int frame : frames) {
         // the frame's grids (a VDB field's), bound as `nimbus render` binds them
         if (int rc = report(session.bind(frame))) return rc;
@@ -109,22 +150,29 @@ int runRt(const RtOptions& o) {
         md.settings["scene"] = session.file().path;
         md.settings["plan"] = plan.explain() + rt::explainMarch(scene, plan);
         md.settings["renderer"] = "nimbus rt: the GLSL march pass on " + device;
+        md.settings["rt.accumulate"] = std::to_string(o.accumulate);
         md.seed = scene.render.seed;
         md.renderSeconds = stats.frameSeconds;
         // not the CPU's hash: `nimbus render --resume` renders a GPU frame again
         md.sceneHash = "glsl-" + session.sceneHash();
-        const host::Status st = session.writeFrame(frame, fb, md, stats.nonFinite);
+        const host::Status st = session.writeFrame(frame, fb, md, stats.nonFinite, gpuDisplay);
         printWarnings(session);
         if (int rc = report(st)) return rc;
         if (!o.quiet)
-            std::printf("frame %d: %dx%d, %.4f s on the GPU%s -> %s\n", frame, fb.width, fb.height,
-                        stats.frameSeconds,
+            std::printf("frame %d: %dx%d, %.4f s on the GPU%s%s -> %s\n", frame, fb.width,
+                        fb.height, stats.frameSeconds,
+                        o.accumulate > 1
+                            ? (" (" + std::to_string(o.accumulate) + " accumulated passes)").c_str()
+                            : "",
                         stats.compileSeconds > 0.0
                             ? (" (shader compiled in " + std::to_string(stats.compileSeconds) +
                                " s before)")
                                   .c_str()
                             : "",
                         session.outputPath(frame).c_str());
+        if (!o.quiet && display)
+            std::printf("frame %d: preview's display transform %.4f s on the GPU -> %s\n", frame,
+                        displaySeconds, io::expandFramePattern(out.preview, frame).c_str());
     }
     return kExitOk;
 }

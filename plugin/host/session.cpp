@@ -315,13 +315,30 @@ std::string Session::outputPath(int frame) const {
 
 Status Session::writeFrame(int frame, const Framebuffer& fb, io::ExrMetadata md,
                            std::size_t renderNonFinite) {
+    return writeFrame(frame, fb, std::move(md), renderNonFinite, DisplayTransformFn());
+}
+
+Status Session::writeFrame(int frame, const Framebuffer& fb, io::ExrMetadata md,
+                           std::size_t renderNonFinite, const DisplayTransformFn& display) {
     const io::OutputDesc& out = file_->output;
     const std::string ws = workingSpace();
     md.frame = frame;
     if (md.sceneHash.empty()) md.sceneHash = sceneHash_;
     try {
         std::size_t bad = io::writeExr(outputPath(frame), fb, *cs_, ws, out.colorSpace, md);
-        if (!out.preview.empty())
+        if (!out.preview.empty() && display) {
+            const std::string path = io::expandFramePattern(out.preview, frame);
+            std::size_t replaced = 0;
+            std::vector<float> rgb = io::previewLinearRgb(path, fb, &replaced);
+            bad += replaced;
+            std::string error;
+            if (!display(rgb, fb.width, fb.height, &error))
+                return Status::error(StatusCode::internal, "frame " + std::to_string(frame) +
+                                                               ": the preview's display "
+                                                               "transform: " +
+                                                               error);
+            io::writeEncodedPreviewPng(path, fb.width, fb.height, rgb, out.display, out.view);
+        } else if (!out.preview.empty())
             bad += io::writePreviewPng(io::expandFramePattern(out.preview, frame), fb, *cs_, ws,
                                        out.display, out.view);
         if (bad + renderNonFinite > 0)

@@ -138,6 +138,15 @@ class Session {
     /// warning. `io` on failure, naming the frame.
     Status writeFrame(int frame, const Framebuffer& fb, io::ExrMetadata md,
                       std::size_t renderNonFinite = 0);
+    /// A preview's display transform done elsewhere than OCIO's CPU processor (`nimbus rt
+    /// --gpu-display`: OCIO's GPU shader): the preview's linear RGB (io::previewLinearRgb, in
+    /// the working space) in, display-encoded RGB (output.display / output.view) out, in place;
+    /// false with *error on failure.
+    using DisplayTransformFn =
+        std::function<bool(std::vector<float>& rgb, int width, int height, std::string* error)>;
+    /// writeFrame with the preview's display transform done by `display` (when not empty).
+    Status writeFrame(int frame, const Framebuffer& fb, io::ExrMetadata md,
+                      std::size_t renderNonFinite, const DisplayTransformFn& display);
 
     /// The renderer of the loaded scene (shared by its frames: baked noise is kept).
     Renderer& renderer();

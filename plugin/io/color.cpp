@@ -434,6 +434,105 @@ void ColorSystem::applyDisplayView(float* data, int width, int height, int chann
     applyRows(p, data, width, height, channels);
 }
 
+GpuDisplayShader ColorSystem::displayViewGpuShader(const std::string& from,
+                                                   const std::string& display,
+                                                   const std::string& view) const {
+    const std::string src = canonicalName(from);
+    const auto v = views(display);
+    if (std::find(v.begin(), v.end(), view) == v.end())
+        throw std::runtime_error("unknown view '" + view + "' of display '" + display + "' (" +
+                                 impl_->description + "); valid views: " + joinNames(v));
+    GpuDisplayShader out;
+    out.function = "OCIODisplay";
+    try {
+        auto t = OCIO::DisplayViewTransform::Create();
+        t->setSrc(src.c_str());
+        t->setDisplay(display.c_str());
+        t->setView(view.c_str());
+        OCIO::ConstGPUProcessorRcPtr gpu = impl_->config->getProcessor(t)->getDefaultGPUProcessor();
+        OCIO::GpuShaderDescRcPtr desc = OCIO::GpuShaderDesc::CreateShaderDesc();
+        desc->setLanguage(OCIO::GPU_LANGUAGE_GLSL_4_0);
+        desc->setFunctionName(out.function.c_str());
+        desc->setResourcePrefix("ocio_");
+        gpu->extractGpuShaderInfo(desc);
+        out.text = desc->getShaderText();
+        out.cacheId = desc->getCacheID();
+        for (unsigned i = 0; i < desc->getNumTextures(); ++i) {
+            const char *name = nullptr, *sampler = nullptr;
+            unsigned w = 0, h = 0;
+            OCIO::GpuShaderDesc::TextureType channel = OCIO::GpuShaderDesc::TEXTURE_RGB_CHANNEL;
+            OCIO::Interpolation interp = OCIO::INTERP_LINEAR;
+            desc->getTexture(i, name, sampler, w, h, channel, interp);
+            const float* values = nullptr;
+            desc->getTextureValues(i, values);
+            GpuDisplayShader::Texture tex;
+            tex.sampler = sampler;
+            tex.width = int(w);
+            tex.height = int(h);
+            tex.channels = channel == OCIO::GpuShaderDesc::TEXTURE_RED_CHANNEL ? 1 : 3;
+            tex.linear = interp != OCIO::INTERP_NEAREST;
+            tex.values.assign(values, values + std::size_t(w) * h * std::size_t(tex.channels));
+            out.textures.push_back(std::move(tex));
+        }
+        for (unsigned i = 0; i < desc->getNum3DTextures(); ++i) {
+            const char *name = nullptr, *sampler = nullptr;
+            unsigned edge = 0;
+            OCIO::Interpolation interp = OCIO::INTERP_LINEAR;
+            desc->get3DTexture(i, name, sampler, edge, interp);
+            const float* values = nullptr;
+            desc->get3DTextureValues(i, values);
+            GpuDisplayShader::Texture tex;
+            tex.sampler = sampler;
+            tex.width = tex.height = tex.depth = int(edge);
+            tex.channels = 3;
+            tex.linear = interp != OCIO::INTERP_NEAREST;
+            tex.values.assign(values, values + std::size_t(edge) * edge * edge * 3);
+            out.textures.push_back(std::move(tex));
+        }
+        for (unsigned i = 0; i < desc->getNumUniforms(); ++i) {
+            OCIO::GpuShaderDesc::UniformData data;
+            GpuDisplayShader::Uniform u;
+            u.name = desc->getUniform(i, data);
+            using K = GpuDisplayShader::Uniform::Kind;
+            switch (data.m_type) {
+            case OCIO::UNIFORM_DOUBLE:
+                u.kind = K::Float;
+                u.values = {float(data.m_getDouble())};
+                break;
+            case OCIO::UNIFORM_BOOL:
+                u.kind = K::Bool;
+                u.values = {data.m_getBool() ? 1.0f : 0.0f};
+                break;
+            case OCIO::UNIFORM_FLOAT3: {
+                u.kind = K::Float3;
+                const OCIO::Float3 f = data.m_getFloat3();
+                u.values = {f[0], f[1], f[2]};
+                break;
+            }
+            case OCIO::UNIFORM_VECTOR_FLOAT: {
+                u.kind = K::FloatArray;
+                const float* f = data.m_vectorFloat.m_getVector();
+                u.values.assign(f, f + data.m_vectorFloat.m_getSize());
+                break;
+            }
+            case OCIO::UNIFORM_VECTOR_INT: {
+                u.kind = K::IntArray;
+                const int* n = data.m_vectorInt.m_getVector();
+                u.ints.assign(n, n + data.m_vectorInt.m_getSize());
+                break;
+            }
+            default:
+                throw std::runtime_error("uniform '" + u.name + "' of an unknown type");
+            }
+            out.uniforms.push_back(std::move(u));
+        }
+    } catch (const OCIO::Exception& e) {
+        throw std::runtime_error("OCIO cannot build the GPU display/view transform '" + display +
+                                 "' / '" + view + "' from '" + src + "': " + e.what());
+    }
+    return out;
+}
+
 std::optional<Chromaticities> ColorSystem::chromaticities(const std::string& name) const {
     const auto cs = impl_->space(name);
     if (cs->isData()) return std::nullopt;

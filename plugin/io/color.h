@@ -38,6 +38,37 @@ namespace nimbus::io {
 /// red x, red y, green x, green y, blue x, blue y, white x, white y.
 using Chromaticities = std::array<float, 8>;
 
+/// A display/view transform as a GPU shader (OpenColorIO's GpuShaderDesc, GLSL 4.0), with the
+/// LUT textures and uniform values it reads; plain data, no OCIO types (the GL side is
+/// plugin/realtime/ocio_gpu.h). The text declares its samplers and uniforms and defines
+/// `vec4 <function>(vec4 inPixel)` (RGB in, alpha passed through).
+struct GpuDisplayShader {
+    std::string text;     ///< GLSL 4.0 (no #version line)
+    std::string function; ///< the function's name, e.g. "OCIODisplay"
+    std::string cacheId;  ///< OCIO's cache ID of the shader
+    /// A LUT texture: 1D (height 1, depth 0), 2D (a long 1D LUT folded into rows; depth 0) or 3D
+    /// (width = height = depth = the edge length). Values are float, `channels` per texel, x
+    /// fastest (3D: then y, then z).
+    struct Texture {
+        std::string sampler; ///< the sampler uniform's name in `text`
+        int width = 0, height = 0, depth = 0;
+        int channels = 3;   ///< 1 (red only) or 3 (RGB)
+        bool linear = true; ///< linear filtering (else nearest)
+        std::vector<float> values;
+    };
+    std::vector<Texture> textures;
+    /// A uniform the text declares (dynamic properties, e.g. an exposure), its value when the
+    /// shader was made.
+    struct Uniform {
+        enum class Kind { Float, Bool, Float3, FloatArray, IntArray };
+        std::string name;
+        Kind kind = Kind::Float;
+        std::vector<float> values; ///< Float, Bool (0/1), Float3, FloatArray
+        std::vector<int> ints;     ///< IntArray
+    };
+    std::vector<Uniform> uniforms;
+};
+
 /// An OpenColorIO configuration plus the few operations Nimbus needs from it.
 class ColorSystem {
   public:
@@ -98,6 +129,11 @@ class ColorSystem {
     /// ones).
     void applyDisplayView(float* data, int width, int height, int channels, const std::string& from,
                           const std::string& display, const std::string& view) const;
+    /// The same display/view transform as a GLSL 4.0 shader for the GPU (OCIO's
+    /// getDefaultGPUProcessor and GpuShaderDesc; function `OCIODisplay`), for previews rendered
+    /// on the GPU (`nimbus rt --gpu-display`). @throws std::runtime_error as applyDisplayView.
+    GpuDisplayShader displayViewGpuShader(const std::string& from, const std::string& display,
+                                          const std::string& view) const;
 
     /// CIE xy chromaticities (R, G, B, white) of a colour space when Nimbus can identify it:
     /// every space of the built-in config except `raw` (ACEScg = AP1, ACES2065-1 = AP0,

@@ -140,30 +140,47 @@ std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, con
     return bad;
 }
 
-std::size_t writePreviewPng(const std::string& path, const nimbus::Framebuffer& fb,
-                            const ColorSystem& cs, const std::string& workingSpace,
-                            const std::string& display, const std::string& view) {
+std::vector<float> previewLinearRgb(const std::string& path, const nimbus::Framebuffer& fb,
+                                    std::size_t* bad) {
     checkFramebuffer(fb, path);
     const size_t n = size_t(fb.width) * size_t(fb.height);
     // Premultiplied RGBA over black = its premultiplied RGB.
     std::vector<float> rgb(n * 3);
     for (size_t i = 0; i < n; ++i)
         for (int c = 0; c < 3; ++c) rgb[i * 3 + c] = fb.rgba[i * 4 + c];
-    size_t bad = sanitize(rgb.data(), rgb.size());
-    cs.applyDisplayView(rgb.data(), fb.width, fb.height, 3, workingSpace, display, view);
+    const size_t replaced = sanitize(rgb.data(), rgb.size());
+    if (bad) *bad = replaced;
+    return rgb;
+}
 
-    std::vector<unsigned char> bytes(n * 3);
+void writeEncodedPreviewPng(const std::string& path, int width, int height,
+                            const std::vector<float>& displayRgb, const std::string& display,
+                            const std::string& view) {
+    if (width <= 0 || height <= 0 || displayRgb.size() != size_t(width) * size_t(height) * 3)
+        throw std::runtime_error("preview '" + path + "': " + std::to_string(displayRgb.size()) +
+                                 " values for " + std::to_string(width) + "x" +
+                                 std::to_string(height) + " RGB pixels");
+    std::vector<unsigned char> bytes(displayRgb.size());
     for (size_t i = 0; i < bytes.size(); ++i) {
-        float v = rgb[i];
+        float v = displayRgb[i];
         v = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
         bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
     }
 
-    OIIO::ImageSpec spec(fb.width, fb.height, 3, OIIO::TypeDesc::UINT8);
+    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
     spec.attribute("Software", std::string("Nimbus preview: ") + display + " / " + view);
     writeAtomically(path, [&](const std::string& temp) {
         writeWithOiio(temp, path, spec, OIIO::TypeDesc::UINT8, bytes.data());
     });
+}
+
+std::size_t writePreviewPng(const std::string& path, const nimbus::Framebuffer& fb,
+                            const ColorSystem& cs, const std::string& workingSpace,
+                            const std::string& display, const std::string& view) {
+    size_t bad = 0;
+    std::vector<float> rgb = previewLinearRgb(path, fb, &bad);
+    cs.applyDisplayView(rgb.data(), fb.width, fb.height, 3, workingSpace, display, view);
+    writeEncodedPreviewPng(path, fb.width, fb.height, rgb, display, view);
     return bad;
 }
 

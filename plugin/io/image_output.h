@@ -75,6 +75,20 @@ std::size_t writePreviewPng(const std::string& path, const nimbus::Framebuffer& 
                             const ColorSystem& cs, const std::string& workingSpace,
                             const std::string& display, const std::string& view);
 
+/// The linear RGB a preview starts from (writePreviewPng's first step): the premultiplied RGBA
+/// composited over black (its premultiplied RGB), 3 floats per pixel, non-finite values replaced
+/// by 0 (counted in *bad when not null). @throws std::runtime_error on an inconsistent
+/// Framebuffer (the message names @p path).
+std::vector<float> previewLinearRgb(const std::string& path, const nimbus::Framebuffer& fb,
+                                    std::size_t* bad = nullptr);
+
+/// writePreviewPng's last step: display-encoded RGB (3 floats per pixel, e.g. the GPU's display
+/// transform of previewLinearRgb) clamped to [0,1], rounded to 8 bits and written as the PNG
+/// (atomically). @throws std::runtime_error on I/O errors or a wrong size.
+void writeEncodedPreviewPng(const std::string& path, int width, int height,
+                            const std::vector<float>& displayRgb, const std::string& display,
+                            const std::string& view);
+
 /// An image read back from a file: all channels as float, interleaved, rows top to bottom.
 struct ExrImage {
     int width = 0;

@@ -370,6 +370,12 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
     return o.str();
 }
 
+std::uint32_t accumulationKey(std::uint32_t frameKey, int pass) {
+    if (pass <= 0) return frameKey;
+    // a salt of its own: the pixel-sample keys hash pcg(k + 1) into the pixel's key
+    return kern::pcg(frameKey ^ kern::pcg(std::uint32_t(pass) ^ 0x68e31da4u));
+}
+
 MarchPass::MarchPass() = default;
 MarchPass::~MarchPass() = default;
 
@@ -468,13 +474,18 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         skin = std::make_unique<gl::StorageBuffer>(tau.size() * sizeof(float), tau.data());
         skin->bind(6);
     }
-    // one pass per pixel sample (march_pass.glsl, main)
+    // one pass per pixel sample (march_pass.glsl, main), all of them once per accumulation
+    // pass with that pass's frame key; the pass adds to the sums, the resolve below divides
     const int passes = f.multisample ? P.pixelSamples : 1;
-    for (int k = 0; k < passes; ++k) {
-        P.sampleIndex = k;
-        const gl::StorageBuffer params(sizeof P, &P);
-        params.bind(0);
-        program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+    const std::uint32_t frameKey = P.frameKey;
+    for (int a = 0; a < accumulate_; ++a) {
+        P.frameKey = accumulationKey(frameKey, a);
+        for (int k = 0; k < passes; ++k) {
+            P.sampleIndex = k;
+            const gl::StorageBuffer params(sizeof P, &P);
+            params.bind(0);
+            program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+        }
     }
     std::vector<float> out(n * 12);
     pixels.read(out.data(), out.size() * sizeof(float));
@@ -488,16 +499,18 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     }
     // the weighted sums to pixels, as MarchContext::renderPixel finishes a pixel
     stats.nonFinite = bad;
+    // one sample of weight 1 per pixel (no RT_MULTISAMPLE, no accumulation) is taken as it is
+    const bool divide = f.multisample || accumulate_ > 1;
     for (std::size_t i = 0; i < n; ++i) {
         const float* q = &out[12 * i];
         float rgba[4] = {q[0], q[1], q[2], q[3]};
         float T[3] = {q[4], q[5], q[6]};
         const float wSum = q[7];
-        if (wSum > 0.0f && f.multisample) {
+        if (wSum > 0.0f && divide) {
             for (float& v : rgba) v /= wSum;
             for (float& v : T) v /= wSum;
         }
-        const float depth = q[9] > 0.0f ? (f.multisample ? q[8] / q[9] : q[8]) : 0.0f;
+        const float depth = q[9] > 0.0f ? (divide ? q[8] / q[9] : q[8]) : 0.0f;
         if (!(std::isfinite(rgba[0]) && std::isfinite(rgba[1]) && std::isfinite(rgba[2]) &&
               std::isfinite(rgba[3]))) {
             ++stats.nonFinite;

@@ -112,10 +112,17 @@ MarchShader marchShader(const SceneDesc& scene, const FramePlan& plan);
 /// files compiled in, and what is not done on the GPU.
 std::string explainMarch(const SceneDesc& scene, const FramePlan& plan);
 
+/// The frame key of temporal-accumulation pass `pass` (0-based) of a frame whose key is
+/// `frameKey` (RtMarchParams::frameKey, which seeds every jitter hash of the frame): pass 0
+/// keeps the frame's own key, so one pass renders the frame `nimbus rt` renders without
+/// accumulation; pass a > 0 gets a distinct key of the same pcg family, so the camera-ray
+/// jitter, the shadow rays' jitter and the pixel-sample offsets of every pass are independent.
+std::uint32_t accumulationKey(std::uint32_t frameKey, int pass);
+
 /// Timings and counters of one GPU frame.
 struct MarchStats {
     double compileSeconds = 0.0; ///< compiling the program (0 when it was cached)
-    double frameSeconds = 0.0;   ///< parameter upload, dispatch, wait and read-back
+    double frameSeconds = 0.0;   ///< parameter upload, dispatch, wait and read-back (all passes)
     std::uint64_t nonFinite = 0; ///< pixels or samples that were NaN/Inf (as RenderStats)
 };
 
@@ -143,8 +150,15 @@ class MarchPass {
                 const FrameBindings* bindings, Framebuffer& fb, MarchStats& stats,
                 std::string* error);
 
+    /// Temporal accumulation (`nimbus rt --accumulate N`): every frame rendered is the average
+    /// of `passes` (at least 1) renders of it, each with its own jitter (accumulationKey); each
+    /// pass dispatches every pixel sample. 1, the default, is one render as before.
+    void setAccumulation(int passes) { accumulate_ = passes < 1 ? 1 : passes; }
+    int accumulation() const { return accumulate_; }
+
   private:
     std::map<std::string, std::unique_ptr<gl::ComputeProgram>> programs_;
+    int accumulate_ = 1;
 };
 
 } // namespace nimbus::rt
