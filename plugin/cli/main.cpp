@@ -528,8 +528,9 @@ int mainImpl(int argc, char** argv) {
     rt->add_option("--accumulate", to.accumulate,
                    "Temporal accumulation: each frame is the average of N renders of it, each "
                    "with its own jitter (the step and shadow jitter and the pixel-sample offsets; "
-                   "pass 1 is the frame without accumulation); with a coarser render.step this "
-                   "converges toward the fine-step image (docs/realtime.md)")
+                   "pass 1 is the frame without accumulation): the jitter noise falls as "
+                   "1/sqrt(N), the bias of a coarse render.step stays (measured in "
+                   "docs/realtime.md)")
         ->check(CLI::Range(1, 4096));
     rt->add_flag("--gpu-display", to.gpuDisplay,
                  "Apply the preview's display/view transform (output.display, output.view) on "
