@@ -16,6 +16,9 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
   - the JSON's members tile the block by the std430 rules (vec4 16-byte aligned, scalars 4),
     every member has a meaning and units, and each value equals the bytes of params.bin at the
     member's offset (floats bit for bit);
+A baked variant (field.evaluation = "baked": RT_BAKED_NOISE) has the tiles' buffers and lookup,
+noise_base.bin and noise_detail.bin at bindings 10 and 11 of baseBakeRes^3 and detailBakeRes^3
+floats, and none of the noise kernels (worleyFbm); the others have the noise kernels and no tiles.
 With the shared data folder beside the repository, the same checks on smoke1 (a VDB field:
 RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at binding 9); without
 it that variant is skipped with a message.
@@ -70,6 +73,9 @@ VARIANTS = {
                       "render.photon_skin=0.2"],
                      dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_MS_PHOTONS=1,
                           RT_PHOTON_SKIN=1)),
+    # the noise from the tiles the CPU bakes
+    "baked": ([NONE, 'field.evaluation="baked"'],
+              dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1)),
 }
 # a VDB field (RT_VDB): smoke1 (examples/scenes/smoke1.toml) when the shared data folder beside
 # the repository holds its file; skipped, with a message, when it does not
@@ -82,11 +88,12 @@ if os.path.isfile(SMOKE1_VDB):
 else:
     print(f"SKIP: the vdb_smoke1 variant: {SMOKE1_VDB} is absent (the shared data folder)")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
-                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB"]
-# the data file of each feature that reads one, and its buffer's binding
-DATA = {"RT_MIE_TABLE": ("mie_table.bin", 3), "RT_MS_DIFFUSION": ("diffusion.bin", 4),
-        "RT_MS_PHOTONS": ("photons.bin", 5), "RT_PHOTON_SKIN": ("skin_tau.bin", 6),
-        "RT_VDB": ("vdb_grid.bin", 9)}
+                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE"]
+# the data files of each feature that reads some, and their buffers' bindings
+DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
+        "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
+        "RT_VDB": [("vdb_grid.bin", 9)],
+        "RT_BAKED_NOISE": [("noise_base.bin", 10), ("noise_detail.bin", 11)]}
 
 # code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
 # and the octaves of the sun, the height-occluded ambient, the sky behind the clouds, the
@@ -104,9 +111,13 @@ MARKERS = {
     "RT_MS_PHOTONS": ["buffer RtPhotonGrid", "rtPhoton["],
     "RT_PHOTON_SKIN": ["buffer RtSkinGrid", "rtSkinTau["],
     "RT_VDB": ["buffer RtVdbGrid", "pnanovdb_readaccessor_get_value_address(", "rtVdbDensity("],
+    "RT_BAKED_NOISE": ["buffer RtBaseNoise", "buffer RtDetailNoise", "rtNoiseSample(",
+                       "rtBakedCumulusDensity("],
 }
-# code only a frame without RT_VDB has (the procedural cumulus)
-CUMULUS = ["cumulusDensity(", "rtCumulusParams("]
+# code only a frame without RT_VDB has (the procedural cumulus, direct or baked)
+CUMULUS = ["cumulusEnvelope(", "rtCumulusParams("]
+# code only a cumulus frame whose noise is evaluated per sample has (the noise kernels)
+DIRECT = ["NB_FN float worleyFbm(", "NB_FN float cumulusDensity("]
 
 SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
 
@@ -145,6 +156,11 @@ for name, (sets, on) in VARIANTS.items():
         check((marker in text) != bool(features["RT_VDB"]),
               f"{name}: RT_VDB {features['RT_VDB']} but '{marker}' is "
               f"{'present' if features['RT_VDB'] else 'absent'}")
+    direct = not features["RT_VDB"] and not features["RT_BAKED_NOISE"]
+    for marker in DIRECT:
+        check((marker in text) == direct,
+              f"{name}: noise evaluated per sample {direct} but '{marker}' is "
+              f"{'absent' if direct else 'present'}")
     # every line after a #line is the line of the file it names (the header lists the
     # source-string numbers): the renumbering after removed code is right
     sources = dict((int(n), f) for n, f in
@@ -193,19 +209,32 @@ for name, (sets, on) in VARIANTS.items():
     check(doc["dispatch"]["passes"] == (4 if features["RT_MULTISAMPLE"] else 1),
           f"{name}: passes {doc['dispatch']['passes']}")
     bindings = sorted(b["binding"] for b in doc["buffers"])
-    want = sorted([0, 1, 2] + [DATA[f][1] for f in DATA if features[f]])
+    want = sorted([0, 1, 2] + [b for f in DATA if features[f] for _, b in DATA[f]])
     check(bindings == want, f"{name}: bindings {bindings}, expected {want}")
     # the data files: written exactly for the features that read them, of the size the JSON says
-    for f, (file, binding) in DATA.items():
+    for f, files in DATA.items():
+        for file, binding in files:
+            path = os.path.join(out, file)
+            check(os.path.isfile(path) == bool(features[f]),
+                  f"{name}: {file} {'missing' if features[f] else 'written'} with {f} "
+                  f"{'on' if features[f] else 'off'}")
+            if features[f]:
+                b = [b for b in doc["buffers"] if b["binding"] == binding]
+                check(len(b) == 1 and b[0].get("file") == file and
+                      b[0]["bytes"] == os.path.getsize(path) > 0,
+                      f"{name}: buffer {binding} {b} vs {file} of {os.path.getsize(path)} bytes")
+    # the tiles: res^3 floats each, res from the block (the scene's bake resolutions)
+    res = {m["name"]: m["value"] for m in block["members"]
+           if m["name"] in ("baseBakeRes", "detailBakeRes")}
+    check(len(res) == 2, f"{name}: baseBakeRes / detailBakeRes not in the block")
+    for file, key in (("noise_base.bin", "baseBakeRes"), ("noise_detail.bin", "detailBakeRes")):
         path = os.path.join(out, file)
-        check(os.path.isfile(path) == bool(features[f]),
-              f"{name}: {file} {'missing' if features[f] else 'written'} with {f} "
-              f"{'on' if features[f] else 'off'}")
-        if features[f]:
-            b = [b for b in doc["buffers"] if b["binding"] == binding]
-            check(len(b) == 1 and b[0].get("file") == file and
-                  b[0]["bytes"] == os.path.getsize(path) > 0,
-                  f"{name}: buffer {binding} {b} vs {file} of {os.path.getsize(path)} bytes")
+        if features["RT_BAKED_NOISE"]:
+            check(res.get(key, 0) > 0 and os.path.isfile(path) and
+                  os.path.getsize(path) == 4 * res[key] ** 3,
+                  f"{name}: {file} is not {key}^3 floats ({res.get(key)})")
+        else:
+            check(res.get(key) == 0, f"{name}: {key} {res.get(key)} without RT_BAKED_NOISE")
 check(len(set(texts.values())) == len(texts), "two variants exported the same text")
 
 # the help

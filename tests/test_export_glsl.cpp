@@ -398,6 +398,8 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(msP1),
         NB_MEMBER(mediumG),
         NB_MEMBER(vdbDensity),
+        NB_MEMBER(baseBakeRes),
+        NB_MEMBER(detailBakeRes),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());
@@ -419,9 +421,13 @@ TEST(ExportGlslParams, JsonMatchesTheStruct) {
                                    "render.multiple_scattering=\"none\"", "render.pixel_samples=4"})
                     .ok());
     const FramePlan plan = session.plan(7);
+    // (4 samples per pixel: the plan bakes the noise under "auto", the export needs the tiles)
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
     rt::GlslExport e;
     std::string error;
-    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, e, &error)) << error;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, nullptr, &session.bindings(), &noise,
+                               e, &error))
+        << error;
     Json doc;
     ASSERT_TRUE(JsonReader(e.json).read(doc)) << e.json;
     EXPECT_EQ(doc["frame"].integer(), 7);
@@ -607,7 +613,9 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
         RenderStats gridStats;
         grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     }
-    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), fb, stats, &error))
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+    EXPECT_TRUE(
+        pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, fb, stats, &error))
         << error;
     EXPECT_EQ(fb.rgba.size(), rgba.size());
     if (fb.rgba.size() != rgba.size()) return 0.0;
@@ -641,7 +649,8 @@ TEST(ExportGlslGpu, SameImageAsRt) {
                   {"camera.width=64", "camera.height=36", "render.multiple_scattering=\"none\""},
                   "sun_ambient_sky", files),
               45.0);
-    EXPECT_TRUE(files.empty()); // no data buffers without the Mie table or a grid
+    // no Mie table, no grid: only the noise tiles, which the plan bakes at this size ("auto")
+    EXPECT_EQ(files, (std::vector<std::string>{"noise_base.bin", "noise_detail.bin"}));
 }
 
 TEST(ExportGlslGpu, SameImageAsRtMultisampleNoSun) {
@@ -660,7 +669,9 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheDiffusionGridAndTheMieTable) {
     EXPECT_GE(exportAgainstRt({"camera.width=64", "camera.height=36", "medium.phase=\"mie_table\""},
                               "grid_mie_table", files),
               45.0);
-    EXPECT_EQ(files, (std::vector<std::string>{"mie_table.bin", "diffusion.bin"}));
+    // (and the noise tiles: the plan bakes the noise at this size under "auto")
+    EXPECT_EQ(files, (std::vector<std::string>{"mie_table.bin", "diffusion.bin", "noise_base.bin",
+                                               "noise_detail.bin"}));
 }
 
 TEST(ExportGlslGpu, SameImageAsRtWithThePhotonGridAndItsSkin) {
@@ -671,7 +682,9 @@ TEST(ExportGlslGpu, SameImageAsRtWithThePhotonGridAndItsSkin) {
                               "photons_skin", files),
               45.0);
     // the sun's light through the photon grid, the sky's through the diffusion grid
-    EXPECT_EQ(files, (std::vector<std::string>{"diffusion.bin", "photons.bin", "skin_tau.bin"}));
+    // (and the noise tiles the plan bakes under "auto")
+    EXPECT_EQ(files, (std::vector<std::string>{"diffusion.bin", "photons.bin", "skin_tau.bin",
+                                               "noise_base.bin", "noise_detail.bin"}));
 }
 
 // A VDB field (a grid the test writes, tests/rt_vdb_scene.h): its NanoVDB grid goes out as
@@ -715,8 +728,59 @@ TEST(ExportGlslGpu, SameImageAsRtWithAVdbGrid) {
     host::Session cumulus;
     ASSERT_TRUE(cumulus.load(kScene, {"render.multiple_scattering=\"none\""}).ok());
     rt::GlslExport c;
-    ASSERT_TRUE(rt::exportGlsl(cumulus.scene(), cumulus.plan(1), kScene, c, &error)) << error;
+    const rt::BakedNoise noise =
+        rt::bakedNoise(cumulus.renderer(), cumulus.plan(1), cumulus.bindings());
+    ASSERT_TRUE(rt::exportGlsl(cumulus.scene(), cumulus.plan(1), kScene, nullptr,
+                               &cumulus.bindings(), &noise, c, &error))
+        << error;
     EXPECT_FALSE(contains(c.shader, "pnanovdb"));
     EXPECT_FALSE(contains(c.shader, "RtVdbGrid"));
-    EXPECT_TRUE(contains(c.shader, "cumulusDensity("));
+    EXPECT_TRUE(contains(c.shader, "cumulusEnvelope(")); // (its noise baked at this size)
+}
+
+// field.evaluation = "baked": the CPU's noise tiles go out as noise_base.bin and noise_detail.bin
+// (the floats nimbus rt uploads, res^3 each), the shader reads them (RT_BAKED_NOISE) and the
+// image is nimbus rt's; without the tiles the export refuses the frame.
+TEST(ExportGlslGpu, SameImageAsRtWithBakedNoise) {
+    std::vector<std::string> files;
+    std::string shader;
+    EXPECT_GE(exportAgainstRt({"camera.width=64", "camera.height=36",
+                               "render.multiple_scattering=\"none\"", "field.evaluation=\"baked\""},
+                              "baked_noise", files, kScene, 3, &shader),
+              45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"noise_base.bin", "noise_detail.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_BAKED_NOISE 1"));
+    EXPECT_TRUE(contains(shader, "buffer RtBaseNoise { float rtBaseNoise[]; };"));
+    EXPECT_TRUE(contains(shader, "rtBakedCumulusDensity("));
+    EXPECT_FALSE(contains(shader, "NB_FN float worleyFbm(")); // the noise is not evaluated
+    host::Session session;
+    ASSERT_TRUE(
+        session
+            .load(kScene, {"camera.width=64", "camera.height=36",
+                           "render.multiple_scattering=\"none\"", "field.evaluation=\"baked\""})
+            .ok());
+    const FramePlan plan = session.plan(3);
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+    ASSERT_TRUE(noise.base && noise.detail);
+    std::string error;
+    rt::GlslExport e;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, nullptr, &session.bindings(), &noise,
+                               e, &error))
+        << error;
+    ASSERT_EQ(e.data.size(), 2u);
+    const int rb = session.scene().field.cumulus.baseBakeResolution;
+    const int rd = session.scene().field.cumulus.detailBakeResolution;
+    ASSERT_EQ(e.data[0].second.size(), std::size_t(rb) * rb * rb * 4);
+    ASSERT_EQ(e.data[1].second.size(), std::size_t(rd) * rd * rd * 4);
+    EXPECT_EQ(
+        std::memcmp(e.data[0].second.data(), noise.base->values.data(), e.data[0].second.size()),
+        0);
+    EXPECT_EQ(
+        std::memcmp(e.data[1].second.data(), noise.detail->values.data(), e.data[1].second.size()),
+        0);
+    EXPECT_TRUE(contains(e.json, "\"noise_base.bin\""));
+    EXPECT_TRUE(contains(e.json, "\"baseBakeRes\""));
+    rt::GlslExport none;
+    EXPECT_FALSE(rt::exportGlsl(session.scene(), plan, kScene, none, &error));
+    EXPECT_TRUE(contains(error, "tiles were not given")) << error;
 }

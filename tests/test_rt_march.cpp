@@ -127,8 +127,8 @@ TEST(RtMarchSupport, RefusesByKey) {
     s.field.kind = FieldKind::Gardner;
     EXPECT_TRUE(contains(keysOf(s), "field.kind;"));
     s = base;
-    s.field.cumulus.eval = NoiseEval::Baked;
-    EXPECT_EQ(keysOf(s), "field.evaluation;");
+    s.field.cumulus.eval = NoiseEval::Baked; // the CPU's tiles in buffers (RT_BAKED_NOISE)
+    EXPECT_EQ(keysOf(s), "");
     s = base;
     s.render.integrator = Integrator::PathTrace;
     EXPECT_EQ(keysOf(s), "render.integrator;");
@@ -187,6 +187,17 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
     EXPECT_TRUE(contains(text, "#define RT_SUN 0\n"));
     EXPECT_TRUE(contains(text, "#define RT_MULTISAMPLE 1\n"));
     EXPECT_TRUE(contains(text, "NB_FN float cumulusDensity(")); // the embedded kernel text
+    // the baked noise follows the plan: "baked", and "auto" where the plan bakes
+    EXPECT_FALSE(f.bakedNoise);
+    EXPECT_TRUE(contains(f.defines(), "#define RT_BAKED_NOISE 0\n"));
+    SceneDesc b = s;
+    b.field.cumulus.eval = NoiseEval::Baked;
+    const rt::MarchFeatures fb = rt::marchFeatures(b, planFrame(b, 1));
+    EXPECT_TRUE(fb.bakedNoise);
+    EXPECT_TRUE(contains(fb.defines(), "#define RT_BAKED_NOISE 1\n"));
+    EXPECT_TRUE(contains(rt::marchShaderSource(fb), "buffer RtBaseNoise"));
+    b.field.cumulus.eval = NoiseEval::Auto;
+    EXPECT_EQ(rt::marchFeatures(b, planFrame(b, 1)).bakedNoise, planFrame(b, 1).bakeNoise);
 }
 
 namespace {
@@ -361,6 +372,111 @@ TEST(RtMarchLookups, GridsAsTheCpu) {
     }
 }
 
+// The baked noise tiles as the shader reads them (march_data.glsl: rtNoiseSample, and the
+// density rtBakedCumulusDensity) equal the CPU's (NoiseVolume::sample, CumulusField::density
+// with both tiles): the tiles are the ones Renderer::fieldFor baked, uploaded as they are.
+// Lookups at 6,144 points per tile in voxel units: random over three tile periods around the
+// tile (negative coordinates and beyond res: the wrap), on the tile's borders (0 and res - 1 +
+// a fraction, res, -1 + a fraction, with fractions 0, 1e-3, 0.5, 1 - 1e-3, on one axis or all
+// three), and integer nodes; densities at 8,192 world points over the field's box at frames 1
+// and 12 (the wind offsets).
+TEST(RtMarchLookups, BakedNoiseAsTheCpu) {
+    if (!requireContext()) return;
+    host::Session session;
+    std::vector<std::string> settings = paritySettings(32, 18);
+    settings.push_back("field.evaluation=\"baked\"");
+    ASSERT_TRUE(session.load(kDefaultScene, settings).ok());
+    std::uint32_t h = 777u;
+    auto u = [&] { return kern::hashToUnit(h = kern::pcg(h)); };
+    double worstNoise = 0.0, worstDensity = 0.0, largestDensity = 0.0;
+    std::size_t lookups = 0, densities = 0, cloudy = 0;
+    for (int frame : {1, 12}) {
+        const FramePlan plan = session.plan(frame);
+        ASSERT_TRUE(plan.bakeNoise);
+        const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+        ASSERT_TRUE(noise.base && noise.detail);
+        ASSERT_EQ(rt::bakedNoiseError(session.scene(), &noise), "");
+        const rt::MarchFeatures f = rt::marchFeatures(session.scene(), plan);
+        ASSERT_TRUE(f.bakedNoise);
+        const rt::RtMarchParams P = rt::marchParams(session.scene(), plan);
+        ASSERT_EQ(P.baseBakeRes, noise.base->res);
+        ASSERT_EQ(P.detailBakeRes, noise.detail->res);
+        const gl::StorageBuffer base(noise.base->values.size() * sizeof(float),
+                                     noise.base->values.data());
+        const gl::StorageBuffer detail(noise.detail->values.size() * sizeof(float),
+                                       noise.detail->values.data());
+        base.bind(10);
+        detail.bind(11);
+        // the tile lookups (w: 0 base, 1 detail)
+        std::vector<glm::vec4> in;
+        for (int tile = 0; tile < 2; ++tile) {
+            const float n = float(tile == 0 ? noise.base->res : noise.detail->res);
+            for (int k = 0; k < 2048; ++k)
+                in.emplace_back(-n + 3.0f * n * u(), -n + 3.0f * n * u(), -n + 3.0f * n * u(),
+                                float(tile));
+            const float edges[] = {0.0f, n - 1.0f, n, -1.0f};
+            const float fracs[] = {0.0f, 1e-3f, 0.5f, 1.0f - 1e-3f};
+            for (int k = 0; k < 2048; ++k) {
+                const float e = edges[k % 4] + fracs[(k / 4) % 4];
+                const int axis = (k / 16) % 4; // 3: all three on the border
+                vec3 p(n * u(), n * u(), n * u());
+                if (axis == 3)
+                    p = vec3(e);
+                else
+                    p[axis] = e;
+                in.emplace_back(p.x, p.y, p.z, float(tile));
+            }
+            for (int k = 0; k < 2048; ++k)
+                in.emplace_back(std::floor(n * u()), std::floor(n * u()), std::floor(n * u()),
+                                float(tile));
+        }
+        const std::vector<float> out =
+            runLookups(f, P, in, 1,
+                       "vec3 u = vec3(testIn[i].x, testIn[i].y, testIn[i].z);\n"
+                       "testOut[i] = testIn[i].w == 0.0f ? rtNoiseSample(0, P.baseBakeRes, u)\n"
+                       "                                 : rtNoiseSample(1, P.detailBakeRes, u);");
+        ASSERT_EQ(out.size(), in.size());
+        for (std::size_t i = 0; i < in.size(); ++i) {
+            const NoiseVolume& v = in[i].w == 0.0f ? *noise.base : *noise.detail;
+            const float want = v.sample(vec3(in[i].x, in[i].y, in[i].z));
+            worstNoise = std::max(worstNoise, double(std::abs(out[i] - want)));
+        }
+        lookups += in.size();
+        // the densities, as the CPU frame's field reads them
+        const Field field = session.renderer().fieldFor(plan, session.bindings());
+        ASSERT_EQ(field.kind, FieldKind::Cumulus);
+        const Box b = field.bounds();
+        std::vector<glm::vec4> pts;
+        for (int k = 0; k < 8192; ++k) {
+            const vec3 p = b.lo + vec3(u(), u(), u()) * (b.hi - b.lo);
+            pts.emplace_back(p.x, p.y, p.z, 0.0f);
+        }
+        const std::vector<float> rho =
+            runLookups(f, P, pts, 1,
+                       "testOut[i] = rtBakedCumulusDensity(rtCumulusParams(P), "
+                       "vec3(testIn[i].x, testIn[i].y, testIn[i].z));");
+        ASSERT_EQ(rho.size(), pts.size());
+        for (std::size_t i = 0; i < pts.size(); ++i) {
+            const float want = field.density(vec3(pts[i].x, pts[i].y, pts[i].z));
+            if (want > 0.0f) ++cloudy;
+            largestDensity = std::max(largestDensity, double(want));
+            worstDensity = std::max(worstDensity, double(std::abs(rho[i] - want)));
+        }
+        densities += pts.size();
+    }
+    RecordProperty("baked_noise_lookups", std::to_string(lookups));
+    RecordProperty("baked_noise_max_abs_difference", std::to_string(worstNoise));
+    RecordProperty("baked_density_max_abs_difference", std::to_string(worstDensity));
+    std::printf("[ rt lookups ] baked noise: %zu tile lookups, largest difference %.3g; %zu "
+                "densities (%zu > 0, largest %.3g), largest difference %.3g\n",
+                lookups, worstNoise, densities, cloudy, largestDensity, worstDensity);
+    EXPECT_GT(cloudy, densities / 100);
+    // the tiles' lookups: the same floats, the same arithmetic
+    EXPECT_LE(worstNoise, 1e-6);
+    // the densities add the kernels' envelope and domain on the GPU (a few ulp apart)
+    EXPECT_LE(worstDensity, 1e-5 * largestDensity);
+}
+
 /// Renders frame `frame` of the default scene with `extra` settings on the CPU (march) and on
 /// the GPU; returns the PSNR of the GPU image against the CPU image (and records it).
 double sceneGpuAgainstCpu(const std::string& scene, const std::vector<std::string>& settings,
@@ -379,11 +495,14 @@ double sceneGpuAgainstCpu(const std::string& scene, const std::vector<std::strin
     const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     EXPECT_EQ(grids.hasDiffusion, plan.diffusion) << tag;
     EXPECT_EQ(grids.hasPhotons, plan.photons) << tag;
+    // the noise tiles the CPU frame sampled, when its plan baked them (none otherwise)
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+    EXPECT_EQ(noise.base != nullptr, plan.bakeNoise) << tag;
     rt::MarchPass pass;
     rt::MarchStats gpuStats;
     std::string error;
-    EXPECT_TRUE(
-        pass.render(session.scene(), plan, &grids, &session.bindings(), gpu, gpuStats, &error))
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, gpu,
+                            gpuStats, &error))
         << error;
     EXPECT_EQ(gpu.rgba.size(), cpu.rgba.size());
     if (gpu.rgba.size() != cpu.rgba.size()) return 0.0;
@@ -454,6 +573,39 @@ TEST(RtMarchParity, MieTable) {
     if (!requireContext()) return;
     double maxAbs = 0.0;
     EXPECT_GE(gpuAgainstCpu(1, {"medium.phase=\"mie_table\""}, "mie_table", &maxAbs), 45.0);
+}
+
+// field.evaluation = "baked": the noise read from the tiles the CPU baked (the same floats, the
+// same trilinear lookup), at frames 1 and 12 (the wind moves the domain through the tiles)
+TEST(RtMarchParity, BakedNoise) {
+    if (!requireContext()) return;
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {"field.evaluation=\"baked\""}, "baked_frame1", &maxAbs), 45.0);
+    EXPECT_GE(gpuAgainstCpu(12, {"field.evaluation=\"baked\""}, "baked_frame12", &maxAbs), 45.0);
+    // with the diffusion grid (built over the baked field on the CPU)
+    EXPECT_GE(gpuAgainstCpu(1, {"field.evaluation=\"baked\""}, "baked_grid", &maxAbs, "grid"),
+              45.0);
+}
+
+// field.evaluation = "auto" where the plan bakes (160x90 of the default scene): the GPU follows
+// the CPU's plan (the frame's tiles, RT_BAKED_NOISE)
+TEST(RtMarchParity, AutoFollowsThePlansBake) {
+    if (!requireContext()) return;
+    host::Session session;
+    std::vector<std::string> settings = paritySettings(160, 90);
+    settings.push_back("field.evaluation=\"auto\"");
+    ASSERT_TRUE(session.load(kDefaultScene, settings).ok());
+    ASSERT_TRUE(session.plan(1).bakeNoise) << session.plan(1).noiseDecision;
+    EXPECT_TRUE(rt::marchFeatures(session.scene(), session.plan(1)).bakedNoise);
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {"field.evaluation=\"auto\""}, "auto_baked_frame1", &maxAbs), 45.0);
+    // without the tiles the pass refuses the frame rather than evaluate the noise itself
+    Framebuffer fb;
+    rt::MarchStats stats;
+    std::string error;
+    rt::MarchPass pass;
+    EXPECT_FALSE(pass.render(session.scene(), session.plan(1), fb, stats, &error));
+    EXPECT_TRUE(contains(error, "tiles were not given")) << error;
 }
 
 // render.multiple_scattering = "grid": the diffusion grid the CPU solved, read trilinearly with
@@ -706,11 +858,14 @@ TEST(RtVdbParity, Smoke1) {
 // output.color_space, metadata, AOVs): both EXRs of the same frame agree at PSNR >= 45 dB; with
 // multiple_scattering = "grid" (the default scene's) the CLI computes the grid on the CPU first.
 TEST(RtCli, WritesTheSameExrAsRender) {
-    for (const std::string ms : {"none", "grid"}) {
+    // "baked": no multiple-scattering grid, the noise from the tiles the CPU bakes
+    for (const std::string ms : {"none", "grid", "baked"}) {
         TempDir dir("rt_cli");
         const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
                                  "'render.multiple_scattering=\"" +
-                                 ms + "\"' --set 'field.evaluation=\"direct\"'";
+                                 (ms == "baked" ? std::string("none") : ms) +
+                                 "\"' --set 'field.evaluation=\"" +
+                                 (ms == "baked" ? "baked" : "direct") + "\"'";
         auto preview = [&](const std::string& name) {
             return " --set 'output.preview=\"" + dir.string() + "/" + name + ".####.png\"'";
         };
@@ -762,12 +917,18 @@ TEST(RtCli, RefusesUnsupportedSceneWithExit2) {
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_TRUE(contains(r.output, "render.shadow"));
     EXPECT_FALSE(std::filesystem::exists(dir.string() + "/x.0001.exr"));
+    // --explain stops on a refusal too
+    const CliRun x =
+        runNimbus("rt " + kDefaultScene + " --frames 1 --set 'render.shadow=\"volume\"' --explain");
+    EXPECT_EQ(x.exitCode, 2) << x.output;
+    EXPECT_TRUE(contains(x.output, "render.shadow"));
+    // baked noise is no longer refused: the shader reads the CPU's tiles
     const CliRun b = runNimbus("rt " + kDefaultScene +
                                " --frames 1 --set "
                                "'render.multiple_scattering=\"none\"' --set "
                                "'field.evaluation=\"baked\"' --explain");
-    EXPECT_EQ(b.exitCode, 2) << b.output;
-    EXPECT_TRUE(contains(b.output, "field.evaluation"));
+    EXPECT_EQ(b.exitCode, 0) << b.output;
+    EXPECT_TRUE(contains(b.output, "#define RT_BAKED_NOISE 1"));
     const CliRun e = runNimbus("rt " + kDefaultScene +
                                " --frames 1 --set "
                                "'render.multiple_scattering=\"none\"' --explain");

@@ -74,9 +74,12 @@ int runExportGlsl(const ExportGlslOptions& o) {
         RenderStats gridStats;
         grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     }
+    // the cumulus noise tiles (when the plan bakes them), baked by the CPU as for `nimbus render`
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
     rt::GlslExport e;
     std::string error;
-    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, &session.bindings(), e, &error)) {
+    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, &session.bindings(), &noise, e,
+                        &error)) {
         std::fprintf(stderr, "nimbus: error: export-glsl: %s\n", error.c_str());
         return kExitInternal;
     }

@@ -141,7 +141,10 @@ int runRt(const RtOptions& o) {
                 std::printf("frame %d: multiple-scattering grid computed on the CPU in %.3f s\n",
                             frame, secondsSince(gridStart));
         }
-        if (!pass.render(scene, plan, &grids, &session.bindings(), fb, stats, &error)) {
+        // the cumulus noise tiles when the plan bakes them: the CPU's (baked once, as for
+        // `nimbus render`), read by the shader
+        const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+        if (!pass.render(scene, plan, &grids, &session.bindings(), &noise, fb, stats, &error)) {
             std::fprintf(stderr, "nimbus: error: rt: frame %d: %s\n", frame, error.c_str());
             return kExitInternal;
         }

@@ -30,7 +30,8 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_MS_DIFFUSION", f.diffusion},
             {"RT_MS_PHOTONS", f.photons},
             {"RT_PHOTON_SKIN", f.photonSkin},
-            {"RT_VDB", f.vdb}};
+            {"RT_VDB", f.vdb},
+            {"RT_BAKED_NOISE", f.bakedNoise}};
 }
 
 namespace {
@@ -624,6 +625,14 @@ ParamDoc paramDoc(std::string_view n) {
          {"RT_VDB: the field's density scale (field.density), multiplying the grid's values; the "
           "grid's box is boundsLo/Hi",
           "1 (factor)"}},
+        {"baseBakeRes",
+         {"RT_BAKED_NOISE: nodes per axis of the base noise tile (noise_base.bin: baseBakeRes^3 "
+          "floats, x fastest; field.base_bake_resolution; 0 without)",
+          "nodes"}},
+        {"detailBakeRes",
+         {"RT_BAKED_NOISE: nodes per axis of the detail noise tile (noise_detail.bin; "
+          "field.detail_bake_resolution; 0 without)",
+          "nodes"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -848,6 +857,14 @@ std::string bufferMeaning(std::string_view name) {
                "byte 0 to gridSize(), read as uints through PNanoVDB (the grid at address 0); its "
                "own map (world to index) is inside it, its box is boundsLo/Hi and its density "
                "scale vdbDensity in the parameter block";
+    if (name == "RtBaseNoise" || name == "RtDetailNoise")
+        return std::string("the ") + (name == "RtBaseNoise" ? "base" : "detail") +
+               " noise tile the CPU baked for the sequence (NoiseVolume, "
+               "core/fields/cumulus.h): " +
+               (name == "RtBaseNoise" ? "baseBakeRes" : "detailBakeRes") +
+               "^3 floats, one per node of a periodic tile, x fastest, then y, then z; the noise "
+               "with its octaves summed (one value per node, no channels); read trilinearly, "
+               "wrapping, at the noise-domain point times the resolution";
     return "";
 }
 
@@ -859,6 +876,8 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtPhotonGrid") return "photons.bin";
     if (name == "RtSkinGrid") return "skin_tau.bin";
     if (name == "RtVdbGrid") return "vdb_grid.bin";
+    if (name == "RtBaseNoise") return "noise_base.bin";
+    if (name == "RtDetailNoise") return "noise_detail.bin";
     return "";
 }
 
@@ -871,8 +890,8 @@ template <class T> std::vector<std::uint8_t> bytesOf(const std::vector<T>& v) {
 } // namespace
 
 bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scenePath,
-                const MarchGrids* grids, const FrameBindings* bindings, GlslExport& out,
-                std::string* error) {
+                const MarchGrids* grids, const FrameBindings* bindings, const BakedNoise* noise,
+                GlslExport& out, std::string* error) {
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
         if (error) *error = no.front().message;
@@ -887,6 +906,13 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
                 *error = "the frame's multiple-scattering grid was not given to the export (build "
                          "it with Renderer::marchGrids)";
             return false;
+        }
+        if (f.bakedNoise) {
+            const std::string e = bakedNoiseError(s, noise);
+            if (!e.empty()) {
+                if (error) *error = e;
+                return false;
+            }
         }
         // the data the shader reads besides the block: the same bytes MarchPass uploads
         static_assert(sizeof(vec3) == 3 * sizeof(float));
@@ -907,6 +933,10 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             const auto* b = static_cast<const std::uint8_t*>(g.data);
             out.data.emplace_back(bufferFile("RtVdbGrid"),
                                   std::vector<std::uint8_t>(b, b + g.size));
+        }
+        if (f.bakedNoise) {
+            out.data.emplace_back(bufferFile("RtBaseNoise"), bytesOf(noise->base->values));
+            out.data.emplace_back(bufferFile("RtDetailNoise"), bytesOf(noise->detail->values));
         }
     }
     // the shader nimbus rt compiles, the disabled features' code removed

@@ -92,8 +92,9 @@ struct GlslExport {
     std::vector<std::uint8_t> params; ///< params.bin: the block, std430, for the frame
     /// The data buffers the shader reads, (file name, bytes): mie_table.bin (RT_MIE_TABLE),
     /// diffusion.bin (RT_MS_DIFFUSION), photons.bin (RT_MS_PHOTONS), skin_tau.bin
-    /// (RT_PHOTON_SKIN), vdb_grid.bin (RT_VDB: the field's NanoVDB grid, vdbGridBytes); their
-    /// bindings and layouts are in params.json's "buffers".
+    /// (RT_PHOTON_SKIN), vdb_grid.bin (RT_VDB: the field's NanoVDB grid, vdbGridBytes),
+    /// noise_base.bin and noise_detail.bin (RT_BAKED_NOISE: the CPU's baked noise tiles, res^3
+    /// floats each, x fastest); their bindings and layouts are in params.json's "buffers".
     std::vector<std::pair<std::string, std::vector<std::uint8_t>>> data;
 };
 
@@ -105,10 +106,17 @@ inline constexpr const char* kExportParamsFile = "params.bin";
 /// Exports frame `plan` of `scene` (`scenePath` is recorded in the JSON; `bindings`: what the
 /// host bound to the frame, which a VDB field's grid comes from). False with *error when
 /// the frame is unsupported (the first unsupported() message; the caller checks and names every
-/// key first), or when the shader or the block cannot be processed.
+/// key first), or when the shader or the block cannot be processed. `noise`: the tiles the CPU
+/// baked (bakedNoise), which a frame whose plan bakes the cumulus noise needs (bakedNoiseError).
 bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
-                const MarchGrids* grids, const FrameBindings* bindings, GlslExport& out,
-                std::string* error);
+                const MarchGrids* grids, const FrameBindings* bindings, const BakedNoise* noise,
+                GlslExport& out, std::string* error);
+/// The same for a frame whose plan does not bake the noise.
+inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
+                       const MarchGrids* grids, const FrameBindings* bindings, GlslExport& out,
+                       std::string* error) {
+    return exportGlsl(scene, plan, scenePath, grids, bindings, nullptr, out, error);
+}
 /// The same for a frame with nothing bound (no VDB field).
 inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
                        const MarchGrids* grids, GlslExport& out, std::string* error) {

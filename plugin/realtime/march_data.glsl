@@ -5,7 +5,8 @@
 // MieTable::eval (core/media/mie.cpp), DiffusionVolume::sample with its gradient
 // (core/lighting/diffusion.cpp), PhotonVolume::sample with its skin profile
 // (core/lighting/photons.h) and sampleVoxelCentres (core/geometry.h); and the field's NanoVDB
-// grid (RT_VDB) through PNanoVDB, sampled as GridField::density. Shader storage buffers and
+// grid (RT_VDB) through PNanoVDB, sampled as GridField::density; the cumulus noise tiles the CPU
+// baked (RT_BAKED_NOISE), sampled as NoiseVolume::sample. Shader storage buffers and
 // trilinear interpolation by hand rather than textures: a texture unit's filtering weights are
 // fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. Assembled after
 // march_params.glsl; tests/test_rt_march.cpp compiles it with its own main() to compare each
@@ -33,6 +34,14 @@ layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
 // PNanoVDB; its name is the one PNanoVDB's GLSL buffer functions read
 layout(std430, binding = 9) readonly buffer RtVdbGrid { uint pnanovdb_buf_data[]; };
 // @pnanovdb: plugin/realtime/rt_march.cpp puts the text of PNanoVDB.h here (pnanovdbSource())
+#endif
+#if RT_BAKED_NOISE
+// the cumulus noise tiles the CPU baked for the sequence (NoiseVolume, core/fields/cumulus.h:
+// bakeCumulusBase / bakeCumulusDetail, the bytes Renderer::fieldFor samples): one float per node
+// of a periodic res^3 tile, x fastest, then y, then z; base res = P.baseBakeRes, detail res =
+// P.detailBakeRes. One scalar per node: the CPU bakes each noise with its octaves summed.
+layout(std430, binding = 10) readonly buffer RtBaseNoise { float rtBaseNoise[]; };
+layout(std430, binding = 11) readonly buffer RtDetailNoise { float rtDetailNoise[]; };
 #endif
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
@@ -106,6 +115,57 @@ float rtVdbDensity(vec3 p, float scale) {
     float v = rtLerp(rtLerp(rtLerp(c000, c001, f.z), rtLerp(c010, c011, f.z), f.y),
                      rtLerp(rtLerp(c100, c101, f.z), rtLerp(c110, c111, f.z), f.y), f.x);
     return max(0.0f, v) * scale;
+}
+#endif
+
+#if RT_BAKED_NOISE
+// i modulo n in [0, n) for every int i (GLSL leaves % of a negative operand undefined)
+int rtWrapIndex(int i, int n) { return i >= 0 ? i % n : (n - 1) - ((-1 - i) % n); }
+
+float rtNoiseNode(int tile, int res, int x, int y, int z) {
+    int i = (z * res + y) * res + x;
+    return tile == 0 ? rtBaseNoise[i] : rtDetailNoise[i];
+}
+
+// NoiseVolume::sample (core/fields/cumulus.cpp): the trilinear lookup of tile `tile` (0 base,
+// 1 detail) of res^3 nodes at u in voxel units, wrapped (u and u + res give the same value),
+// with the CPU's order of operations (`precise`: no fused multiply-adds the CPU does not do).
+float rtNoiseSample(int tile, int res, vec3 u) {
+    float n = float(res);
+    precise vec3 w = u - floor(u / n) * n; // [0, res)
+    vec3 f0 = floor(w);
+    precise vec3 f = w - f0;
+    int x0 = rtWrapIndex(int(f0.x), res);
+    int y0 = rtWrapIndex(int(f0.y), res);
+    int z0 = rtWrapIndex(int(f0.z), res);
+    int x1 = rtWrapIndex(x0 + 1, res);
+    int y1 = rtWrapIndex(y0 + 1, res);
+    int z1 = rtWrapIndex(z0 + 1, res);
+    float a000 = rtNoiseNode(tile, res, x0, y0, z0), a100 = rtNoiseNode(tile, res, x1, y0, z0);
+    float a010 = rtNoiseNode(tile, res, x0, y1, z0), a110 = rtNoiseNode(tile, res, x1, y1, z0);
+    float a001 = rtNoiseNode(tile, res, x0, y0, z1), a101 = rtNoiseNode(tile, res, x1, y0, z1);
+    float a011 = rtNoiseNode(tile, res, x0, y1, z1), a111 = rtNoiseNode(tile, res, x1, y1, z1);
+    precise float c00 = a000 + f.x * (a100 - a000);
+    precise float c10 = a010 + f.x * (a110 - a010);
+    precise float c01 = a001 + f.x * (a101 - a001);
+    precise float c11 = a011 + f.x * (a111 - a011);
+    precise float c0 = c00 + f.y * (c10 - c00);
+    precise float c1 = c01 + f.y * (c11 - c01);
+    precise float v = c0 + f.z * (c1 - c0);
+    return v;
+}
+
+// CumulusField::density with both tiles baked (core/fields/cumulus.cpp): the kernel's three
+// stages (cumulusDensity), the noises read from the tiles at the noise-domain points times res.
+float rtBakedCumulusDensity(CumulusParams C, vec3 p) {
+    float env = cumulusEnvelope(C, p);
+    if (cloudShape(C.layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
+    precise vec3 ub = cumulusBaseDomain(C, p) * float(P.baseBakeRes);
+    float base = rtNoiseSample(0, P.baseBakeRes, ub);
+    if (cloudShape(C.layer, env, base, 0.0f) <= 0.0f) return 0.0f;
+    precise vec3 ud = cumulusDetailDomain(C, p) * float(P.detailBakeRes);
+    float detail = rtNoiseSample(1, P.detailBakeRes, ud);
+    return C.density * cloudShape(C.layer, env, base, detail);
 }
 #endif
 

@@ -113,6 +113,9 @@ struct RtMarchParams {
     // the VDB grid (RT_VDB): the field's density scale (field.density, GridField::scale); the
     // box is boundsLo/Hi, the grid's own map is read from its buffer
     float vdbDensity;
+    // the baked cumulus noise (RT_BAKED_NOISE): nodes per axis of the base and detail tiles
+    int baseBakeRes;
+    int detailBakeRes;
 };
 
 // Sky kinds (values = the SkyKind enum of core/scene.h).

@@ -1,7 +1,7 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB: only the features the scene uses are compiled in), the embedded kernels
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE: only the features the scene uses are compiled in), the embedded kernels
 // (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie
 // table and the multiple-scattering grids, and their lookups), then this file.
 //
@@ -10,14 +10,15 @@
 // order of operations: pixel-centre rays of the same pinhole camera (core/camera.h), the same
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
-// cumulusDensity evaluated per sample (or, RT_VDB, the field's NanoVDB grid through PNanoVDB),
+// cumulusDensity evaluated per sample (RT_BAKED_NOISE: its noises read from the tiles the CPU
+// baked; RT_VDB: the field's NanoVDB grid through PNanoVDB),
 // the sun's transmittance by a shadow march per sample, phaseEval (or the Lorenz-Mie table,
 // RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the multiple-scattering grids the
 // CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added as MarchContext::traceRay
 // adds them, the height-occluded sky ambient, marchStep (Hillaire's energy-conserving step) and
 // the early exit at transmittance < epsilon.
 // What it does not do: empty-space skipping (every step of the box is visited; the CPU's
-// majorant grid skips only samples of zero density, so the picture is the same), baked noise,
+// majorant grid skips only samples of zero density, so the picture is the same),
 // light volumes, the column and single-scattered sky, surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -112,7 +113,12 @@ RtField rtField() {
     return F;
 }
 
+#if RT_BAKED_NOISE
+// the noise read from the tiles the CPU baked (march_data.glsl), as CumulusField::density
+float rtDensity(RtField F, vec3 p) { return rtBakedCumulusDensity(F.cumulus, p); }
+#else
 float rtDensity(RtField F, vec3 p) { return cumulusDensity(F.cumulus, p); }
+#endif
 #endif
 
 #if RT_SUN

@@ -77,10 +77,6 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
                              "\": the GLSL pass renders the procedural cumulus field and VDB "
                              "grids only (SDF, Gardner, automaton and homogeneous fields are not "
                              "ported yet)");
-    else if (s.field.kind == FieldKind::Cumulus && s.field.cumulus.eval == NoiseEval::Baked)
-        no("field.evaluation",
-           "field.evaluation = \"baked\": the GLSL pass evaluates the noise per sample (baked "
-           "3D noise textures are not ported yet); use \"direct\" or \"auto\"");
     if (!s.volumes.empty()) no("volume", "[[volume]] entries: the GLSL pass renders `field` alone");
     if (p.instanced || !s.instances.empty())
         no("instance",
@@ -116,6 +112,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
     f.photons = p.photons;
     f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
     f.vdb = s.field.kind == FieldKind::Vdb;
+    f.bakedNoise = s.field.kind == FieldKind::Cumulus && p.bakeNoise;
     return f;
 }
 
@@ -130,6 +127,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_MS_PHOTONS ") + (photons ? "1" : "0") + "\n";
     d += std::string("#define RT_PHOTON_SKIN ") + (photonSkin ? "1" : "0") + "\n";
     d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
+    d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
     return d;
 }
 
@@ -256,6 +254,11 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
         P.boundsHi = v4(b.hi);
         P.vdbDensity = s.field.vdb.density;
     }
+    if (s.field.kind == FieldKind::Cumulus && p.bakeNoise) {
+        // the tiles' nodes per axis (bakeCumulusBase / bakeCumulusDetail bake at these)
+        P.baseBakeRes = c.baseBakeResolution;
+        P.detailBakeRes = c.detailBakeResolution;
+    }
 
     P.sunDirection = v4(s.sun.direction);
     P.sunIrradiance = v4(s.sun.irradiance);
@@ -346,11 +349,15 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
         o << "  GPU field: vdb, the NanoVDB float grid in a storage buffer read through "
              "PNanoVDB, trilinear as on the CPU, density scale "
           << s.field.vdb.density << "\n";
+    else if (f.bakedNoise)
+        o << "  GPU field: cumulus, noise read from the tiles the CPU baked (as the CPU plan; "
+          << s.field.cumulus.baseBakeResolution << "^3 base, "
+          << s.field.cumulus.detailBakeResolution
+          << "^3 detail, storage buffers, trilinear as NoiseVolume::sample)\n";
     else
-        o << "  GPU field: cumulus, noise evaluated per sample ("
-          << (p.bakeNoise ? "the CPU plan would bake it; the GPU does not" : "as the CPU plan")
-          << "), noise octaves " << s.field.cumulus.baseOctaves << " (base) / "
-          << s.field.cumulus.detailOctaves << " (detail)\n";
+        o << "  GPU field: cumulus, noise evaluated per sample (as the CPU plan), noise octaves "
+          << s.field.cumulus.baseOctaves << " (base) / " << s.field.cumulus.detailOctaves
+          << " (detail)\n";
     o << "  GPU march: steps " << p.step << " (growth " << s.render.stepGrowth << "), shadow "
       << p.shadowStep << " (growth " << s.render.shadowGrowth
       << "); no empty-space skipping (every step in the field's box)\n";
@@ -368,6 +375,16 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
       << (f.diffusion || f.photons ? " (computed on the CPU, read from buffers)" : "") << "\n";
     o << "  GPU pixels: " << s.render.pixelSamples << " sample(s) per pixel\n";
     return o.str();
+}
+
+BakedNoise bakedNoise(Renderer& r, const FramePlan& p, const FrameBindings& b) {
+    BakedNoise n;
+    if (r.scene().field.kind != FieldKind::Cumulus || !p.bakeNoise) return n;
+    const Field field = r.fieldFor(p, b);
+    if (field.kind != FieldKind::Cumulus) return n;
+    n.base = field.as<CumulusField>().baseBake;
+    n.detail = field.as<CumulusField>().detailBake;
+    return n;
 }
 
 std::uint32_t accumulationKey(std::uint32_t frameKey, int pass) {
@@ -392,6 +409,23 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
 bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
                        const FrameBindings* bindings, Framebuffer& fb, MarchStats& stats,
                        std::string* error) {
+    return render(s, p, grids, bindings, nullptr, fb, stats, error);
+}
+
+std::string bakedNoiseError(const SceneDesc& s, const BakedNoise* noise) {
+    const CumulusDesc& c = s.field.cumulus;
+    if (!noise || !noise->base || !noise->detail)
+        return "the frame plan bakes the cumulus noise and its tiles were not given to the GLSL "
+               "pass (rt::bakedNoise: Renderer::fieldFor's)";
+    if (noise->base->res != c.baseBakeResolution || noise->detail->res != c.detailBakeResolution)
+        return "the baked noise tiles given to the GLSL pass are not at the scene's "
+               "field.base_bake_resolution / detail_bake_resolution";
+    return "";
+}
+
+bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
+                       const FrameBindings* bindings, const BakedNoise* noise, Framebuffer& fb,
+                       MarchStats& stats, std::string* error) {
     using Clock = std::chrono::steady_clock;
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
@@ -406,6 +440,13 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
             *error = "the frame's multiple-scattering grid was not given to the GLSL pass (build "
                      "it with Renderer::marchGrids)";
         return false;
+    }
+    if (f.bakedNoise) {
+        const std::string e = bakedNoiseError(s, noise);
+        if (!e.empty()) {
+            if (error) *error = e;
+            return false;
+        }
     }
     VdbGridBytes vdb;
     if (f.vdb) {
@@ -445,7 +486,16 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     pixels.bind(1);
     counters.bind(2);
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
-    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid;
+    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise;
+    // the cumulus noise tiles the CPU baked, their floats as NoiseVolume holds them
+    if (f.bakedNoise) {
+        const std::vector<float>& b = noise->base->values;
+        const std::vector<float>& d = noise->detail->values;
+        baseNoise = std::make_unique<gl::StorageBuffer>(b.size() * sizeof(float), b.data());
+        detailNoise = std::make_unique<gl::StorageBuffer>(d.size() * sizeof(float), d.data());
+        baseNoise->bind(10);
+        detailNoise->bind(11);
+    }
     // the field's NanoVDB grid, its bytes as the CPU samples them (PNanoVDB reads address 0 on)
     if (f.vdb) {
         grid = std::make_unique<gl::StorageBuffer>(vdb.size, vdb.data);

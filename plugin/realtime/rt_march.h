@@ -10,19 +10,21 @@
 /// march_pass.glsl.
 ///
 /// Supported (unsupported() names every key that leaves it): field.kind = "cumulus" with its noise
-/// evaluated per sample (not field.evaluation = "baked") or "vdb" (the NanoVDB float grid the host
-/// loaded, in a shader storage buffer, read through PNanoVDB and sampled as GridField::density:
-/// the same map, trilinear weights and density scale), one untransformed volume, no surfaces
-/// or solids, render.integrator = "march", render.multiple_scattering = "none", "grid" (the
-/// diffusion grid) or "photons" (the photon grid, with its skin profile when render.photon_skin
-/// > 0, and the sky's diffusion grid), both grids computed on the CPU (Renderer::marchGrids) and
-/// read from shader storage buffers, render.shadow = "march", the sky as the height-occluded
-/// ambient (render.sky_scattering = "ambient", render.sky_occlusion = "height") when there is no
-/// diffusion grid, every phase function (isotropic, hg, dual_hg, draine, mie_approx, and the
-/// Lorenz-Mie table from a buffer), octaves, every in-scatter model, jitter, pixel samples and
-/// filters, background sky or transparent, the transmittance and depth AOVs. Empty space is not
-/// skipped: every step in the field's box is taken (the CPU's majorant grid skips only samples
-/// whose density is 0).
+/// evaluated per sample, or, where the frame plan bakes it (plan.bakeNoise: field.evaluation =
+/// "baked", or "auto" when the plan chooses to), read from the tiles the CPU baked (the same
+/// floats in shader storage buffers, sampled as NoiseVolume::sample), or "vdb" (the NanoVDB float
+/// grid the host loaded, in a shader storage buffer, read through PNanoVDB and sampled as
+/// GridField::density: the same map, trilinear weights and density scale), one untransformed
+/// volume, no surfaces or solids, render.integrator = "march", render.multiple_scattering = "none",
+/// "grid" (the diffusion grid) or "photons" (the photon grid, with its skin profile when
+/// render.photon_skin > 0, and the sky's diffusion grid), both grids computed on the CPU
+/// (Renderer::marchGrids) and read from shader storage buffers, render.shadow = "march", the sky as
+/// the height-occluded ambient (render.sky_scattering = "ambient", render.sky_occlusion = "height")
+/// when there is no diffusion grid, every phase function (isotropic, hg, dual_hg, draine,
+/// mie_approx, and the Lorenz-Mie table from a buffer), octaves, every in-scatter model, jitter,
+/// pixel samples and filters, background sky or transparent, the transmittance and depth AOVs.
+/// Empty space is not skipped: every step in the field's box is taken (the CPU's majorant grid
+/// skips only samples whose density is 0).
 ///
 /// @code
 ///   auto context = gl::ComputeContext::create(&error);
@@ -37,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "core/fields/cumulus.h"
 #include "core/image.h"
 #include "core/media/mie.h"
 #include "core/plan.h"
@@ -67,6 +70,7 @@ struct MarchFeatures {
     bool photons = false;       ///< RT_MS_PHOTONS: the photon grid (the sun's higher orders)
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
+    bool bakedNoise = false;    ///< RT_BAKED_NOISE: the cumulus noise from the CPU's baked tiles
 
     /// The #define lines.
     std::string defines() const;
@@ -97,6 +101,19 @@ struct VdbGridBytes {
     std::size_t size = 0;
 };
 VdbGridBytes vdbGridBytes(const FrameBindings* bindings, std::string* error);
+
+/// The cumulus noise tiles the CPU baked (RT_BAKED_NOISE, bindings 10 and 11): the NoiseVolumes
+/// Renderer::fieldFor samples (bakeCumulusBase / bakeCumulusDetail, baked once per sequence),
+/// uploaded as they are: res^3 floats each, x fastest.
+struct BakedNoise {
+    std::shared_ptr<const NoiseVolume> base, detail;
+};
+/// The tiles of frame `plan` from `renderer` (the CPU's own, baked on first use as for `nimbus
+/// render`); both null when the plan does not bake the noise.
+BakedNoise bakedNoise(Renderer& renderer, const FramePlan& plan, const FrameBindings& bindings);
+/// Why `noise` cannot serve a frame of `scene` whose plan bakes the noise: a tile missing, or
+/// not at field.base_bake_resolution / detail_bake_resolution; "" when it can.
+std::string bakedNoiseError(const SceneDesc& scene, const BakedNoise* noise);
 
 /// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
 struct MarchShader {
@@ -149,6 +166,12 @@ class MarchPass {
     bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
                 const FrameBindings* bindings, Framebuffer& fb, MarchStats& stats,
                 std::string* error);
+    /// The same with the noise tiles the CPU baked (bakedNoise), which a frame whose plan bakes
+    /// the cumulus noise (RT_BAKED_NOISE) needs. False with *error when the plan bakes and
+    /// `noise` lacks a tile or its resolution is not the scene's.
+    bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
+                const FrameBindings* bindings, const BakedNoise* noise, Framebuffer& fb,
+                MarchStats& stats, std::string* error);
 
     /// Temporal accumulation (`nimbus rt --accumulate N`): every frame rendered is the average
     /// of `passes` (at least 1) renders of it, each with its own jitter (accumulationKey); each
