@@ -1040,6 +1040,16 @@ std::vector<KernelCase> makeCases() {
                   .abs = 0x1p-20f,
                   .why = "two exp()s and mix() on skies <= 2: 2^-20 absolute"}));
     c.push_back(kernelCase(
+        "skyRadianceToward", "skyRadianceToward(a0, a1, a2, a3)",
+        [](int kind, vec3 z, vec3 h, vec3 d) { return skyRadianceToward(kind, z, h, d); },
+        [](Draw& d) {
+            return std::tuple(d.i(0, 2, {0, 1, 2}), d.v3(0.0f, 4.0f, {1.0f}),
+                              d.v3(0.0f, 4.0f, {0.5f}), d.unitVector());
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-21f,
+                  .why = "sqrt() inside mix() on radiances <= 4: 2^-21 absolute"}));
+    c.push_back(kernelCase(
         "skyHeightInScatter", "skyHeightInScatter(a0, a1, a2)",
         [](vec3 a, float h, float g) { return skyHeightInScatter(a, h, g); },
         [](Draw& d) {

@@ -3,9 +3,9 @@
 ///        time (GLSL has no enums; the kernels switch on ints).
 ///
 /// Mirrored today: PhaseKind (core/scene.h) = PHASE_* (core/kernels/phase.glsl); PhaseParams::kind
-/// holds int(PhaseKind). No other host enum reaches a kernel. To mirror another: a constexpr
-/// switch with one case per enumerator and no default (a missing case is an error, -Wswitch is
-/// made an error below), one static_assert per value, and the all-values check.
+/// holds int(PhaseKind); SkyKind = SKY_* (core/kernels/lighting.glsl). To mirror another: a
+/// constexpr switch with one case per enumerator and no default (a missing case is an error,
+/// -Wswitch is made an error below), one static_assert per value, and the all-values check.
 #pragma once
 
 #include "core/kernels/kernels.h"
@@ -52,6 +52,32 @@ constexpr bool phaseKindsMirrored() {
     return true;
 }
 static_assert(phaseKindsMirrored(), "a PhaseKind differs from its PHASE_* in phase.glsl");
+
+/// The lighting.glsl constant of each SkyKind; -1 for an int that is no enumerator.
+constexpr int glslSkyKind(SkyKind k) {
+    switch (k) {
+    case SkyKind::None:
+        return kern::SKY_NONE;
+    case SkyKind::Uniform:
+        return kern::SKY_UNIFORM;
+    case SkyKind::Gradient:
+        return kern::SKY_GRADIENT;
+    }
+    return -1;
+}
+
+static_assert(int(SkyKind::None) == kern::SKY_NONE);
+static_assert(int(SkyKind::Uniform) == kern::SKY_UNIFORM);
+static_assert(int(SkyKind::Gradient) == kern::SKY_GRADIENT);
+
+constexpr bool skyKindsMirrored() {
+    for (int v = -64; v < 64; ++v) {
+        const int glsl = glslSkyKind(SkyKind(v));
+        if (glsl != -1 && glsl != v) return false;
+    }
+    return true;
+}
+static_assert(skyKindsMirrored(), "a SkyKind differs from its SKY_* in lighting.glsl");
 
 } // namespace nimbus
 

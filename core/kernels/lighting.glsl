@@ -97,6 +97,20 @@ NB_FN vec3 skyColumnInScatter(float up, float down, vec3 sigmaTr, vec3 kappa, ve
     return L;
 }
 
+// Sky kinds (values = the SkyKind enum of core/scene.h; core/kernels/enum_mirrors.h checks them).
+const int SKY_NONE = 0;
+const int SKY_UNIFORM = 1;
+const int SKY_GRADIENT = 2;
+
+// Sky radiance toward the unit direction d (skyRadiance of core/media/sky.h, every integrator's
+// sky): none; uniform, the zenith radiance everywhere; or a gradient from the horizon radiance
+// (at and below the horizon) to the zenith's, mixed by sqrt(d.y).
+NB_FN vec3 skyRadianceToward(int kind, vec3 zenith, vec3 horizon, vec3 d) {
+    if (kind == SKY_UNIFORM) return zenith;
+    if (kind == SKY_GRADIENT) return mix(horizon, zenith, sqrt(clamp(d.y, 0.0f, 1.0f)));
+    return vec3(0.0f);
+}
+
 // Sky in-scattering by height (Olajos 2016): the sphere's mean sky at the top of the layer, a
 // share `ground` of it at the base (h = 0), where half the sphere sees the darker ground.
 NB_FN vec3 skyHeightInScatter(vec3 ambient, float h, float ground) {

@@ -7,20 +7,15 @@
 #include <cmath>
 #include <vector>
 
+#include "core/kernels/kernels.h"
 #include "core/scene.h"
 
 namespace nimbus {
 
+/// The sky's radiance toward the unit direction d: the kernel skyRadianceToward
+/// (core/kernels/lighting.glsl), which the GPU pass runs too.
 inline vec3 skyRadiance(const SkyDesc& sky, vec3 d) {
-    switch (sky.kind) {
-    case SkyKind::None:
-        return vec3(0.0f);
-    case SkyKind::Uniform:
-        return sky.zenith;
-    case SkyKind::Gradient:
-        return glm::mix(sky.horizon, sky.zenith, std::sqrt(std::clamp(d.y, 0.0f, 1.0f)));
-    }
-    return vec3(0.0f);
+    return kern::skyRadianceToward(int(sky.kind), sky.zenith, sky.horizon, d);
 }
 
 /// Mean sky radiance over the sphere and over the upper and lower hemispheres, times the sky's

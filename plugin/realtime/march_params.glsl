@@ -87,7 +87,7 @@ struct RtMarchParams {
     int inScatter;      // INSCATTER_* (core/kernels/lighting.glsl)
     float inScatterC;
     float inScatterStrength;
-    int skyKind;        // RT_SKY_* below
+    int skyKind;        // SKY_* (core/kernels/lighting.glsl)
     float ambientGround; // MarchContext::kAmbientGround
     int pixelSamples;
     int filterKind;     // FILTER_* (core/kernels/pixel.glsl)
@@ -117,11 +117,6 @@ struct RtMarchParams {
     int baseBakeRes;
     int detailBakeRes;
 };
-
-// Sky kinds (values = the SkyKind enum of core/scene.h).
-const int RT_SKY_NONE = 0;
-const int RT_SKY_UNIFORM = 1;
-const int RT_SKY_GRADIENT = 2;
 
 // The cumulus kernel parameters of the block (cumulusParams() of core/fields/cumulus.cpp).
 NB_FN CumulusParams rtCumulusParams(IN(RtMarchParams) P) {
@@ -159,14 +154,9 @@ NB_FN PhaseParams rtPhaseParams(IN(RtMarchParams) P) {
                            P.phaseDiameter);
 }
 
-// Sky radiance toward direction d (skyRadiance() of core/media/sky.h: the host function is not
-// a kernel yet; this is the one copy on the GLSL side, checked against it by the image parity).
+// Sky radiance toward direction d: the kernel skyRadianceToward (core/kernels/lighting.glsl),
+// as skyRadiance() of core/media/sky.h calls it.
 NB_FN vec3 rtSkyRadiance(IN(RtMarchParams) P, vec3 d) {
-    vec3 zenith = vec3(P.skyZenith.x, P.skyZenith.y, P.skyZenith.z);
-    if (P.skyKind == RT_SKY_UNIFORM) return zenith;
-    if (P.skyKind == RT_SKY_GRADIENT) {
-        vec3 horizon = vec3(P.skyHorizon.x, P.skyHorizon.y, P.skyHorizon.z);
-        return mix(horizon, zenith, sqrt(clamp(d.y, 0.0f, 1.0f)));
-    }
-    return vec3(0.0f);
+    return skyRadianceToward(P.skyKind, vec3(P.skyZenith.x, P.skyZenith.y, P.skyZenith.z),
+                             vec3(P.skyHorizon.x, P.skyHorizon.y, P.skyHorizon.z), d);
 }

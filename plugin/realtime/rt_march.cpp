@@ -26,9 +26,6 @@
 
 namespace nimbus::rt {
 
-static_assert(int(SkyKind::None) == kern::RT_SKY_NONE);
-static_assert(int(SkyKind::Uniform) == kern::RT_SKY_UNIFORM);
-static_assert(int(SkyKind::Gradient) == kern::RT_SKY_GRADIENT);
 // march_data.glsl's RT_GRID_TYPE_FLOAT (PNANOVDB_GRID_TYPE_FLOAT): the grid type the accessor reads
 static_assert(int(nanovdb::GridType::Float) == 1);
 // the in-scatter and pixel-filter values are checked once, beside their other user
