@@ -20,6 +20,7 @@
 #include "plugin/io/image_output.h"
 #include "plugin/realtime/gl_compute.h"
 #include "plugin/realtime/rt_march.h"
+#include "tests/gl_context.h"
 #include "tests/test_util.h"
 
 using namespace nimbus;
@@ -59,15 +60,6 @@ double relativeRmse(const std::vector<float>& ref, const std::vector<float>& tes
         ss += double(ref[i]) * double(ref[i]);
     }
     return std::sqrt(se / ss);
-}
-
-gl::ComputeContext* requireContext() {
-    std::string error;
-    gl::ComputeContext* c = gl::ComputeContext::shared(&error);
-    EXPECT_NE(c, nullptr) << "no headless OpenGL 4.5 context (EGL surfaceless, Mesa llvmpipe; "
-                             "packages libegl-dev libopengl-dev libgl1-mesa-dri): "
-                          << error;
-    return c;
 }
 
 /// Frame 1 of the scene loaded with `overrides`, rendered by the GLSL pass with `passes`

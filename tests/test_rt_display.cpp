@@ -21,20 +21,12 @@
 #include "plugin/io/image_output.h"
 #include "plugin/realtime/gl_compute.h"
 #include "plugin/realtime/ocio_gpu.h"
+#include "tests/gl_context.h"
 #include "tests/test_util.h"
 
 using namespace nimbus;
 
 namespace {
-
-gl::ComputeContext* requireContext() {
-    std::string error;
-    gl::ComputeContext* c = gl::ComputeContext::shared(&error);
-    EXPECT_NE(c, nullptr) << "no headless OpenGL 4.5 context (EGL surfaceless, Mesa llvmpipe; "
-                             "packages libegl-dev libopengl-dev libgl1-mesa-dri): "
-                          << error;
-    return c;
-}
 
 /// A linear RGB test image, w x h: every channel from an integer hash, spread over
 /// [lo, hi] (log2-uniform when `log`), plus a first row of greys from lo to hi and a few exact

@@ -32,6 +32,7 @@
 #include "plugin/realtime/march_params.h"
 #include "plugin/realtime/rt_march.h"
 #include "tests/rt_vdb_scene.h"
+#include "tests/gl_context.h"
 #include "tests/test_util.h"
 
 using namespace nimbus;
@@ -64,15 +65,6 @@ double psnrRgb(const std::vector<float>& ref, const std::vector<float>& test, do
     }
     const double mse = se / double(n);
     return mse > 0.0 ? 10.0 * std::log10(peak * peak / mse) : 1e9;
-}
-
-gl::ComputeContext* requireContext() {
-    std::string error;
-    gl::ComputeContext* c = gl::ComputeContext::shared(&error);
-    EXPECT_NE(c, nullptr) << "no headless OpenGL 4.5 context (EGL surfaceless, Mesa llvmpipe; "
-                             "packages libegl-dev libopengl-dev libgl1-mesa-dri): "
-                          << error;
-    return c;
 }
 
 } // namespace

@@ -899,20 +899,9 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
     }
     {
         const MarchFeatures f = marchFeatures(s, p);
-        if ((f.diffusion && !(grids && grids->hasDiffusion)) ||
-            (f.photons && !(grids && grids->hasPhotons)) ||
-            (f.photonSkin && !(grids && grids->photons.sunTau))) {
-            if (error)
-                *error = "the frame's multiple-scattering grid was not given to the export (build "
-                         "it with Renderer::marchGrids)";
+        if (const std::string e = frameDataError(s, p, grids, noise, "the export"); !e.empty()) {
+            if (error) *error = e;
             return false;
-        }
-        if (f.bakedNoise) {
-            const std::string e = bakedNoiseError(s, noise);
-            if (!e.empty()) {
-                if (error) *error = e;
-                return false;
-            }
         }
         // the data the shader reads besides the block: the same bytes MarchPass uploads
         static_assert(sizeof(vec3) == 3 * sizeof(float));

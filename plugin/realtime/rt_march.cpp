@@ -420,6 +420,17 @@ std::string bakedNoiseError(const SceneDesc& s, const BakedNoise* noise) {
     return "";
 }
 
+std::string frameDataError(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
+                           const BakedNoise* noise, const std::string& consumer) {
+    const MarchFeatures f = marchFeatures(s, p);
+    if ((f.diffusion && !(grids && grids->hasDiffusion)) ||
+        (f.photons && !(grids && grids->hasPhotons)) ||
+        (f.photonSkin && !(grids && grids->photons.sunTau && grids->photons.skinK > 0.0f)))
+        return "the frame's multiple-scattering grid was not given to " + consumer +
+               " (build it with Renderer::marchGrids)";
+    return f.bakedNoise ? bakedNoiseError(s, noise) : "";
+}
+
 bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
                        const FrameBindings* bindings, const BakedNoise* noise, Framebuffer& fb,
                        MarchStats& stats, std::string* error) {
@@ -430,20 +441,9 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         return false;
     }
     const MarchFeatures f = marchFeatures(s, p);
-    if ((f.diffusion && !(grids && grids->hasDiffusion)) ||
-        (f.photons && !(grids && grids->hasPhotons)) ||
-        (f.photonSkin && !(grids->photons.sunTau && grids->photons.skinK > 0.0f))) {
-        if (error)
-            *error = "the frame's multiple-scattering grid was not given to the GLSL pass (build "
-                     "it with Renderer::marchGrids)";
+    if (const std::string e = frameDataError(s, p, grids, noise, "the GLSL pass"); !e.empty()) {
+        if (error) *error = e;
         return false;
-    }
-    if (f.bakedNoise) {
-        const std::string e = bakedNoiseError(s, noise);
-        if (!e.empty()) {
-            if (error) *error = e;
-            return false;
-        }
     }
     VdbGridBytes vdb;
     if (f.vdb) {

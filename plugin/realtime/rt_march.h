@@ -114,6 +114,11 @@ BakedNoise bakedNoise(Renderer& renderer, const FramePlan& plan, const FrameBind
 /// Why `noise` cannot serve a frame of `scene` whose plan bakes the noise: a tile missing, or
 /// not at field.base_bake_resolution / detail_bake_resolution; "" when it can.
 std::string bakedNoiseError(const SceneDesc& scene, const BakedNoise* noise);
+/// Why frame `plan` of `scene` cannot be rendered or exported from `grids` and `noise`: a
+/// multiple-scattering grid its features read is missing (named for `consumer`, e.g. "the GLSL
+/// pass"), or its baked noise tiles (bakedNoiseError); "" when everything it reads is there.
+std::string frameDataError(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
+                           const BakedNoise* noise, const std::string& consumer);
 
 /// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
 struct MarchShader {

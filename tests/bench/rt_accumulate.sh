@@ -22,12 +22,8 @@ mults=${3:-1 2 4}
 counts=${4:-1 2 4 8 16}
 refm=${5:-0.25}
 refseeds=${6:-4}
-here=$(cd "$(dirname "$0")/../.." && pwd)
-scene="$here/examples/scenes/cumulus.toml"
-w=${size%x*}
-h=${size#*x}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. "$(dirname "$0")/rt_bench_common.sh"
+rt_bench_init "$size"
 base=(--set "camera.width=$w" --set "camera.height=$h" --set 'render.multiple_scattering="none"'
       --set 'field.evaluation="direct"' --set 'output.preview=""' --set 'render.pixel_samples=1')
 steps() { # the step schedule scaled by $1
@@ -60,7 +56,7 @@ for m in $mults; do
         # shellcheck disable=SC2046
         line=$(/usr/bin/time -f '%U %S' -o "$tmp/time" "$nimbus" rt "$scene" --frames 1 -o "$tmp/g.####.exr" "${base[@]}" \
             $(sets_for "$m") --accumulate "$n" 2>/dev/null | grep '^frame 1:')
-        t=$(echo "$line" | sed -n 's/^frame [0-9]*: [0-9x]*, \([0-9.]*\) s on the GPU.*/\1/p')
+        t=$(echo "$line" | rt_gpu_seconds)
         cpu=$(awk '{print $1 + $2}' "$tmp/time")
         dump "$tmp/g.0001.exr" "$tmp/g.txt"
         python3 - "$m" "$n" "$t" "$cpu" "$tmp/g.txt" "${refs[@]}" <<'PY'

@@ -13,12 +13,8 @@ size=${2:-160x90}
 rounds=${3:-3}
 frame=${4:-1}
 shift $(( $# < 4 ? $# : 4 ))
-here=$(cd "$(dirname "$0")/../.." && pwd)
-scene="$here/examples/scenes/cumulus.toml"
-w=${size%x*}
-h=${size#*x}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. "$(dirname "$0")/rt_bench_common.sh"
+rt_bench_init "$size"
 sets=(--set "camera.width=$w" --set "camera.height=$h" --set 'render.multiple_scattering="none"'
       --set "output.preview=\"\"" "$@")
 baked=()
@@ -26,7 +22,7 @@ direct=()
 frameTime() {
     "$nimbus" rt "$scene" --frames "$frame" -o "$tmp/$1.####.exr" "${sets[@]}" 2>/dev/null \
         --set "field.evaluation=\"$1\"" |
-        sed -n 's/^frame [0-9]*: [0-9x]*, \([0-9.]*\) s on the GPU.*/\1/p'
+        rt_gpu_seconds
 }
 for r in $(seq 1 "$rounds"); do
     b=$(frameTime baked)
@@ -35,10 +31,4 @@ for r in $(seq 1 "$rounds"); do
     baked+=("$b")
     direct+=("$d")
 done
-python3 - "${baked[*]}" "${direct[*]}" <<'PY'
-import statistics, sys
-b = [float(x) for x in sys.argv[1].split()]
-d = [float(x) for x in sys.argv[2].split()]
-mb, md = statistics.median(b), statistics.median(d)
-print(f"median baked {mb:.4f} s, direct {md:.4f} s, baked/direct {mb / md:.2f}")
-PY
+rt_medians baked "${baked[*]}" direct "${direct[*]}"

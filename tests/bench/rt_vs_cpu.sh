@@ -13,29 +13,19 @@ size=${2:-160x90}
 rounds=${3:-3}
 frame=${4:-1}
 shift $(( $# < 4 ? $# : 4 ))
-here=$(cd "$(dirname "$0")/../.." && pwd)
-scene="$here/examples/scenes/cumulus.toml"
-w=${size%x*}
-h=${size#*x}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. "$(dirname "$0")/rt_bench_common.sh"
+rt_bench_init "$size"
 sets=(--set "camera.width=$w" --set "camera.height=$h" --set 'render.multiple_scattering="none"'
       --set 'field.evaluation="direct"' --set "output.preview=\"\"" "$@")
 gpu=()
 cpu=()
 for r in $(seq 1 "$rounds"); do
     g=$("$nimbus" rt "$scene" --frames "$frame" -o "$tmp/g.####.exr" "${sets[@]}" |
-        sed -n 's/^frame [0-9]*: [0-9x]*, \([0-9.]*\) s on the GPU.*/\1/p')
+        rt_gpu_seconds)
     c=$("$nimbus" render "$scene" --frames "$frame" -o "$tmp/c.####.exr" --progress json \
         "${sets[@]}" 2>&1 >/dev/null | sed -n 's/.*"event": *"frame_done".*"seconds": *\([0-9.e+-]*\).*/\1/p')
     echo "round $r: gpu $g s, cpu $c s"
     gpu+=("$g")
     cpu+=("$c")
 done
-python3 - "${gpu[*]}" "${cpu[*]}" <<'PY'
-import statistics, sys
-g = [float(x) for x in sys.argv[1].split()]
-c = [float(x) for x in sys.argv[2].split()]
-mg, mc = statistics.median(g), statistics.median(c)
-print(f"median gpu {mg:.4f} s, cpu {mc:.4f} s, gpu/cpu {mg / mc:.2f}")
-PY
+rt_medians gpu "${gpu[*]}" cpu "${cpu[*]}"
