@@ -396,12 +396,12 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
           << majorant->res.y << "x" << majorant->res.z << " cells of " << majorant->cellSize.x
           << ", " << int(std::lround(100.0 * majorant->emptyFraction()))
           << "% empty; a storage buffer): samples in empty cells are not evaluated\n";
+    else if (p.skipEmpty && !majorant)
+        o << "empty-space skipping decided when the frame is rendered (RT_SKIP: on when the "
+             "frame's majorant grid, built then, has an empty cell)\n";
     else
         o << "no empty-space skipping (every step in the field's box: "
-          << (!p.skipEmpty ? "render.skip_empty = false"
-              : majorant   ? "the majorant grid has no empty cell"
-                           : "RT_SKIP is decided per frame when it is rendered: on when the "
-                             "frame's majorant grid, built then, has an empty cell")
+          << (p.skipEmpty ? "the majorant grid has no empty cell" : "render.skip_empty = false")
           << ")\n";
     o << "  GPU lighting: " << (f.sun ? "sun by a shadow march per sample, " : "no sun, ")
       << (f.photons ? 1 : s.render.octaves) << " octave(s), phase kind "
