@@ -20,8 +20,9 @@
 // the early exit at transmittance < epsilon.
 // Empty-space skipping (RT_SKIP): a sample whose majorant cell (the CPU's grid for the frame) has
 // the bound 0 is not evaluated, and the step index jumps to the step holding the ray's exit
-// from that cell; the samples visited stay on the schedule's lattice, so only samples of
-// density 0 are dropped and the image is the same bit for bit (camera and shadow rays).
+// from that cell, or from the cube of empty blocks around it; the samples visited stay on the
+// schedule's lattice, so only samples of density 0 are dropped and the image is the same bit
+// for bit (camera and shadow rays).
 // What it does not do: light volumes, the column and single-scattered sky, surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -263,7 +264,8 @@ RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
                 float dt = tB - tA;
                 vec3 p = o + d * t;
 #if RT_SKIP
-                // a sample in an empty majorant cell: on from the step holding the cell's exit
+                // a sample in an empty majorant cell: on from the step holding the exit from
+                // the cell (or from the cube of empty blocks around it)
                 float tExit;
                 bool empty = rtEmptyCell(o, d, p, tExit);
                 if (empty) n = rtSkipTo(s, n, tExit, tOut);
