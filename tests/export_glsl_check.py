@@ -19,6 +19,8 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
 A baked variant (field.evaluation = "baked": RT_BAKED_NOISE) has the tiles' buffers and lookup,
 noise_base.bin and noise_detail.bin at bindings 10 and 11 of baseBakeRes^3 and detailBakeRes^3
 floats, and none of the noise kernels (worleyFbm); the others have the noise kernels and no tiles.
+Every variant skips empty space (RT_SKIP: majorant.bin at binding 13, majorantResX * Y * Z floats,
+some of them 0) but one with render.skip_empty = false, which has neither the file nor the code.
 With the shared data folder beside the repository, the same checks on smoke1 (a VDB field:
 RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at binding 9); without
 it that variant is skipped with a message.
@@ -56,26 +58,29 @@ BASE = ["--set", "camera.width=32", "--set", "camera.height=18"]
 # name -> (extra --set values, expected features); features not named are off
 NONE = 'render.multiple_scattering="none"'
 VARIANTS = {
-    "all": ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
-    "no_sun": ([NONE, "sun.enabled=false"], dict(RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
-    "no_ambient": ([NONE, "sky.ambient=0"], dict(RT_SUN=1, RT_BACKGROUND_SKY=1)),
+    "all": ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
+    "no_sun": ([NONE, "sun.enabled=false"], dict(RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
+    "no_ambient": ([NONE, "sky.ambient=0"], dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
     "transparent_4spp": ([NONE, 'render.background="transparent"', "render.pixel_samples=4"],
-                         dict(RT_SUN=1, RT_AMBIENT=1, RT_MULTISAMPLE=1)),
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_MULTISAMPLE=1, RT_SKIP=1)),
     "none": ([NONE, "sun.enabled=false", "sky.ambient=0", 'render.background="transparent"'],
-             dict()),
+             dict(RT_SKIP=1)),
     "all_4spp": ([NONE, "render.pixel_samples=4"],
-                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=1)),
+                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=1, RT_SKIP=1)),
     # the scene as it ships (the diffusion grid, which carries the sky: no ambient) with the
     # Lorenz-Mie table; then the photon grid (the sun) with its skin profile
     "grid_mie": (['medium.phase="mie_table"'],
-                 dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MIE_TABLE=1, RT_MS_DIFFUSION=1)),
+                 dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MIE_TABLE=1, RT_MS_DIFFUSION=1, RT_SKIP=1)),
     "photons_skin": (['render.multiple_scattering="photons"', "render.photons=20000",
                       "render.photon_skin=0.2"],
                      dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_MS_PHOTONS=1,
-                          RT_PHOTON_SKIN=1)),
+                          RT_PHOTON_SKIN=1, RT_SKIP=1)),
     # the noise from the tiles the CPU bakes
     "baked": ([NONE, 'field.evaluation="baked"'],
-              dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1)),
+              dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_SKIP=1)),
+    # render.skip_empty = false: no majorant grid, no RT_SKIP (its code and majorant.bin absent)
+    "no_skip": ([NONE, "render.skip_empty=false"],
+                dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
 }
 # a VDB field (RT_VDB): smoke1 (examples/scenes/smoke1.toml) when the shared data folder beside
 # the repository holds its file; skipped, with a message, when it does not
@@ -83,17 +88,20 @@ SMOKE1 = os.path.join(ROOT, "examples", "scenes", "smoke1.toml")
 SMOKE1_VDB = os.path.join(ROOT, "..", "shared", "data", "vdb", "openvdb_smoke1.vdb")
 SCENES = {}
 if os.path.isfile(SMOKE1_VDB):
-    VARIANTS["vdb_smoke1"] = ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_VDB=1))
+    VARIANTS["vdb_smoke1"] = ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_VDB=1,
+                                           RT_SKIP=1))
     SCENES["vdb_smoke1"] = SMOKE1
 else:
     print(f"SKIP: the vdb_smoke1 variant: {SMOKE1_VDB} is absent (the shared data folder)")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
-                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE"]
+                "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
+                "RT_SKIP"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
         "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
         "RT_VDB": [("vdb_grid.bin", 9)],
-        "RT_BAKED_NOISE": [("noise_base.bin", 10), ("noise_detail.bin", 11)]}
+        "RT_BAKED_NOISE": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
+        "RT_SKIP": [("majorant.bin", 13)]}
 
 # code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
 # and the octaves of the sun, the height-occluded ambient, the sky behind the clouds, the
@@ -113,6 +121,8 @@ MARKERS = {
     "RT_VDB": ["buffer RtVdbGrid", "pnanovdb_readaccessor_get_value_address(", "rtVdbDensity("],
     "RT_BAKED_NOISE": ["buffer RtBaseNoise", "buffer RtDetailNoise", "rtNoiseSample(",
                        "rtBakedCumulusDensity("],
+    "RT_SKIP": ["buffer RtMajorant", "bool rtEmptyCell(", "int rtSkipTo(",
+                "n = rtSkipTo(s, n, tExit, tOut);"],
 }
 # code only a frame without RT_VDB has (the procedural cumulus, direct or baked)
 CUMULUS = ["cumulusEnvelope(", "rtCumulusParams("]
@@ -235,6 +245,25 @@ for name, (sets, on) in VARIANTS.items():
                   f"{name}: {file} is not {key}^3 floats ({res.get(key)})")
         else:
             check(res.get(key) == 0, f"{name}: {key} {res.get(key)} without RT_BAKED_NOISE")
+    # the majorant grid: one float per cell, resX * resY * resZ from the block (0 without), then
+    # one per block of 4^3 cells (the distances: whole numbers 0..255)
+    mres = {m["name"]: m["value"] for m in block["members"] if m["name"].startswith("majorantRes")}
+    check(len(mres) == 3, f"{name}: majorantResX/Y/Z not in the block")
+    cells = mres.get("majorantResX", 0) * mres.get("majorantResY", 0) * mres.get("majorantResZ", 0)
+    path = os.path.join(out, "majorant.bin")
+    if features["RT_SKIP"]:
+        blocks = 1
+        for k in ("majorantResX", "majorantResY", "majorantResZ"):
+            blocks *= (mres.get(k, 0) + 3) // 4
+        check(cells > 0 and os.path.isfile(path) and
+              os.path.getsize(path) == 4 * (cells + blocks),
+              f"{name}: majorant.bin is not majorantResX * Y * Z + the blocks' floats ({mres})")
+        floats = struct.unpack(f"<{cells + blocks}f", open(path, "rb").read()) if cells else ()
+        check(any(b == 0.0 for b in floats[:cells]), f"{name}: majorant.bin has no empty cell")
+        check(all(d == int(d) and 0 <= d <= 255 for d in floats[cells:]),
+              f"{name}: majorant.bin's block distances are not whole numbers 0..255")
+    else:
+        check(cells == 0, f"{name}: majorantRes {mres} without RT_SKIP")
 check(len(set(texts.values())) == len(texts), "two variants exported the same text")
 
 # the help

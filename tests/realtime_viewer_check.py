@@ -4,8 +4,9 @@
 usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR
 
 1. `nimbus export-glsl` of the default scene at 160x90 (render.multiple_scattering = "none",
-   frame 1), then `nimbus_viewer --frames 3 --screenshot view.pfm` on it under xvfb-run (GLX on
-   Mesa llvmpipe): the resolved linear RGB of the displayed frame.
+   frame 1; it skips empty space, RT_SKIP, so majorant.bin is among its data files), then
+   `nimbus_viewer --frames 3 --screenshot view.pfm` on it under xvfb-run (GLX on Mesa llvmpipe):
+   the resolved linear RGB of the displayed frame.
 2. The same view from `nimbus rt` (the headless EGL renderer, EXR in ACEScg = the working space):
    PSNR over RGB (peak: the reference's largest value) must be >= 45 dB.
 3. The camera edited through params.json's offsets: `--move 0,0,3` (3 km forward) and
@@ -96,6 +97,9 @@ for s in SETS:
     args += ["--set", s]
 rc, out = run(args)
 check(rc == 0, "nimbus export-glsl exits 0: " + out.strip())
+# the frame skips empty space (RT_SKIP): the viewer uploads majorant.bin like the other data
+check("RT_SKIP" in out and "majorant.bin" in out,
+      "the export skips empty space and writes majorant.bin: " + out.strip())
 
 # 1-2. the scene's own camera
 reference = rt_reference("rt", [])
@@ -206,6 +210,8 @@ broken("no_camera", rewrite("params.json", lambda b: b.replace(b'"camForward"', 
 broken("short_bin", rewrite("params.bin", lambda b: b[:-8]),
        r"params\.bin: (\d+) bytes, parameter_block\.bytes says (\d+)")
 export = data_export  # the data files of an export: missing or short
+broken("no_majorant", lambda d: os.remove(os.path.join(d, "majorant.bin")),
+       r"bad_no_majorant/majorant\.bin: cannot open \(No such file or directory\)")
 broken("no_grid", lambda d: os.remove(os.path.join(d, "diffusion.bin")),
        r"bad_no_grid/diffusion\.bin: cannot open \(No such file or directory\)")
 broken("short_grid", rewrite("diffusion.bin", lambda b: b[:-12]),

@@ -331,6 +331,8 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(photonVoxel),
         NB_MEMBER(skinLo),
         NB_MEMBER(skinVoxel),
+        NB_MEMBER(majorantLo),
+        NB_MEMBER(majorantCell),
         NB_MEMBER(layerBottom),
         NB_MEMBER(layerTop),
         NB_MEMBER(heightA),
@@ -400,6 +402,9 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(vdbDensity),
         NB_MEMBER(baseBakeRes),
         NB_MEMBER(detailBakeRes),
+        NB_MEMBER(majorantResX),
+        NB_MEMBER(majorantResY),
+        NB_MEMBER(majorantResZ),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());
@@ -465,18 +470,26 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
     off.render.background = Background::Transparent;
     rt::GlslExport a, b;
     std::string error;
-    ASSERT_TRUE(rt::exportGlsl(on, planFrame(on, 1), kScene, a, &error)) << error;
+    // `on` skips empty space with the frame's majorant grid (RT_SKIP); `off` has no grid
+    const MajorantGrid majorant =
+        rt::majorantGrid(session.renderer(), session.plan(1), session.bindings());
+    ASSERT_TRUE(rt::exportGlsl(on, planFrame(on, 1), kScene, nullptr, nullptr, nullptr, &majorant,
+                               a, &error))
+        << error;
     ASSERT_TRUE(rt::exportGlsl(off, planFrame(off, 1), kScene, b, &error)) << error;
     EXPECT_TRUE(a.features.sun && a.features.ambient && a.features.backgroundSky &&
-                a.features.multisample);
+                a.features.multisample && a.features.skip);
     EXPECT_TRUE(!b.features.sun && !b.features.ambient && !b.features.backgroundSky &&
-                !b.features.multisample);
+                !b.features.multisample && !b.features.skip);
     const std::vector<std::string> sun = {"float rtDensityIntegral(", "rtDensityIntegral(F, p",
                                           "vec3 ph = vec3(phaseEval(octavePhase, cosTheta));",
                                           "sun += octaveSun(ph, sigmaT"};
-    const std::vector<std::string> others = {"skyHeightInScatter(rtXyz(P.skySphere)",
-                                             "L += T * rtSkyRadiance(P, d);",
-                                             "pixelSampleOffset(k, ns"};
+    const std::vector<std::string> others = {
+        "skyHeightInScatter(rtXyz(P.skySphere)", "L += T * rtSkyRadiance(P, d);",
+        "pixelSampleOffset(k, ns",
+        // RT_SKIP: the majorant grid's buffer, its lookup and the jump, in both marches
+        "buffer RtMajorant", "bool rtEmptyCell(", "int rtSkipTo(",
+        "n = rtSkipTo(s, n, tExit, tOut);", "rtEmptyCell(o, d, p, tExit)"};
     for (const std::string& s : sun) {
         EXPECT_TRUE(contains(a.shader, s)) << s;
         EXPECT_FALSE(contains(b.shader, s)) << s;
@@ -502,6 +515,12 @@ TEST(ExportGlslShader, DisabledFeaturesAreAbsent) {
         EXPECT_FALSE(contains(a.shader, s)) << s;
         EXPECT_FALSE(contains(b.shader, s)) << s;
     }
+    // the skipping words are gone from the text without RT_SKIP, not only their calls
+    for (const std::string s : {"rtEmptyCell", "rtSkipTo", "rtMajorant", "majorant.bin"})
+        EXPECT_FALSE(contains(b.shader, s)) << s;
+    EXPECT_EQ(a.data.size(), 1u);
+    if (!a.data.empty()) EXPECT_EQ(a.data.back().first, "majorant.bin");
+    EXPECT_TRUE(b.data.empty());
     for (const std::string* t : {&a.shader, &b.shader}) {
         EXPECT_FALSE(contains(*t, "#if RT_"));
         EXPECT_FALSE(contains(*t, "#endif // RT_SUN"));
@@ -614,8 +633,10 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
         grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     }
     const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
-    EXPECT_TRUE(
-        pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, fb, stats, &error))
+    // the majorant grid `nimbus rt` and the export skip with (RT_SKIP)
+    const MajorantGrid majorant = rt::majorantGrid(session.renderer(), plan, session.bindings());
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, &majorant,
+                            fb, stats, &error))
         << error;
     EXPECT_EQ(fb.rgba.size(), rgba.size());
     if (fb.rgba.size() != rgba.size()) return 0.0;
@@ -649,8 +670,10 @@ TEST(ExportGlslGpu, SameImageAsRt) {
                   {"camera.width=64", "camera.height=36", "render.multiple_scattering=\"none\""},
                   "sun_ambient_sky", files),
               45.0);
-    // no Mie table, no grid: only the noise tiles, which the plan bakes at this size ("auto")
-    EXPECT_EQ(files, (std::vector<std::string>{"noise_base.bin", "noise_detail.bin"}));
+    // no Mie table, no grid: only the noise tiles, which the plan bakes at this size ("auto"),
+    // and the majorant grid (RT_SKIP)
+    EXPECT_EQ(files,
+              (std::vector<std::string>{"noise_base.bin", "noise_detail.bin", "majorant.bin"}));
 }
 
 TEST(ExportGlslGpu, SameImageAsRtMultisampleNoSun) {
@@ -671,7 +694,7 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheDiffusionGridAndTheMieTable) {
               45.0);
     // (and the noise tiles: the plan bakes the noise at this size under "auto")
     EXPECT_EQ(files, (std::vector<std::string>{"mie_table.bin", "diffusion.bin", "noise_base.bin",
-                                               "noise_detail.bin"}));
+                                               "noise_detail.bin", "majorant.bin"}));
 }
 
 TEST(ExportGlslGpu, SameImageAsRtWithThePhotonGridAndItsSkin) {
@@ -683,8 +706,9 @@ TEST(ExportGlslGpu, SameImageAsRtWithThePhotonGridAndItsSkin) {
               45.0);
     // the sun's light through the photon grid, the sky's through the diffusion grid
     // (and the noise tiles the plan bakes under "auto")
-    EXPECT_EQ(files, (std::vector<std::string>{"diffusion.bin", "photons.bin", "skin_tau.bin",
-                                               "noise_base.bin", "noise_detail.bin"}));
+    EXPECT_EQ(files,
+              (std::vector<std::string>{"diffusion.bin", "photons.bin", "skin_tau.bin",
+                                        "noise_base.bin", "noise_detail.bin", "majorant.bin"}));
 }
 
 // A VDB field (a grid the test writes, tests/rt_vdb_scene.h): its NanoVDB grid goes out as
@@ -698,7 +722,7 @@ TEST(ExportGlslGpu, SameImageAsRtWithAVdbGrid) {
     EXPECT_GE(
         exportAgainstRt({"camera.width=64", "camera.height=36"}, "vdb", files, scene, 1, &shader),
         45.0);
-    EXPECT_EQ(files, (std::vector<std::string>{"vdb_grid.bin"}));
+    EXPECT_EQ(files, (std::vector<std::string>{"vdb_grid.bin", "majorant.bin"}));
     EXPECT_TRUE(contains(shader, "buffer RtVdbGrid { uint pnanovdb_buf_data[]; };"));
     EXPECT_TRUE(contains(shader, "pnanovdb_readaccessor_get_value_address("));
     EXPECT_TRUE(contains(shader, "#define RT_VDB 1"));
@@ -748,7 +772,8 @@ TEST(ExportGlslGpu, SameImageAsRtWithBakedNoise) {
                                "render.multiple_scattering=\"none\"", "field.evaluation=\"baked\""},
                               "baked_noise", files, kScene, 3, &shader),
               45.0);
-    EXPECT_EQ(files, (std::vector<std::string>{"noise_base.bin", "noise_detail.bin"}));
+    EXPECT_EQ(files,
+              (std::vector<std::string>{"noise_base.bin", "noise_detail.bin", "majorant.bin"}));
     EXPECT_TRUE(contains(shader, "#define RT_BAKED_NOISE 1"));
     EXPECT_TRUE(contains(shader, "buffer RtBaseNoise { float rtBaseNoise[]; };"));
     EXPECT_TRUE(contains(shader, "rtBakedCumulusDensity("));
@@ -783,4 +808,54 @@ TEST(ExportGlslGpu, SameImageAsRtWithBakedNoise) {
     rt::GlslExport none;
     EXPECT_FALSE(rt::exportGlsl(session.scene(), plan, kScene, none, &error));
     EXPECT_TRUE(contains(error, "tiles were not given")) << error;
+}
+
+// Empty-space skipping (RT_SKIP): the export writes the frame's majorant grid as majorant.bin (the
+// floats `nimbus rt` uploads, one per cell, x fastest; binding 13), the shader skips its empty
+// cells and the image read back from the files alone is nimbus rt's bit for bit, on the default
+// scene and on a sparse VDB grid; with render.skip_empty = false neither the file nor the code
+// is there.
+TEST(ExportGlslGpu, SameImageAsRtWithTheMajorantGrid) {
+    std::vector<std::string> files;
+    std::string shader;
+    const std::vector<std::string> sets = {"camera.width=64", "camera.height=36",
+                                           "render.multiple_scattering=\"none\"",
+                                           "field.evaluation=\"direct\""};
+    EXPECT_EQ(exportAgainstRt(sets, "skip", files, kScene, 3, &shader), 1e9); // bit-identical
+    EXPECT_EQ(files, (std::vector<std::string>{"majorant.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_SKIP 1"));
+    EXPECT_TRUE(contains(shader, "buffer RtMajorant { float rtMajorant[]; };"));
+    TempDir dir("export_glsl_skip_vdb");
+    files.clear();
+    EXPECT_EQ(exportAgainstRt({"camera.width=64", "camera.height=36"}, "skip_vdb", files,
+                              writeRtVdbScene(dir.string()), 1),
+              1e9);
+    EXPECT_EQ(files, (std::vector<std::string>{"vdb_grid.bin", "majorant.bin"}));
+    // the file is the grid's floats; the block has its geometry
+    host::Session session;
+    ASSERT_TRUE(session.load(kScene, sets).ok());
+    const FramePlan plan = session.plan(3);
+    const MajorantGrid g = rt::majorantGrid(session.renderer(), plan, session.bindings());
+    rt::GlslExport e;
+    std::string error;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, nullptr, &session.bindings(), nullptr,
+                               &g, e, &error))
+        << error;
+    ASSERT_EQ(e.data.size(), 1u);
+    EXPECT_EQ(e.data[0].first, "majorant.bin");
+    // the cells' bounds, then the blocks' distances
+    const std::vector<float> want = rt::majorantBuffer(g);
+    ASSERT_EQ(want.size(), g.maj.size() + g.blockDistance.size());
+    ASSERT_EQ(e.data[0].second.size(), want.size() * sizeof(float));
+    EXPECT_EQ(std::memcmp(e.data[0].second.data(), want.data(), e.data[0].second.size()), 0);
+    EXPECT_TRUE(contains(e.json, "\"majorant.bin\""));
+    EXPECT_TRUE(contains(e.json, "\"majorantResX\""));
+    // render.skip_empty = false: no grid, no file, no code
+    std::vector<std::string> off = sets;
+    off.push_back("render.skip_empty=false");
+    files.clear();
+    EXPECT_GE(exportAgainstRt(off, "no_skip", files, kScene, 3, &shader), 45.0);
+    EXPECT_TRUE(files.empty());
+    EXPECT_TRUE(contains(shader, "#define RT_SKIP 0"));
+    EXPECT_FALSE(contains(shader, "rtEmptyCell"));
 }

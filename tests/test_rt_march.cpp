@@ -16,6 +16,8 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -490,11 +492,13 @@ double sceneGpuAgainstCpu(const std::string& scene, const std::vector<std::strin
     // the noise tiles the CPU frame sampled, when its plan baked them (none otherwise)
     const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
     EXPECT_EQ(noise.base != nullptr, plan.bakeNoise) << tag;
+    // the majorant grid the CPU frame skipped with, as `nimbus rt` passes it (RT_SKIP)
+    const MajorantGrid majorant = rt::majorantGrid(session.renderer(), plan, session.bindings());
     rt::MarchPass pass;
     rt::MarchStats gpuStats;
     std::string error;
-    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, gpu,
-                            gpuStats, &error))
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, &majorant,
+                            gpu, gpuStats, &error))
         << error;
     EXPECT_EQ(gpu.rgba.size(), cpu.rgba.size());
     if (gpu.rgba.size() != cpu.rgba.size()) return 0.0;
@@ -844,6 +848,213 @@ TEST(RtVdbParity, Smoke1) {
                                   "output.aovs=[\"transmittance\", \"depth\"]"},
                                  1, "smoke1", &maxAbs, 5),
               45.0);
+}
+
+// --- Empty-space skipping (RT_SKIP): the same image, bit for bit, with fewer lookups ------------
+
+namespace {
+
+/// What skipAgainstNoSkip found.
+struct SkipRun {
+    bool skip = false;          ///< RT_SKIP was compiled in
+    double emptyFraction = 0.0; ///< of the majorant grid's cells
+    std::size_t differing = 0;  ///< floats of RGBA, transmittance and depth not bit-identical
+    std::size_t floats = 0;     ///< floats compared
+    std::size_t cloudy = 0;     ///< pixels with transmittance < 0.9
+    double skipSeconds = 0.0, fullSeconds = 0.0;
+};
+
+/// Renders frame `frame` of `scene` with the GLSL pass twice: with the frame's majorant grid
+/// (rt::majorantGrid, the grid the CPU renders with: RT_SKIP) and without (every step taken),
+/// with the multiple-scattering grids and noise tiles the frame needs, and compares every float
+/// of the RGBA, transmittance and depth bit for bit.
+SkipRun skipAgainstNoSkip(const std::string& scene, const std::vector<std::string>& settings,
+                          int frame, const std::string& tag) {
+    SkipRun r;
+    host::Session session;
+    const host::Status st = session.load(scene, settings);
+    EXPECT_TRUE(st.ok()) << st.message;
+    if (!st.ok()) return r;
+    EXPECT_TRUE(session.bind(frame).ok());
+    const FramePlan plan = session.plan(frame);
+    RenderStats gridStats;
+    const MarchGrids grids =
+        plan.diffusion || plan.photons
+            ? session.renderer().marchGrids(plan, session.bindings(), gridStats)
+            : MarchGrids{};
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+    const MajorantGrid majorant = rt::majorantGrid(session.renderer(), plan, session.bindings());
+    r.skip = rt::marchFeatures(session.scene(), plan, &majorant).skip;
+    r.emptyFraction = majorant.emptyFraction();
+    EXPECT_FALSE(rt::marchFeatures(session.scene(), plan).skip) << tag;
+    rt::MarchPass pass;
+    Framebuffer skipped, full;
+    rt::MarchStats skipStats, fullStats;
+    std::string error;
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, &majorant,
+                            skipped, skipStats, &error))
+        << tag << ": " << error;
+    EXPECT_TRUE(pass.render(session.scene(), plan, &grids, &session.bindings(), &noise, nullptr,
+                            full, fullStats, &error))
+        << tag << ": " << error;
+    r.skipSeconds = skipStats.frameSeconds;
+    r.fullSeconds = fullStats.frameSeconds;
+    EXPECT_EQ(skipStats.nonFinite, 0u) << tag;
+    auto compare = [&](const std::vector<float>& a, const std::vector<float>& b) {
+        EXPECT_EQ(a.size(), b.size()) << tag;
+        if (a.size() != b.size()) return;
+        for (std::size_t i = 0; i < a.size(); ++i)
+            r.differing += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+        r.floats += a.size();
+    };
+    compare(skipped.rgba, full.rgba);
+    compare(skipped.transmittance, full.transmittance);
+    compare(skipped.depth, full.depth);
+    for (std::size_t i = 0; i < full.transmittance.size(); i += 3)
+        r.cloudy += full.transmittance[i] < 0.9f;
+    ::testing::Test::RecordProperty("skip_differing_" + tag, std::to_string(r.differing));
+    ::testing::Test::RecordProperty("skip_empty_fraction_" + tag, std::to_string(r.emptyFraction));
+    std::printf("[ rt skip ] %s: RT_SKIP %d (majorant %dx%dx%d, %.1f%% empty): %zu of %zu floats "
+                "differ; %zu pixels cloudy; GPU %.3f s skipping, %.3f s not\n",
+                tag.c_str(), int(r.skip), majorant.res.x, majorant.res.y, majorant.res.z,
+                100.0 * r.emptyFraction, r.differing, r.floats, r.cloudy, r.skipSeconds,
+                r.fullSeconds);
+    return r;
+}
+
+const std::string kDragonVdb = kSharedVdb + "/vpt_dragon.vdb";
+/// A sparse fog volume (vpt_dragon.vdb from the shared data folder: 19,660 active voxels of 0.1).
+const std::string kDragon = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/dragon.toml";
+
+} // namespace
+
+// The default scene: samples in the majorant grid's empty cells are not evaluated, and the image
+// is the one the pass renders taking every step, bit for bit: multiple scattering off with the
+// noise evaluated per sample (frames 1 and 12: the wind moves the cloud through the grid's
+// cells), and as the scene ships (the diffusion grid; the plan bakes the noise at 160x90).
+TEST(RtSkip, DefaultSceneBitIdentical) {
+    if (!requireContext()) return;
+    for (int frame : {1, 12}) {
+        const SkipRun r = skipAgainstNoSkip(kDefaultScene, paritySettings(160, 90), frame,
+                                            "default_frame" + std::to_string(frame));
+        EXPECT_TRUE(r.skip);
+        EXPECT_GT(r.emptyFraction, 0.0);
+        EXPECT_GT(r.cloudy, 160u * 90u / 10u);
+        EXPECT_EQ(r.differing, 0u) << "frame " << frame;
+    }
+    const SkipRun r = skipAgainstNoSkip(kDefaultScene, {"camera.width=160", "camera.height=90"}, 1,
+                                        "default_as_shipped");
+    EXPECT_TRUE(r.skip);
+    EXPECT_EQ(r.differing, 0u);
+}
+
+// smoke1 as it ships (the diffusion grid, 8 octaves; the shared data folder).
+TEST(RtSkip, Smoke1BitIdentical) {
+    if (!sharedSmoke1Here())
+        GTEST_SKIP() << "shared VDB folder " << kSharedVdb
+                     << " (openvdb_smoke1.vdb) is absent: smoke1 skipping skipped";
+    if (!requireContext()) return;
+    const SkipRun r = skipAgainstNoSkip(
+        kSmoke1,
+        {"camera.width=160", "camera.height=90", "output.aovs=[\"transmittance\", \"depth\"]"}, 1,
+        "smoke1");
+    EXPECT_TRUE(r.skip);
+    EXPECT_GT(r.cloudy, 160u * 90u / 20u);
+    EXPECT_EQ(r.differing, 0u);
+}
+
+// Sparse VDB grids: the grid the test writes (three blobs with empty leaves between them) and
+// the shared folder's dragon (examples/scenes/dragon.toml; skipped without it).
+TEST(RtSkip, SparseVdbBitIdentical) {
+    if (!requireContext()) return;
+    TempDir dir("rt_skip_vdb");
+    SkipRun r = skipAgainstNoSkip(writeRtVdbScene(dir.string()),
+                                  {"output.aovs=[\"transmittance\", \"depth\"]"}, 1, "blobs");
+    EXPECT_TRUE(r.skip);
+    EXPECT_GT(r.emptyFraction, 0.05);
+    EXPECT_GT(r.cloudy, 160u * 90u / 10u);
+    EXPECT_EQ(r.differing, 0u);
+    if (!std::filesystem::exists(kDragonVdb))
+        GTEST_SKIP() << kDragonVdb << " is absent: the dragon's case skipped";
+    r = skipAgainstNoSkip(
+        kDragon,
+        {"camera.width=160", "camera.height=90", "output.aovs=[\"transmittance\", \"depth\"]"}, 1,
+        "dragon");
+    EXPECT_TRUE(r.skip);
+    EXPECT_GT(r.emptyFraction, 0.2);
+    EXPECT_GT(r.cloudy, 160u * 90u / 50u);
+    EXPECT_EQ(r.differing, 0u);
+}
+
+// Rays parallel to the axes (direction components exactly 0: the exit from a cell is found from
+// the other axes only): the camera looks along +z and the centre row and column of an odd-sized
+// image have x or y of exactly 0; the sun straight overhead, (0, 1, 0), sends every shadow ray
+// along y. The frame finishes (the pass stays bounded) with the same image as without skipping.
+TEST(RtSkip, AxisParallelRays) {
+    if (!requireContext()) return;
+    TempDir dir("rt_skip_axis");
+    const std::string blobs = writeRtVdbScene(dir.string());
+    std::ifstream in(blobs);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string sun = "elevation = 30.0\nazimuth = 60.0\n";
+    ASSERT_NE(text.find(sun), std::string::npos);
+    text.replace(text.find(sun), sun.size(), "direction = [0.0, 1.0, 0.0]\n");
+    const std::string scene = dir.string() + "/blobs_axis.toml";
+    std::ofstream(scene) << text;
+    const SkipRun r = skipAgainstNoSkip(
+        scene,
+        {"camera.width=161", "camera.height=91", "output.aovs=[\"transmittance\", \"depth\"]"}, 1,
+        "blobs_axis");
+    EXPECT_TRUE(r.skip);
+    EXPECT_EQ(r.floats, 161u * 91u * 8u);
+    EXPECT_EQ(r.differing, 0u);
+}
+
+// RT_SKIP is compiled in only with a majorant grid that has an empty cell, and not with
+// render.skip_empty = false (no grid is built); its buffer and lookups exist only with it.
+TEST(RtSkip, OnlyWithAnEmptyCell) {
+    host::Session session;
+    ASSERT_TRUE(session.load(kDefaultScene, paritySettings(32, 18)).ok());
+    const FramePlan plan = session.plan(1);
+    const MajorantGrid grid = rt::majorantGrid(session.renderer(), plan, session.bindings());
+    ASSERT_GT(grid.cellCount(), 0u);
+    const rt::MarchFeatures on = rt::marchFeatures(session.scene(), plan, &grid);
+    EXPECT_TRUE(on.skip);
+    EXPECT_TRUE(contains(on.defines(), "#define RT_SKIP 1\n"));
+    EXPECT_TRUE(contains(rt::explainMarch(session.scene(), plan, &grid), "empty-space skipping"));
+    const rt::RtMarchParams P = rt::marchParams(session.scene(), plan, nullptr, nullptr, &grid);
+    EXPECT_EQ(P.majorantResX, grid.res.x);
+    EXPECT_EQ(P.majorantResZ, grid.res.z);
+    EXPECT_EQ(P.majorantCell.y, grid.cellSize.y);
+    EXPECT_EQ(P.majorantLo.x, grid.bounds.lo.x);
+    // the grid covers the box the pass marches (a sample outside it is looked up, not skipped)
+    for (int a = 0; a < 3; ++a) {
+        EXPECT_EQ(P.majorantLo[a], P.boundsLo[a]) << a;
+        EXPECT_NEAR(P.majorantLo[a] + float(grid.res[a]) * P.majorantCell[a], P.boundsHi[a],
+                    1e-4f * (P.boundsHi[a] - P.boundsLo[a]))
+            << a;
+    }
+    // no empty cell: nothing to skip
+    MajorantGrid full = grid;
+    for (float& m : full.maj) m = 1.0f;
+    EXPECT_FALSE(rt::marchFeatures(session.scene(), plan, &full).skip);
+    EXPECT_EQ(rt::marchParams(session.scene(), plan, nullptr, nullptr, &full).majorantResX, 0);
+    EXPECT_FALSE(rt::marchFeatures(session.scene(), plan, nullptr).skip);
+    const std::string text = rt::marchShaderSource(on);
+    EXPECT_TRUE(contains(text, "buffer RtMajorant"));
+    rt::MarchFeatures off = on;
+    off.skip = false;
+    EXPECT_TRUE(contains(off.defines(), "#define RT_SKIP 0\n"));
+    // render.skip_empty = false: no grid, no RT_SKIP
+    host::Session noSkip;
+    std::vector<std::string> sets = paritySettings(32, 18);
+    sets.push_back("render.skip_empty=false");
+    ASSERT_TRUE(noSkip.load(kDefaultScene, sets).ok());
+    const FramePlan p2 = noSkip.plan(1);
+    const MajorantGrid none = rt::majorantGrid(noSkip.renderer(), p2, noSkip.bindings());
+    EXPECT_EQ(none.cellCount(), 0u);
+    EXPECT_FALSE(rt::marchFeatures(noSkip.scene(), p2, &none).skip);
+    EXPECT_TRUE(contains(rt::explainMarch(noSkip.scene(), p2, &none), "render.skip_empty = false"));
 }
 
 // `nimbus rt` writes the frame through the output code of `nimbus render` (colour conversion to

@@ -76,10 +76,13 @@ int runExportGlsl(const ExportGlslOptions& o) {
     }
     // the cumulus noise tiles (when the plan bakes them), baked by the CPU as for `nimbus render`
     const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+    // the majorant grid the CPU renders with (render.skip_empty), as `nimbus rt` builds it: the
+    // shader skips its empty cells (RT_SKIP) and the grid goes out as majorant.bin
+    const MajorantGrid majorant = rt::majorantGrid(session.renderer(), plan, session.bindings());
     rt::GlslExport e;
     std::string error;
-    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, &session.bindings(), &noise, e,
-                        &error)) {
+    if (!rt::exportGlsl(scene, plan, session.file().path, &grids, &session.bindings(), &noise,
+                        &majorant, e, &error)) {
         std::fprintf(stderr, "nimbus: error: export-glsl: %s\n", error.c_str());
         return kExitInternal;
     }

@@ -144,14 +144,28 @@ int runRt(const RtOptions& o) {
         // the cumulus noise tiles when the plan bakes them: the CPU's (baked once, as for
         // `nimbus render`), read by the shader
         const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
-        if (!pass.render(scene, plan, &grids, &session.bindings(), &noise, fb, stats, &error)) {
+        // the majorant grid the CPU renders the frame with (render.skip_empty): the shader skips
+        // the samples in its empty cells (RT_SKIP)
+        MajorantGrid majorant;
+        if (plan.skipEmpty) {
+            const auto majorantStart = std::chrono::steady_clock::now();
+            majorant = rt::majorantGrid(session.renderer(), plan, session.bindings());
+            if (!o.quiet)
+                std::printf("frame %d: majorant grid (%dx%dx%d cells, %.0f%% empty) built on the "
+                            "CPU in %.3f s%s\n",
+                            frame, majorant.res.x, majorant.res.y, majorant.res.z,
+                            100.0 * majorant.emptyFraction(), secondsSince(majorantStart),
+                            rt::skipsWith(plan, &majorant) ? "" : "; not used: no empty cell");
+        }
+        if (!pass.render(scene, plan, &grids, &session.bindings(), &noise, &majorant, fb, stats,
+                         &error)) {
             std::fprintf(stderr, "nimbus: error: rt: frame %d: %s\n", frame, error.c_str());
             return kExitInternal;
         }
         io::ExrMetadata md;
         md.settings = io::sceneSettings(session.file());
         md.settings["scene"] = session.file().path;
-        md.settings["plan"] = plan.explain() + rt::explainMarch(scene, plan);
+        md.settings["plan"] = plan.explain() + rt::explainMarch(scene, plan, &majorant);
         md.settings["renderer"] = "nimbus rt: the GLSL march pass on " + device;
         md.settings["rt.accumulate"] = std::to_string(o.accumulate);
         md.seed = scene.render.seed;

@@ -31,7 +31,8 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_MS_PHOTONS", f.photons},
             {"RT_PHOTON_SKIN", f.photonSkin},
             {"RT_VDB", f.vdb},
-            {"RT_BAKED_NOISE", f.bakedNoise}};
+            {"RT_BAKED_NOISE", f.bakedNoise},
+            {"RT_SKIP", f.skip}};
 }
 
 namespace {
@@ -633,6 +634,13 @@ ParamDoc paramDoc(std::string_view n) {
          {"RT_BAKED_NOISE: nodes per axis of the detail noise tile (noise_detail.bin; "
           "field.detail_bake_resolution; 0 without)",
           "nodes"}},
+        {"majorantLo",
+         {"RT_SKIP: lower corner of the majorant grid's box (majorant.bin; w 0)", "world units"}},
+        {"majorantCell", {"RT_SKIP: the majorant grid's cell size (xyz; w 0)", "world units"}},
+        {"majorantResX",
+         {"RT_SKIP: majorant grid cells along x (majorant.bin: x fastest; 0 without)", "cells"}},
+        {"majorantResY", {"RT_SKIP: majorant grid cells along y", "cells"}},
+        {"majorantResZ", {"RT_SKIP: majorant grid cells along z", "cells"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -865,6 +873,17 @@ std::string bufferMeaning(std::string_view name) {
                "^3 floats, one per node of a periodic tile, x fastest, then y, then z; the noise "
                "with its octaves summed (one value per node, no channels); read trilinearly, "
                "wrapping, at the noise-domain point times the resolution";
+    if (name == "RtMajorant")
+        return "the field's majorant grid for this frame (MajorantGrid, core/tracking/majorant.h: "
+               "the grid the CPU renders the frame with): first one float per cell, the cell's "
+               "density bound (padded: 0 means the cell grown by 5% of its size holds no cloud), "
+               "x fastest, then y, then z, majorantResX/Y/Z cells of majorantCell from "
+               "majorantLo in the parameter block; then one float per block of 4x4x4 cells "
+               "(ceil(majorantRes / 4) blocks per axis, x fastest): 0 when the block holds a "
+               "cell whose bound is not 0, else its Chebyshev distance in blocks to the nearest "
+               "such block, at most 255 (the cube of 2 d - 1 blocks around it is empty). The "
+               "pass reads only whether a bound is 0, and leaps over empty cells and blocks "
+               "(empty-space skipping)";
     return "";
 }
 
@@ -878,6 +897,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtVdbGrid") return "vdb_grid.bin";
     if (name == "RtBaseNoise") return "noise_base.bin";
     if (name == "RtDetailNoise") return "noise_detail.bin";
+    if (name == "RtMajorant") return "majorant.bin";
     return "";
 }
 
@@ -891,14 +911,14 @@ template <class T> std::vector<std::uint8_t> bytesOf(const std::vector<T>& v) {
 
 bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scenePath,
                 const MarchGrids* grids, const FrameBindings* bindings, const BakedNoise* noise,
-                GlslExport& out, std::string* error) {
+                const MajorantGrid* majorant, GlslExport& out, std::string* error) {
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
         if (error) *error = no.front().message;
         return false;
     }
     {
-        const MarchFeatures f = marchFeatures(s, p);
+        const MarchFeatures f = marchFeatures(s, p, majorant);
         if (const std::string e = frameDataError(s, p, grids, noise, "the export"); !e.empty()) {
             if (error) *error = e;
             return false;
@@ -927,9 +947,11 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtBaseNoise"), bytesOf(noise->base->values));
             out.data.emplace_back(bufferFile("RtDetailNoise"), bytesOf(noise->detail->values));
         }
+        if (f.skip)
+            out.data.emplace_back(bufferFile("RtMajorant"), bytesOf(majorantBuffer(*majorant)));
     }
     // the shader nimbus rt compiles, the disabled features' code removed
-    const MarchShader m = marchShader(s, p);
+    const MarchShader m = marchShader(s, p, majorant);
     out.features = m.features;
     std::string conditional, stripped;
     if (!stripFeatureConditionals(m.source, featureMacros(m.features), conditional, error) ||
@@ -990,7 +1012,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
     std::vector<ParamMember> members;
     std::size_t blockSize = 0;
     if (!paramBlockLayout(members, &blockSize, error)) return false;
-    RtMarchParams P = marchParams(s, p, grids, bindings);
+    RtMarchParams P = marchParams(s, p, grids, bindings, majorant);
     P.sampleIndex = 0;
     if (members.empty() || members.back().offset + members.back().size != sizeof P) {
         if (error)

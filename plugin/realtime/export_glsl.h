@@ -36,7 +36,7 @@ namespace nimbus::rt {
 
 /// The RT_* feature macros of `features` and their values (RT_SUN, RT_AMBIENT,
 /// RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-/// RT_PHOTON_SKIN, RT_VDB).
+/// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SKIP).
 std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& features);
 
 /// Preprocesses the conditionals on the given macros out of GLSL `text`: `#if`, `#ifdef`,
@@ -94,7 +94,8 @@ struct GlslExport {
     /// diffusion.bin (RT_MS_DIFFUSION), photons.bin (RT_MS_PHOTONS), skin_tau.bin
     /// (RT_PHOTON_SKIN), vdb_grid.bin (RT_VDB: the field's NanoVDB grid, vdbGridBytes),
     /// noise_base.bin and noise_detail.bin (RT_BAKED_NOISE: the CPU's baked noise tiles, res^3
-    /// floats each, x fastest); their bindings and layouts are in params.json's "buffers".
+    /// floats each, x fastest), majorant.bin (RT_SKIP: the frame's majorant grid, one float per
+    /// cell, x fastest); their bindings and layouts are in params.json's "buffers".
     std::vector<std::pair<std::string, std::vector<std::uint8_t>>> data;
 };
 
@@ -108,9 +109,17 @@ inline constexpr const char* kExportParamsFile = "params.bin";
 /// the frame is unsupported (the first unsupported() message; the caller checks and names every
 /// key first), or when the shader or the block cannot be processed. `noise`: the tiles the CPU
 /// baked (bakedNoise), which a frame whose plan bakes the cumulus noise needs (bakedNoiseError).
+/// `majorant`: the frame's majorant grid (majorantGrid); where the pass skips with it
+/// (skipsWith) the shader has RT_SKIP and the grid goes out as majorant.bin.
 bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
                 const MarchGrids* grids, const FrameBindings* bindings, const BakedNoise* noise,
-                GlslExport& out, std::string* error);
+                const MajorantGrid* majorant, GlslExport& out, std::string* error);
+/// The same without a majorant grid (no empty-space skipping).
+inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
+                       const MarchGrids* grids, const FrameBindings* bindings,
+                       const BakedNoise* noise, GlslExport& out, std::string* error) {
+    return exportGlsl(scene, plan, scenePath, grids, bindings, noise, nullptr, out, error);
+}
 /// The same for a frame whose plan does not bake the noise.
 inline bool exportGlsl(const SceneDesc& scene, const FramePlan& plan, const std::string& scenePath,
                        const MarchGrids* grids, const FrameBindings* bindings, GlslExport& out,

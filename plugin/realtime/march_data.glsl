@@ -43,6 +43,15 @@ layout(std430, binding = 9) readonly buffer RtVdbGrid { uint pnanovdb_buf_data[]
 layout(std430, binding = 10) readonly buffer RtBaseNoise { float rtBaseNoise[]; };
 layout(std430, binding = 11) readonly buffer RtDetailNoise { float rtDetailNoise[]; };
 #endif
+#if RT_SKIP
+// the field's majorant grid for the frame (MajorantGrid, core/tracking/majorant.h: the grid the
+// CPU renders the frame with, Renderer::volumesFor): the density bound of each cell, x fastest,
+// then y, then z (P.majorantResX/Y/Z cells of P.majorantCell from P.majorantLo), then the
+// distance of each block of 4^3 cells (MajorantGrid::blockDistance, as floats; ceil(res / 4)
+// blocks per axis, x fastest). Only whether a bound is 0 is read (the cell provably holds no
+// cloud, its padding included), and the distances, to leap over empty blocks.
+layout(std430, binding = 13) readonly buffer RtMajorant { float rtMajorant[]; };
+#endif
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
 
@@ -306,3 +315,4 @@ vec3 rtPhotonSample(vec3 p) {
 #endif
 }
 #endif
+

@@ -32,6 +32,8 @@ struct RtMarchParams {
     vec4 photonVoxel;   // ... and its voxel size
     vec4 skinLo;        // the photons' skin profile: the density integral toward the sun
     vec4 skinVoxel;     // (the light volume of core/lighting/light_volume.h), lo and voxel
+    vec4 majorantLo;    // the majorant grid (RT_SKIP): its bounds' lower corner
+    vec4 majorantCell;  // ... and its cell size
 
     // the cumulus layer (CloudLayer, core/kernels/cloud.glsl)
     float layerBottom;
@@ -116,6 +118,11 @@ struct RtMarchParams {
     // the baked cumulus noise (RT_BAKED_NOISE): nodes per axis of the base and detail tiles
     int baseBakeRes;
     int detailBakeRes;
+    // the majorant grid (RT_SKIP, core/tracking/majorant.h): cells per axis (x fastest in its
+    // buffer), 0 without
+    int majorantResX;
+    int majorantResY;
+    int majorantResZ;
 };
 
 // The cumulus kernel parameters of the block (cumulusParams() of core/fields/cumulus.cpp).

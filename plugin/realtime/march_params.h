@@ -26,8 +26,8 @@ using kern::RtMarchParams;
 // the layout rule of march_params.glsl: std430 puts the vec4s at multiples of 16 and packs the
 // scalars after them; so does C++ when the vec4s come first and are 16 bytes each
 static_assert(sizeof(glm::vec4) == 16);
-static_assert(offsetof(RtMarchParams, skinVoxel) == 21 * 16);
-static_assert(offsetof(RtMarchParams, layerBottom) == 22 * 16);
+static_assert(offsetof(RtMarchParams, majorantCell) == 23 * 16);
+static_assert(offsetof(RtMarchParams, layerBottom) == 24 * 16);
 static_assert(sizeof(RtMarchParams) % 4 == 0);
 
 /// The block for frame `plan` of `scene`: camera, field bounds, sun, medium (density scale
@@ -37,8 +37,11 @@ static_assert(sizeof(RtMarchParams) % 4 == 0);
 /// With `grids` (Renderer::marchGrids), the geometry of its diffusion and photon grids too. For a
 /// VDB field (field.kind = "vdb") the box is the bounds of the grid `bindings` holds (the field's
 /// box on the CPU, Field::box) and the density scale is field.density.
+/// With `majorant` (rt::majorantGrid) where the pass skips with it (rt::skipsWith), the majorant
+/// grid's box corner, cell size and cells per axis (RT_SKIP); zeros otherwise.
 RtMarchParams marchParams(const SceneDesc& scene, const FramePlan& plan,
                           const MarchGrids* grids = nullptr,
-                          const FrameBindings* bindings = nullptr);
+                          const FrameBindings* bindings = nullptr,
+                          const MajorantGrid* majorant = nullptr);
 
 } // namespace nimbus::rt

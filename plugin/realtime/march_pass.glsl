@@ -1,9 +1,10 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE: only the features the scene uses are compiled in), the embedded kernels
-// (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie
-// table and the multiple-scattering grids, and their lookups), then this file.
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SKIP: only the features the scene uses are
+// compiled in), the embedded kernels (core/kernels/source.h), march_params.glsl,
+// march_data.glsl (the parameter block, the Mie table, the multiple-scattering grids, the
+// majorant grid, and their lookups), then this file.
 //
 // It is the CPU `march` integrator (core/integrators/march.cpp, MarchContext::renderPixel and
 // traceRay) for the subset rt_march.h lists, written with the same kernels and in the same
@@ -17,9 +18,12 @@
 // CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added as MarchContext::traceRay
 // adds them, the height-occluded sky ambient, marchStep (Hillaire's energy-conserving step) and
 // the early exit at transmittance < epsilon.
-// What it does not do: empty-space skipping (every step of the box is visited; the CPU's
-// majorant grid skips only samples of zero density, so the picture is the same),
-// light volumes, the column and single-scattered sky, surfaces.
+// Empty-space skipping (RT_SKIP): a sample whose majorant cell (the CPU's grid for the frame) has
+// the bound 0 is not evaluated, and the step index jumps to the step holding the ray's exit
+// from that cell, or from the cube of empty blocks around it; the samples visited stay on the
+// schedule's lattice, so only samples of density 0 are dropped and the image is the same bit
+// for bit (camera and shadow rays).
+// What it does not do: light volumes, the column and single-scattered sky, surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -88,6 +92,57 @@ bool rtIntersectBox(vec3 o, vec3 d, vec3 lo, vec3 hi, float tmin, float tmax, ou
 float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
 float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 
+#if RT_SKIP
+// Empty-space skipping (MajorantIterator::next and leap, core/tracking/majorant.cpp): whether the
+// majorant cell holding the point p = o + d t has the bound 0, and if so where the ray o + d t
+// leaves the empty region around it (tExit): the cube of 2 k - 1 blocks of MajorantGrid::kBlock
+// (4) cells around the cell's block when that block's distance k (MajorantGrid::blockDistance,
+// the Chebyshev distance in blocks to the nearest block holding a non-zero cell) is at least 1,
+// else the cell alone; clipped to the grid, as the CPU's leap clips it. A point outside the grid
+// is not skipped (its density is looked up). Each cell's bound covers the cell grown by 5% of
+// its size (buildMajorantGrid's padding), so a sample that rounds into a neighbouring cell, or a
+// step that ends a few ulp past the exit, still sees no density. Axes along which d is 0 are
+// left out of the exit (the ray never crosses their planes; tExit stays the largest float when
+// all are).
+const int RT_MAJORANT_BLOCK = 4; // MajorantGrid::kBlock
+
+bool rtEmptyCell(vec3 o, vec3 d, vec3 p, out float tExit) {
+    ivec3 res = ivec3(P.majorantResX, P.majorantResY, P.majorantResZ);
+    vec3 lo = rtXyz(P.majorantLo);
+    vec3 cell = rtXyz(P.majorantCell);
+    ivec3 c = ivec3(floor((p - lo) / cell));
+    tExit = RT_FLOAT_MAX;
+    if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, res))) return false;
+    if (rtMajorant[(c.z * res.y + c.y) * res.x + c.x] != 0.0f) return false;
+    // the block distances follow the cells in the buffer, x fastest
+    ivec3 blocks = (res + ivec3(RT_MAJORANT_BLOCK - 1)) / RT_MAJORANT_BLOCK;
+    ivec3 b = c / RT_MAJORANT_BLOCK;
+    int k = int(rtMajorant[res.x * res.y * res.z + (b.z * blocks.y + b.y) * blocks.x + b.x]);
+    ivec3 c0 = c;
+    ivec3 c1 = c + ivec3(1);
+    if (k > 0) {
+        c0 = max(b - ivec3(k - 1), ivec3(0)) * RT_MAJORANT_BLOCK;
+        c1 = min((b + ivec3(k)) * RT_MAJORANT_BLOCK, res); // one past the cube's last cell
+    }
+    for (int a = 0; a < 3; a++) {
+        if (d[a] != 0.0f) {
+            float face = lo[a] + float(d[a] > 0.0f ? c1[a] : c0[a]) * cell[a];
+            tExit = min(tExit, (face - o[a]) / d[a]);
+        }
+    }
+    return true;
+}
+
+// The step to go on from after a sample in an empty cell (RT_SKIP): the one before the step of
+// schedule s that holds the cell's exit tExit (clipped to tOut), so that the loop's n++ lands on
+// the step holding the exit, whose sample is checked again (it may still lie in the empty cell);
+// never before n, so the loop always advances. Every step skipped has its sample before tExit,
+// in the empty cell: skipping drops only samples of density 0, as marchSegments does.
+int rtSkipTo(RtSchedule s, int n, float tExit, float tOut) {
+    return max(n, int(floor(rtScheduleU(s, min(tExit, tOut)))) - 1);
+}
+#endif
+
 // The field the pass marches (Field::density): the procedural cumulus, its noise evaluated per
 // sample, or (RT_VDB) the NanoVDB grid read through PNanoVDB (march_data.glsl, rtVdbDensity).
 #if RT_VDB
@@ -147,8 +202,19 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
         float tB = min(rtScheduleT(s, float(n + 1)), tOut);
         if (tB > tA) {
             float ts = tA + jitter * (tB - tA);
-            tau += rtDensity(F, o + w * ts) * (tB - tA);
+            vec3 q = o + w * ts;
+#if RT_SKIP
+            float tExit;
+            if (rtEmptyCell(o, w, q, tExit)) {
+                n = rtSkipTo(s, n, tExit, tOut);
+            } else {
+                tau += rtDensity(F, q) * (tB - tA);
+                marching = tau <= tauStop;
+            }
+#else
+            tau += rtDensity(F, q) * (tB - tA);
             marching = tau <= tauStop;
+#endif
         } else {
             marching = tA < tOut;
         }
@@ -197,7 +263,17 @@ RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
                 float t = tA + jitter * (tB - tA);
                 float dt = tB - tA;
                 vec3 p = o + d * t;
+#if RT_SKIP
+                // a sample in an empty majorant cell: on from the step holding the exit from
+                // the cell (or from the cube of empty blocks around it)
+                float tExit;
+                bool empty = rtEmptyCell(o, d, p, tExit);
+                if (empty) n = rtSkipTo(s, n, tExit, tOut);
+                float rho = 0.0f;
+                if (!empty) rho = rtDensity(F, p);
+#else
                 float rho = rtDensity(F, p);
+#endif
                 if (rho > 0.0f) {
                     vec3 S = vec3(0.0f);
 #if RT_SUN

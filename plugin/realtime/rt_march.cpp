@@ -97,7 +97,32 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     return out;
 }
 
-MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
+bool skipsWith(const FramePlan& p, const MajorantGrid* g) {
+    if (!p.skipEmpty || !g || g->cellCount() == 0 || g->res.x <= 0 || g->res.y <= 0 ||
+        g->res.z <= 0)
+        return false;
+    const ivec3 blocks = (g->res + ivec3(MajorantGrid::kBlock - 1)) / MajorantGrid::kBlock;
+    return g->blockRes == blocks &&
+           g->blockDistance.size() == std::size_t(blocks.x) * blocks.y * blocks.z &&
+           g->emptyFraction() > 0.0;
+}
+
+std::vector<float> majorantBuffer(const MajorantGrid& g) {
+    std::vector<float> out(g.maj);
+    out.reserve(g.maj.size() + g.blockDistance.size());
+    for (std::uint8_t d : g.blockDistance) out.push_back(float(d));
+    return out;
+}
+
+MajorantGrid majorantGrid(Renderer& r, const FramePlan& p, const FrameBindings& b) {
+    if (!p.skipEmpty) return {};
+    RenderStats stats;
+    VolumeSet vs = r.volumesFor(p, b, stats);
+    if (vs.grids.empty()) return {};
+    return std::move(vs.grids[0]);
+}
+
+MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const MajorantGrid* majorant) {
     MarchFeatures f;
     f.sun = p.shadows && p.scatters;
     f.ambient = p.ambient && !p.diffusion && !p.skySingle;
@@ -110,6 +135,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
     f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
     f.vdb = s.field.kind == FieldKind::Vdb;
     f.bakedNoise = s.field.kind == FieldKind::Cumulus && p.bakeNoise;
+    f.skip = skipsWith(p, majorant);
     return f;
 }
 
@@ -125,6 +151,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_PHOTON_SKIN ") + (photonSkin ? "1" : "0") + "\n";
     d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
     d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
+    d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
     return d;
 }
 
@@ -163,9 +190,9 @@ std::string marchShaderSource(const MarchFeatures& f) {
     return s;
 }
 
-MarchShader marchShader(const SceneDesc& s, const FramePlan& p) {
+MarchShader marchShader(const SceneDesc& s, const FramePlan& p, const MajorantGrid* majorant) {
     MarchShader m;
-    m.features = marchFeatures(s, p);
+    m.features = marchFeatures(s, p, majorant);
     m.source = marchShaderSource(m.features);
     return m;
 }
@@ -204,7 +231,7 @@ VdbGridBytes vdbGridBytes(const FrameBindings* bindings, std::string* error) {
 }
 
 RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
-                          const FrameBindings* bindings) {
+                          const FrameBindings* bindings, const MajorantGrid* majorant) {
     RtMarchParams P{};
     const Camera cam(s.camera);
     P.camOrigin = v4(cam.origin);
@@ -299,6 +326,13 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
     P.pixelSamples = std::max(1, r.pixelSamples);
     P.filterKind = int(r.filter);
     P.filterWidth = r.filterWidth;
+    if (skipsWith(p, majorant)) {
+        P.majorantLo = v4(majorant->bounds.lo);
+        P.majorantCell = v4(majorant->cellSize);
+        P.majorantResX = majorant->res.x;
+        P.majorantResY = majorant->res.y;
+        P.majorantResZ = majorant->res.z;
+    }
     if (grids && grids->hasDiffusion) {
         const DiffusionVolume& g = grids->diffusion;
         P.diffusionLo = v4(g.bounds.lo);
@@ -327,14 +361,14 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
     return P;
 }
 
-std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
+std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantGrid* majorant) {
     std::ostringstream o;
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
         for (const Unsupported& u : no) o << "  GPU: not supported: " << u.message << "\n";
         return o.str();
     }
-    const MarchFeatures f = marchFeatures(s, p);
+    const MarchFeatures f = marchFeatures(s, p, majorant);
     std::string defs = f.defines();
     for (char& ch : defs)
         if (ch == '\n') ch = ';';
@@ -356,8 +390,19 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
           << s.field.cumulus.baseOctaves << " (base) / " << s.field.cumulus.detailOctaves
           << " (detail)\n";
     o << "  GPU march: steps " << p.step << " (growth " << s.render.stepGrowth << "), shadow "
-      << p.shadowStep << " (growth " << s.render.shadowGrowth
-      << "); no empty-space skipping (every step in the field's box)\n";
+      << p.shadowStep << " (growth " << s.render.shadowGrowth << "); ";
+    if (f.skip)
+        o << "empty-space skipping over the CPU's majorant grid (" << majorant->res.x << "x"
+          << majorant->res.y << "x" << majorant->res.z << " cells of " << majorant->cellSize.x
+          << ", " << int(std::lround(100.0 * majorant->emptyFraction()))
+          << "% empty; a storage buffer): samples in empty cells are not evaluated\n";
+    else if (p.skipEmpty && !majorant)
+        o << "empty-space skipping decided when the frame is rendered (RT_SKIP: on when the "
+             "frame's majorant grid, built then, has an empty cell)\n";
+    else
+        o << "no empty-space skipping (every step in the field's box: "
+          << (p.skipEmpty ? "the majorant grid has no empty cell" : "render.skip_empty = false")
+          << ")\n";
     o << "  GPU lighting: " << (f.sun ? "sun by a shadow march per sample, " : "no sun, ")
       << (f.photons ? 1 : s.render.octaves) << " octave(s), phase kind "
       << phaseParams(s.medium).kind << (f.mieTable ? " (the Lorenz-Mie table, a buffer)" : "")
@@ -434,13 +479,20 @@ std::string frameDataError(const SceneDesc& s, const FramePlan& p, const MarchGr
 bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
                        const FrameBindings* bindings, const BakedNoise* noise, Framebuffer& fb,
                        MarchStats& stats, std::string* error) {
+    return render(s, p, grids, bindings, noise, nullptr, fb, stats, error);
+}
+
+bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
+                       const FrameBindings* bindings, const BakedNoise* noise,
+                       const MajorantGrid* majorant, Framebuffer& fb, MarchStats& stats,
+                       std::string* error) {
     using Clock = std::chrono::steady_clock;
     const std::vector<Unsupported> no = unsupported(s, p);
     if (!no.empty()) {
         if (error) *error = no.front().message;
         return false;
     }
-    const MarchFeatures f = marchFeatures(s, p);
+    const MarchFeatures f = marchFeatures(s, p, majorant);
     if (const std::string e = frameDataError(s, p, grids, noise, "the GLSL pass"); !e.empty()) {
         if (error) *error = e;
         return false;
@@ -463,7 +515,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     stats.compileSeconds = 0.0;
     if (!program) {
         const auto t0 = Clock::now();
-        program = std::make_unique<gl::ComputeProgram>(marchShader(s, p).source);
+        program = std::make_unique<gl::ComputeProgram>(marchShader(s, p, majorant).source);
         stats.compileSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     }
     if (!program->valid()) {
@@ -476,14 +528,22 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     fb.resize(w, h, p.aovs);
     gl::glErrors(); // drop stale errors
     const auto t0 = Clock::now();
-    RtMarchParams P = marchParams(s, p, grids, bindings);
+    RtMarchParams P = marchParams(s, p, grids, bindings, majorant);
     const gl::StorageBuffer pixels(n * 12 * sizeof(float));
     const std::uint32_t zero = 0;
     const gl::StorageBuffer counters(sizeof zero, &zero);
     pixels.bind(1);
     counters.bind(2);
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
-    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise;
+    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
+        bounds;
+    // the majorant grid the CPU renders with: a density bound per cell, then the block distances
+    // (RT_SKIP)
+    if (f.skip) {
+        const std::vector<float> maj = majorantBuffer(*majorant);
+        bounds = std::make_unique<gl::StorageBuffer>(maj.size() * sizeof(float), maj.data());
+        bounds->bind(13);
+    }
     // the cumulus noise tiles the CPU baked, their floats as NoiseVolume holds them
     if (f.bakedNoise) {
         const std::vector<float>& b = noise->base->values;

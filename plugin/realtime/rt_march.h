@@ -23,8 +23,9 @@
 /// when there is no diffusion grid, every phase function (isotropic, hg, dual_hg, draine,
 /// mie_approx, and the Lorenz-Mie table from a buffer), octaves, every in-scatter model, jitter,
 /// pixel samples and filters, background sky or transparent, the transmittance and depth AOVs.
-/// Empty space is not skipped: every step in the field's box is taken (the CPU's majorant grid
-/// skips only samples whose density is 0).
+/// Empty space is skipped with the CPU's majorant grid of the frame when it is given (RT_SKIP:
+/// samples in cells whose bound is 0 are not evaluated; the image is the same bit for bit);
+/// without it every step in the field's box is taken.
 ///
 /// @code
 ///   auto context = gl::ComputeContext::create(&error);
@@ -71,6 +72,8 @@ struct MarchFeatures {
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
     bool bakedNoise = false;    ///< RT_BAKED_NOISE: the cumulus noise from the CPU's baked tiles
+    bool skip =
+        false; ///< RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
 
     /// The #define lines.
     std::string defines() const;
@@ -78,8 +81,24 @@ struct MarchFeatures {
     std::string key() const { return defines(); }
 };
 
-/// The features of frame `plan` of `scene`.
-MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan);
+/// The features of frame `plan` of `scene`; `majorant`: the frame's majorant grid (majorantGrid),
+/// RT_SKIP when it is given and skips (skipsWith).
+MarchFeatures marchFeatures(const SceneDesc& scene, const FramePlan& plan,
+                            const MajorantGrid* majorant = nullptr);
+
+/// The majorant grid of frame `plan` for empty-space skipping (RT_SKIP, binding 13): the grid the
+/// CPU renders the frame with (Renderer::volumesFor's grid of `field`: buildMajorantGrid at the
+/// plan's majorant cell, padded), built as `nimbus render` builds it. Empty (no cells) when the
+/// plan does not skip (render.skip_empty = false) or the frame has nothing to bound.
+MajorantGrid majorantGrid(Renderer& renderer, const FramePlan& plan, const FrameBindings& bindings);
+/// Whether the pass skips with `majorant` for frame `plan`: the plan skips empty space
+/// (plan.skipEmpty) and the grid has cells, at least one of them with the bound 0, and its block
+/// distances (MajorantGrid::buildBlocks).
+bool skipsWith(const FramePlan& plan, const MajorantGrid* majorant);
+/// The majorant grid as the shader reads it (binding 13, RT_SKIP): the bound of every cell, x
+/// fastest, then the distance of every block of MajorantGrid::kBlock^3 cells as a float
+/// (MajorantGrid::blockDistance, x fastest).
+std::vector<float> majorantBuffer(const MajorantGrid& majorant);
 
 /// The whole compute shader for `features`.
 std::string marchShaderSource(const MarchFeatures& features);
@@ -128,11 +147,13 @@ struct MarchShader {
 
 /// The shader of frame `plan` of `scene`: what MarchPass::render compiles and what
 /// `nimbus export-glsl` (plugin/realtime/export_glsl.h) preprocesses and writes.
-MarchShader marchShader(const SceneDesc& scene, const FramePlan& plan);
+MarchShader marchShader(const SceneDesc& scene, const FramePlan& plan,
+                        const MajorantGrid* majorant = nullptr);
 
 /// What `--explain` prints about the GPU pass of a frame: the features, the kernels and pass
 /// files compiled in, and what is not done on the GPU.
-std::string explainMarch(const SceneDesc& scene, const FramePlan& plan);
+std::string explainMarch(const SceneDesc& scene, const FramePlan& plan,
+                         const MajorantGrid* majorant = nullptr);
 
 /// The frame key of temporal-accumulation pass `pass` (0-based) of a frame whose key is
 /// `frameKey` (RtMarchParams::frameKey, which seeds every jitter hash of the frame): pass 0
@@ -177,6 +198,13 @@ class MarchPass {
     bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
                 const FrameBindings* bindings, const BakedNoise* noise, Framebuffer& fb,
                 MarchStats& stats, std::string* error);
+    /// The same with the frame's majorant grid (majorantGrid): where it skips (skipsWith) the
+    /// shader is compiled with RT_SKIP and steps over the cells whose bound is 0 (the same image,
+    /// fewer density lookups); null or empty: every step in the field's box is taken.
+    bool render(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
+                const FrameBindings* bindings, const BakedNoise* noise,
+                const MajorantGrid* majorant, Framebuffer& fb, MarchStats& stats,
+                std::string* error);
 
     /// Temporal accumulation (`nimbus rt --accumulate N`): every frame rendered is the average
     /// of `passes` (at least 1) renders of it, each with its own jitter (accumulationKey); each

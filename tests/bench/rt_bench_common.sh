@@ -1,4 +1,4 @@
-# rt_bench_common.sh: what the GPU-pass benchmarks share (sourced by rt_vs_cpu.sh,
+# rt_bench_common.sh: what the GPU-pass benchmarks share (sourced by rt_vs_cpu.sh, rt_skip.sh,
 # rt_baked_vs_direct.sh and rt_accumulate.sh).
 
 # rt_bench_init WIDTHxHEIGHT: sets `scene` (the default scene), `w`, `h` and `tmp` (a folder
