@@ -545,6 +545,23 @@ template <VelocityKind K>
                 _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, qz), ih)};
 }
 
+/// Component a of the 8 consecutive vec3 entries from p (an AoS to SoA shuffle).
+[[gnu::always_inline]] inline __m256 channel8(const vec3* p, int a) {
+    const float* f = &p->x;
+    const __m256 m0 = _mm256_loadu_ps(f), m1 = _mm256_loadu_ps(f + 8), m2 = _mm256_loadu_ps(f + 16);
+    switch (a) {
+    case 0: // x_i = f[3 i]: lanes f0 f9 f18 f3 f12 f21 f6 f15
+        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x92), m2, 0x24),
+                                        _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+    case 1: // y_i = f[3 i + 1]: lanes f16 f1 f10 f19 f4 f13 f22 f7
+        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x24), m2, 0x49),
+                                        _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+    default: // z_i = f[3 i + 2]: lanes f8 f17 f2 f11 f20 f5 f14 f23
+        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x49), m2, 0x92),
+                                        _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+    }
+}
+
 /// GridRowVelocity<K>(x) for the 8 cells x0 .. x0 + 7.
 template <VelocityKind K>
 [[gnu::always_inline]] inline Vec8 rowVelocity8(const GridRowVelocity<K>& r, __m256 px) {
@@ -561,11 +578,23 @@ template <VelocityKind K>
         gridCorner8(shifted ? _mm256_sub_ps(qx, _mm256_set1_ps(0.5f)) : qx, r.nx, x0, x1, fx);
         const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(x0, three), _mm256_set1_epi32(a));
         const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(x1, three), _mm256_set1_epi32(a));
-        auto at = [&](int row, __m256i o) { return _mm256_i32gather_ps(&k.r[row]->x, o, 4); };
-        const __m256 c00 = lerp8(at(0, o0), at(0, o1), fx);
-        const __m256 c10 = lerp8(at(1, o0), at(1, o1), fx);
-        const __m256 c01 = lerp8(at(2, o0), at(2, o1), fx);
-        const __m256 c11 = lerp8(at(3, o0), at(3, o1), fx);
+        // consecutive corners (a grid aligned with the density's, away from its x edges): the
+        // 8 entries are contiguous, read with plain loads instead of gathers (the same values)
+        const int first = _mm_cvtsi128_si32(_mm256_castsi256_si128(x0));
+        const __m256i want0 =
+            _mm256_add_epi32(_mm256_set1_epi32(first), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        const __m256i want1 = _mm256_add_epi32(want0, _mm256_set1_epi32(1));
+        const bool contiguous =
+            _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(x0, want0),
+                                                  _mm256_cmpeq_epi32(x1, want1))) == -1;
+        auto at = [&](int row, __m256i o, int dx) {
+            return contiguous ? channel8(k.r[row] + first + dx, a)
+                              : _mm256_i32gather_ps(&k.r[row]->x, o, 4);
+        };
+        const __m256 c00 = lerp8(at(0, o0, 0), at(0, o1, 1), fx);
+        const __m256 c10 = lerp8(at(1, o0, 0), at(1, o1, 1), fx);
+        const __m256 c01 = lerp8(at(2, o0, 0), at(2, o1, 1), fx);
+        const __m256 c11 = lerp8(at(3, o0, 0), at(3, o1, 1), fx);
         const __m256 fy = _mm256_set1_ps(k.fy), fz = _mm256_set1_ps(k.fz);
         u[a] = _mm256_mul_ps(lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz), ih);
     }
