@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include <immintrin.h>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -22,17 +24,17 @@ bool finite3(vec3 v) {
 
 /// The trilinear stencil of index position q in a velocity grid: the lower and upper sample of
 /// each axis and the weight of the upper, clamped to the samples (nearest edge outside).
+[[gnu::always_inline]] inline void gridCorner(float x, int n, int& i0, int& i1, float& f) {
+    x = x > 0.0f ? x : 0.0f; // also maps NaN to 0
+    x = std::min(x, float(n - 1));
+    i0 = int(x);
+    f = x - float(i0);
+    i1 = std::min(i0 + 1, n - 1);
+}
+
 [[gnu::always_inline]] inline void trilinearCorners(const VelocityGrid& g, vec3 q, int i0[3],
                                                     int i1[3], float f[3]) {
-    for (int a = 0; a < 3; ++a) {
-        const int n = g.res[a];
-        float x = q[a];
-        x = x > 0.0f ? x : 0.0f; // also maps NaN to 0
-        x = std::min(x, float(n - 1));
-        i0[a] = int(x);
-        f[a] = x - float(i0[a]);
-        i1[a] = std::min(i0[a] + 1, n - 1);
-    }
+    for (int a = 0; a < 3; ++a) gridCorner(q[a], g.res[a], i0[a], i1[a], f[a]);
 }
 
 /// Component c of a velocity grid, trilinear, at grid index position q (sample k at q = k),
@@ -99,24 +101,121 @@ struct Sampler {
             return f.uniform * invH;
         case VelocityKind::Layered:
             return layered(f.layers, origin.y + p.y * h) * invH;
-        case VelocityKind::Centred: {
-            return gridVector(*f.grid, p * gScale + gOff - 0.5f) * invH;
-        }
-        case VelocityKind::Staggered: {
-            const vec3 q = p * gScale + gOff;
-            return vec3(gridComponent(*f.grid, 0, vec3(q.x, q.y - 0.5f, q.z - 0.5f)),
-                        gridComponent(*f.grid, 1, vec3(q.x - 0.5f, q.y, q.z - 0.5f)),
-                        gridComponent(*f.grid, 2, vec3(q.x - 0.5f, q.y - 0.5f, q.z))) *
-                   invH;
-        }
+        case VelocityKind::Centred:
+            return centredAt(*f.grid, p * gScale + gOff, invH);
+        case VelocityKind::Staggered:
+            return staggeredAt(*f.grid, p * gScale + gOff, invH);
         }
         return vec3(0.0f);
+    }
+
+    /// A centred grid's velocity (cells / s) at grid position q = p * gScale + gOff.
+    [[gnu::always_inline]] static vec3 centredAt(const VelocityGrid& g, vec3 q, float invH) {
+        return gridVector(g, q - 0.5f) * invH;
+    }
+    /// A staggered grid's, likewise.
+    [[gnu::always_inline]] static vec3 staggeredAt(const VelocityGrid& g, vec3 q, float invH) {
+        return vec3(gridComponent(g, 0, vec3(q.x, q.y - 0.5f, q.z - 0.5f)),
+                    gridComponent(g, 1, vec3(q.x - 0.5f, q.y, q.z - 0.5f)),
+                    gridComponent(g, 2, vec3(q.x - 0.5f, q.y - 0.5f, q.z))) *
+               invH;
+    }
+};
+
+/// A velocity grid of kind K (Centred or Staggered) as a Sampler reads it, without the switch on
+/// the kind: the same float operations, so the same bits.
+template <VelocityKind K> struct GridSampler {
+    const VelocityGrid& g;
+    vec3 gOff;
+    float gScale, invH;
+
+    explicit GridSampler(const Sampler& s)
+        : g(*s.f.grid), gOff(s.gOff), gScale(s.gScale), invH(s.invH) {}
+
+    [[gnu::always_inline]] vec3 operator()(vec3 p) const {
+        if constexpr (K == VelocityKind::Centred)
+            return Sampler::centredAt(g, p * gScale + gOff, invH);
+        else
+            return Sampler::staggeredAt(g, p * gScale + gOff, invH);
+    }
+};
+
+/// The velocity at the cell centres of one row (y, z) of the density grid, from a velocity grid
+/// of kind K: the grid position's y and z, hence their corners and weights and the four rows of
+/// the grid read, are the same for every cell of the row; only x is computed per cell. The float
+/// operations are GridSampler's (gridCorner, then the lerps in x, y, z order, then * invH): the
+/// same bits.
+template <VelocityKind K> struct GridRowVelocity {
+    /// per component (Centred: all three alike): the four rows (y0, z0), (y1, z0), (y0, z1),
+    /// (y1, z1) of the grid and the y and z weights
+    struct Comp {
+        const vec3* r[4];
+        float fy, fz;
+    };
+    Comp c[3];
+    const GridSampler<K>& s;
+    int nx;
+
+    GridRowVelocity(const GridSampler<K>& sampler, int y, int z) : s(sampler), nx(s.g.res.x) {
+        // the y and z of p * gScale + gOff for p = the row's cell centres
+        const float qy = (float(y) + 0.5f) * s.gScale + s.gOff.y;
+        const float qz = (float(z) + 0.5f) * s.gScale + s.gOff.z;
+        for (int k = 0; k < 3; ++k) {
+            // Centred: every component at q - 1/2; Staggered: component k at q on its own axis
+            const bool centred = K == VelocityKind::Centred;
+            const float ey = centred || k != 1 ? qy - 0.5f : qy;
+            const float ez = centred || k != 2 ? qz - 0.5f : qz;
+            int y0, y1, z0, z1;
+            gridCorner(ey, s.g.res.y, y0, y1, c[k].fy);
+            gridCorner(ez, s.g.res.z, z0, z1, c[k].fz);
+            const vec3* v = s.g.v.data();
+            c[k].r[0] = v + s.g.index(0, y0, z0);
+            c[k].r[1] = v + s.g.index(0, y1, z0);
+            c[k].r[2] = v + s.g.index(0, y0, z1);
+            c[k].r[3] = v + s.g.index(0, y1, z1);
+        }
+    }
+
+    /// The velocity (cells / s) at the centre of cell x of the row: GridSampler(p), same bits.
+    [[gnu::always_inline]] vec3 operator()(int x) const {
+        const float qx = (float(x) + 0.5f) * s.gScale + s.gOff.x;
+        if constexpr (K == VelocityKind::Centred) {
+            const Comp& k = c[0];
+            int x0, x1;
+            float fx;
+            gridCorner(qx - 0.5f, nx, x0, x1, fx);
+            auto lerp3 = [](vec3 a, vec3 b, float t) {
+                return vec3(lerp(a.x, b.x, t), lerp(a.y, b.y, t), lerp(a.z, b.z, t));
+            };
+            const vec3 c00 = lerp3(k.r[0][x0], k.r[0][x1], fx);
+            const vec3 c10 = lerp3(k.r[1][x0], k.r[1][x1], fx);
+            const vec3 c01 = lerp3(k.r[2][x0], k.r[2][x1], fx);
+            const vec3 c11 = lerp3(k.r[3][x0], k.r[3][x1], fx);
+            return lerp3(lerp3(c00, c10, k.fy), lerp3(c01, c11, k.fy), k.fz) * s.invH;
+        } else {
+            vec3 u;
+            int x0[2], x1[2];
+            float fx[2];
+            gridCorner(qx, nx, x0[0], x1[0], fx[0]);
+            gridCorner(qx - 0.5f, nx, x0[1], x1[1], fx[1]);
+            for (int a = 0; a < 3; ++a) {
+                const Comp& k = c[a];
+                const int w = a == 0 ? 0 : 1;
+                const float c00 = lerp(k.r[0][x0[w]][a], k.r[0][x1[w]][a], fx[w]);
+                const float c10 = lerp(k.r[1][x0[w]][a], k.r[1][x1[w]][a], fx[w]);
+                const float c01 = lerp(k.r[2][x0[w]][a], k.r[2][x1[w]][a], fx[w]);
+                const float c11 = lerp(k.r[3][x0[w]][a], k.r[3][x1[w]][a], fx[w]);
+                u[a] = lerp(lerp(c00, c10, k.fy), lerp(c01, c11, k.fy), k.fz);
+            }
+            return u * s.invH;
+        }
     }
 };
 
 /// Position after following the velocity for time dt (negative: the backtrace) from p in n
 /// substeps; u0 is the velocity at p.
-[[gnu::always_inline]] inline vec3 trace(const Sampler& u, vec3 p, vec3 u0, float dt, int n,
+template <class U>
+[[gnu::always_inline]] inline vec3 trace(const U& u, vec3 p, vec3 u0, float dt, int n,
                                          Backtrace bt) {
     const float s = dt / float(n);
     for (int k = 0; k < n; ++k) {
@@ -364,6 +463,273 @@ struct RowLookup {
     }
 };
 
+// --- the grid kernel's 8-cell blocks (AVX2, chosen at run time) ---
+//
+// Eight cells of a row at once, lane for lane the float operations of the scalar grid kernel
+// (GridRowVelocity, trace() with one RK2 substep, sampleDensityImpl() with the zero boundary):
+// IEEE add, sub, mul, div and sqrt round the same in a lane as in a scalar register, the clamps
+// and std::min / std::max keep their operand order (min_ps(b, a) is std::min(a, b), NaN and
+// signed zeros included), floor is exact, and no FMA is enabled (a + t (b - a) is not
+// contracted). The same bits, tested against the per-cell path
+// (AdvectGridKernel.SameBitsAsThePerCellPathOnRandomVelocityGrids). A block whose cells need
+// more than one trace substep is left to the scalar kernel.
+
+#pragma GCC push_options
+#pragma GCC target("avx2")
+
+struct Vec8 {
+    __m256 x, y, z;
+};
+
+[[gnu::always_inline]] inline __m256 lerp8(__m256 a, __m256 b, __m256 t) {
+    return _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
+}
+
+/// gridCorner() in 8 lanes.
+[[gnu::always_inline]] inline void gridCorner8(__m256 x, int n, __m256i& i0, __m256i& i1,
+                                               __m256& f) {
+    x = _mm256_and_ps(_mm256_cmp_ps(x, _mm256_setzero_ps(), _CMP_GT_OQ), x); // NaN, <= 0 -> +0
+    x = _mm256_min_ps(_mm256_set1_ps(float(n - 1)), x);                      // std::min(x, n-1)
+    i0 = _mm256_cvttps_epi32(x);
+    f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(i0));
+    i1 = _mm256_min_epi32(_mm256_add_epi32(i0, _mm256_set1_epi32(1)), _mm256_set1_epi32(n - 1));
+}
+
+/// gridComponent() in 8 lanes: component c of the grid at grid position q.
+[[gnu::always_inline]] inline __m256 gridComponent8(const VelocityGrid& g, int c, __m256 qx,
+                                                    __m256 qy, __m256 qz) {
+    __m256i x0, x1, y0, y1, z0, z1;
+    __m256 fx, fy, fz;
+    gridCorner8(qx, g.res.x, x0, x1, fx);
+    gridCorner8(qy, g.res.y, y0, y1, fy);
+    gridCorner8(qz, g.res.z, z0, z1, fz);
+    const __m256i rx = _mm256_set1_epi32(g.res.x), ry = _mm256_set1_epi32(g.res.y);
+    const __m256i three = _mm256_set1_epi32(3), cc = _mm256_set1_epi32(c);
+    // float offset of (0, y, z), component c: 3 ((z ny + y) nx) + c
+    auto rowOf = [&](__m256i y, __m256i z) {
+        return _mm256_add_epi32(
+            _mm256_mullo_epi32(
+                _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx), three),
+            cc);
+    };
+    const float* base = &g.v.data()->x;
+    const __m256i x03 = _mm256_mullo_epi32(x0, three), x13 = _mm256_mullo_epi32(x1, three);
+    auto at = [&](__m256i row, __m256i x3) {
+        return _mm256_i32gather_ps(base, _mm256_add_epi32(row, x3), 4);
+    };
+    const __m256i r00 = rowOf(y0, z0), r10 = rowOf(y1, z0), r01 = rowOf(y0, z1),
+                  r11 = rowOf(y1, z1);
+    const __m256 c00 = lerp8(at(r00, x03), at(r00, x13), fx);
+    const __m256 c10 = lerp8(at(r10, x03), at(r10, x13), fx);
+    const __m256 c01 = lerp8(at(r01, x03), at(r01, x13), fx);
+    const __m256 c11 = lerp8(at(r11, x03), at(r11, x13), fx);
+    return lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz);
+}
+
+/// GridSampler<K>() in 8 lanes (cells / s at density-grid index positions p).
+template <VelocityKind K>
+[[gnu::always_inline]] inline Vec8 gridVelocity8(const GridSampler<K>& s, const Vec8& p) {
+    const __m256 sc = _mm256_set1_ps(s.gScale), ih = _mm256_set1_ps(s.invH);
+    const __m256 h = _mm256_set1_ps(0.5f);
+    const __m256 qx = _mm256_add_ps(_mm256_mul_ps(p.x, sc), _mm256_set1_ps(s.gOff.x));
+    const __m256 qy = _mm256_add_ps(_mm256_mul_ps(p.y, sc), _mm256_set1_ps(s.gOff.y));
+    const __m256 qz = _mm256_add_ps(_mm256_mul_ps(p.z, sc), _mm256_set1_ps(s.gOff.z));
+    const __m256 mx = _mm256_sub_ps(qx, h), my = _mm256_sub_ps(qy, h), mz = _mm256_sub_ps(qz, h);
+    if constexpr (K == VelocityKind::Centred)
+        return {_mm256_mul_ps(gridComponent8(s.g, 0, mx, my, mz), ih),
+                _mm256_mul_ps(gridComponent8(s.g, 1, mx, my, mz), ih),
+                _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, mz), ih)};
+    else
+        return {_mm256_mul_ps(gridComponent8(s.g, 0, qx, my, mz), ih),
+                _mm256_mul_ps(gridComponent8(s.g, 1, mx, qy, mz), ih),
+                _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, qz), ih)};
+}
+
+/// Component a of the 8 consecutive vec3 entries from p (an AoS to SoA shuffle).
+[[gnu::always_inline]] inline __m256 channel8(const vec3* p, int a) {
+    const float* f = &p->x;
+    const __m256 m0 = _mm256_loadu_ps(f), m1 = _mm256_loadu_ps(f + 8), m2 = _mm256_loadu_ps(f + 16);
+    switch (a) {
+    case 0: // x_i = f[3 i]: lanes f0 f9 f18 f3 f12 f21 f6 f15
+        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x92), m2, 0x24),
+                                        _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+    case 1: // y_i = f[3 i + 1]: lanes f16 f1 f10 f19 f4 f13 f22 f7
+        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x24), m2, 0x49),
+                                        _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+    default: // z_i = f[3 i + 2]: lanes f8 f17 f2 f11 f20 f5 f14 f23
+        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x49), m2, 0x92),
+                                        _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+    }
+}
+
+/// GridRowVelocity<K>(x) for the 8 cells x0 .. x0 + 7.
+template <VelocityKind K>
+[[gnu::always_inline]] inline Vec8 rowVelocity8(const GridRowVelocity<K>& r, __m256 px) {
+    const __m256 qx =
+        _mm256_add_ps(_mm256_mul_ps(px, _mm256_set1_ps(r.s.gScale)), _mm256_set1_ps(r.s.gOff.x));
+    const __m256 ih = _mm256_set1_ps(r.s.invH);
+    const __m256i three = _mm256_set1_epi32(3);
+    __m256 u[3];
+    for (int a = 0; a < 3; ++a) {
+        const auto& k = r.c[K == VelocityKind::Centred ? 0 : a];
+        const bool shifted = K == VelocityKind::Centred || a != 0;
+        __m256i x0, x1;
+        __m256 fx;
+        gridCorner8(shifted ? _mm256_sub_ps(qx, _mm256_set1_ps(0.5f)) : qx, r.nx, x0, x1, fx);
+        const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(x0, three), _mm256_set1_epi32(a));
+        const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(x1, three), _mm256_set1_epi32(a));
+        // consecutive corners (a grid aligned with the density's, away from its x edges): the
+        // 8 entries are contiguous, read with plain loads instead of gathers (the same values)
+        const int first = _mm_cvtsi128_si32(_mm256_castsi256_si128(x0));
+        const __m256i want0 =
+            _mm256_add_epi32(_mm256_set1_epi32(first), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        const __m256i want1 = _mm256_add_epi32(want0, _mm256_set1_epi32(1));
+        const bool contiguous =
+            _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(x0, want0),
+                                                  _mm256_cmpeq_epi32(x1, want1))) == -1;
+        auto at = [&](int row, __m256i o, int dx) {
+            return contiguous ? channel8(k.r[row] + first + dx, a)
+                              : _mm256_i32gather_ps(&k.r[row]->x, o, 4);
+        };
+        const __m256 c00 = lerp8(at(0, o0, 0), at(0, o1, 1), fx);
+        const __m256 c10 = lerp8(at(1, o0, 0), at(1, o1, 1), fx);
+        const __m256 c01 = lerp8(at(2, o0, 0), at(2, o1, 1), fx);
+        const __m256 c11 = lerp8(at(3, o0, 0), at(3, o1, 1), fx);
+        const __m256 fy = _mm256_set1_ps(k.fy), fz = _mm256_set1_ps(k.fz);
+        u[a] = _mm256_mul_ps(lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz), ih);
+    }
+    return {u[0], u[1], u[2]};
+}
+
+/// axis() with the zero boundary, in 8 lanes: corners, weight, and whether each is inside.
+[[gnu::always_inline]] inline void zeroAxis8(__m256 q, int n, __m256i& i0, __m256i& i1, __m256& f,
+                                             __m256i& in0, __m256i& in1) {
+    const __m256 m2 = _mm256_set1_ps(-2.0f);
+    q = _mm256_blendv_ps(m2, q, _mm256_cmp_ps(q, m2, _CMP_GT_OQ)); // NaN -> -2
+    q = _mm256_min_ps(_mm256_set1_ps(float(n + 1)), q);
+    const __m256 fl = _mm256_round_ps(q, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    i0 = _mm256_cvttps_epi32(fl);
+    i1 = _mm256_add_epi32(i0, _mm256_set1_epi32(1));
+    f = _mm256_sub_ps(q, fl);
+    const __m256i minus1 = _mm256_set1_epi32(-1), nn = _mm256_set1_epi32(n);
+    in0 = _mm256_and_si256(_mm256_cmpgt_epi32(i0, minus1), _mm256_cmpgt_epi32(nn, i0));
+    in1 = _mm256_and_si256(_mm256_cmpgt_epi32(i1, minus1), _mm256_cmpgt_epi32(nn, i1));
+}
+
+/// sampleDensityImpl() with the zero boundary in 8 lanes; lo / hi (if not null) as there.
+[[gnu::always_inline]] inline __m256 sampleZero8(const DensityGrid& d, const Vec8& p, __m256* lo,
+                                                 __m256* hi) {
+    const __m256 h = _mm256_set1_ps(0.5f);
+    __m256i x0, x1, y0, y1, z0, z1, ix0, ix1, iy0, iy1, iz0, iz1;
+    __m256 fx, fy, fz;
+    zeroAxis8(_mm256_sub_ps(p.x, h), d.res.x, x0, x1, fx, ix0, ix1);
+    zeroAxis8(_mm256_sub_ps(p.y, h), d.res.y, y0, y1, fy, iy0, iy1);
+    zeroAxis8(_mm256_sub_ps(p.z, h), d.res.z, z0, z1, fz, iz0, iz1);
+    const __m256i rx = _mm256_set1_epi32(d.res.x), ry = _mm256_set1_epi32(d.res.y);
+    auto rowOf = [&](__m256i y, __m256i z) {
+        return _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx);
+    };
+    const float* base = d.v.data();
+    auto at = [&](__m256i row, __m256i x, __m256i in) {
+        return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, _mm256_add_epi32(row, x),
+                                        _mm256_castsi256_ps(in), 4);
+    };
+    const __m256i r00 = rowOf(y0, z0), r10 = rowOf(y1, z0), r01 = rowOf(y0, z1),
+                  r11 = rowOf(y1, z1);
+    const __m256i i00 = _mm256_and_si256(iy0, iz0), i10 = _mm256_and_si256(iy1, iz0),
+                  i01 = _mm256_and_si256(iy0, iz1), i11 = _mm256_and_si256(iy1, iz1);
+    const __m256 v000 = at(r00, x0, _mm256_and_si256(ix0, i00));
+    const __m256 v100 = at(r00, x1, _mm256_and_si256(ix1, i00));
+    const __m256 v010 = at(r10, x0, _mm256_and_si256(ix0, i10));
+    const __m256 v110 = at(r10, x1, _mm256_and_si256(ix1, i10));
+    const __m256 v001 = at(r01, x0, _mm256_and_si256(ix0, i01));
+    const __m256 v101 = at(r01, x1, _mm256_and_si256(ix1, i01));
+    const __m256 v011 = at(r11, x0, _mm256_and_si256(ix0, i11));
+    const __m256 v111 = at(r11, x1, _mm256_and_si256(ix1, i11));
+    // std::min(a, b) is min_ps(b, a); std::max(a, b) is max_ps(b, a)
+    auto mn = [&](__m256 a, __m256 b) { return _mm256_min_ps(b, a); };
+    auto mx = [&](__m256 a, __m256 b) { return _mm256_max_ps(b, a); };
+    if (lo) *lo = mn(mn(mn(v000, v100), mn(v010, v110)), mn(mn(v001, v101), mn(v011, v111)));
+    if (hi) *hi = mx(mx(mx(v000, v100), mx(v010, v110)), mx(mx(v001, v101), mx(v011, v111)));
+    const __m256 c0 = lerp8(lerp8(v000, v100, fx), lerp8(v010, v110, fx), fy);
+    const __m256 c1 = lerp8(lerp8(v001, v101, fx), lerp8(v011, v111, fx), fy);
+    return lerp8(c0, c1, fz);
+}
+
+/// Cells x0 .. x0 + 7 of row (y, z): the velocity at the centre (GridRowVelocity), its CFL
+/// number |u0| adt, one RK2 substep of length dt from the centre, and the density d there (zero
+/// boundary; lo / hi: the limiter's range). False, and nothing written, where a cell needs more
+/// than one substep (substeps() > 1).
+template <VelocityKind K>
+bool gridBlock8(const GridSampler<K>& gs, const GridRowVelocity<K>& rowU, const DensityGrid& d,
+                int x0, int y, int z, float dt, float adt, float traceCfl, float* v, float* lo,
+                float* hi, float* cfl) {
+    const __m256 px =
+        _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(
+                          _mm256_set1_epi32(x0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))),
+                      _mm256_set1_ps(0.5f));
+    const Vec8 p{px, _mm256_set1_ps(float(y) + 0.5f), _mm256_set1_ps(float(z) + 0.5f)};
+    const Vec8 u0 = rowVelocity8(rowU, px);
+    // glm::length: sqrt((x x + y y) + z z)
+    const __m256 len = _mm256_sqrt_ps(
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u0.x, u0.x), _mm256_mul_ps(u0.y, u0.y)),
+                      _mm256_mul_ps(u0.z, u0.z)));
+    const __m256 c = _mm256_mul_ps(len, _mm256_set1_ps(adt));
+    // substeps() is 1 unless traceCfl > 0 and ceil(cfl / traceCfl) > 1, i.e. cfl / traceCfl > 1
+    if (traceCfl > 0.0f &&
+        _mm256_movemask_ps(_mm256_cmp_ps(_mm256_div_ps(c, _mm256_set1_ps(traceCfl)),
+                                         _mm256_set1_ps(1.0f), _CMP_GT_OQ)))
+        return false;
+    // trace(): s = dt / 1; k2 = u(p + (0.5 s) k1); p + s k2
+    const __m256 hs = _mm256_set1_ps(0.5f * dt), sv = _mm256_set1_ps(dt);
+    const Vec8 mid{_mm256_add_ps(p.x, _mm256_mul_ps(hs, u0.x)),
+                   _mm256_add_ps(p.y, _mm256_mul_ps(hs, u0.y)),
+                   _mm256_add_ps(p.z, _mm256_mul_ps(hs, u0.z))};
+    const Vec8 k2 = gridVelocity8(gs, mid);
+    const Vec8 end{_mm256_add_ps(p.x, _mm256_mul_ps(sv, k2.x)),
+                   _mm256_add_ps(p.y, _mm256_mul_ps(sv, k2.y)),
+                   _mm256_add_ps(p.z, _mm256_mul_ps(sv, k2.z))};
+    __m256 l, h;
+    const __m256 r = sampleZero8(d, end, lo ? &l : nullptr, hi ? &h : nullptr);
+    _mm256_storeu_ps(v, r);
+    if (lo) _mm256_storeu_ps(lo, l);
+    if (hi) _mm256_storeu_ps(hi, h);
+    _mm256_storeu_ps(cfl, c);
+    return true;
+}
+
+#pragma GCC pop_options
+
+/// Whether the 8-cell blocks may run: AVX2 on this CPU, and grid offsets that fit in an int.
+bool gridBlocksUsable(const VelocityGrid& g, const DensityGrid& d) {
+    static const bool avx2 = __builtin_cpu_supports("avx2");
+    const double gv = 3.0 * double(g.res.x) * g.res.y * g.res.z;
+    const double dv = double(d.res.x) * d.res.y * d.res.z;
+    return avx2 && gv < 2147483647.0 && dv < 2147483647.0;
+}
+
+/// Calls f.template operator()<K, B>() with the velocity grid's kind (Centred or Staggered) and
+/// the boundary as constants, so that the grid kernel has no switch per lookup.
+template <class F> void dispatchGrid(VelocityKind kind, Boundary b, F&& f) {
+    auto withBoundary = [&]<VelocityKind K>() {
+        switch (b) {
+        case Boundary::Zero:
+            f.template operator()<K, Boundary::Zero>();
+            break;
+        case Boundary::Clamp:
+            f.template operator()<K, Boundary::Clamp>();
+            break;
+        case Boundary::Periodic:
+            f.template operator()<K, Boundary::Periodic>();
+            break;
+        }
+    };
+    if (kind == VelocityKind::Centred)
+        withBoundary.template operator()<VelocityKind::Centred>();
+    else
+        withBoundary.template operator()<VelocityKind::Staggered>();
+}
+
 } // namespace
 
 float sampleDensity(const DensityGrid& d, vec3 p, Boundary b, float* lo, float* hi) {
@@ -400,7 +766,14 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     // (a vertical component moves rows across y: a uniform wind with one keeps the per-cell path)
     const bool rowKernel = exact && ap.rowKernel && ap.backtrace != Backtrace::RK3 &&
                            !(vel.kind == VelocityKind::Uniform && vel.uniform.y != 0.0f);
+    // a velocity grid: the grid kernel (GridRowVelocity for the first stage, no switch per
+    // lookup), the same float operations as the per-cell path
+    const bool gridKernel =
+        ap.rowKernel && (vel.kind == VelocityKind::Centred || vel.kind == VelocityKind::Staggered);
     const bool mac = ap.scheme == AdvectScheme::MacCormack;
+    // the grid kernel's 8-cell blocks (AVX2): one RK2 substep, the zero boundary
+    const bool blocks = gridKernel && ap.backtrace == Backtrace::RK2 &&
+                        ap.boundary == Boundary::Zero && gridBlocksUsable(*vel.grid, in);
     DensityGrid& dst = &in == &out ? ws.tmp : out;
     dst.res = res;
     dst.v.resize(cells);
@@ -440,7 +813,50 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                     massIn += double(in.v[base + x]);
                 }
             }
-            for (int x = 0; x < (rowKernel ? 0 : nx); ++x) {
+            if (gridKernel)
+                dispatchGrid(vel.kind, ap.boundary, [&]<VelocityKind K, Boundary B>() {
+                    const GridSampler<K> gs(u);
+                    const GridRowVelocity<K> rowU(gs, y, z);
+                    auto cell = [&](int x) {
+                        const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+                        const vec3 u0 = rowU(x);
+                        const float cfl = glm::length(u0) * adt;
+                        cflMax = std::max(cflMax, cfl);
+                        const int n = substeps(false, ap, cfl);
+                        subMax = std::max(subMax, n);
+                        const vec3 src = trace(gs, p, u0, -dt, n, ap.backtrace);
+                        float lo, hi;
+                        const float v = sampleDensityImpl(in, src, B, &lo, &hi);
+                        fwd.v[base + x] = v;
+                        if (mac) {
+                            ws.lo[base + x] = lo;
+                            ws.hi[base + x] = hi;
+                        } else {
+                            massOut += double(v);
+                        }
+                        massIn += double(in.v[base + x]);
+                    };
+                    int x = 0;
+                    if (B == Boundary::Zero && blocks)
+                        for (; x + 8 <= nx; x += 8) {
+                            float cfl[8];
+                            float* v = &fwd.v[base + x];
+                            if (!gridBlock8(gs, rowU, in, x, y, z, -dt, adt, ap.traceCfl, v,
+                                            mac ? &ws.lo[base + x] : nullptr,
+                                            mac ? &ws.hi[base + x] : nullptr, cfl)) {
+                                for (int k = 0; k < 8; ++k) cell(x + k);
+                                continue;
+                            }
+                            subMax = std::max(subMax, 1);
+                            for (int k = 0; k < 8; ++k) {
+                                cflMax = std::max(cflMax, cfl[k]);
+                                if (!mac) massOut += double(v[k]);
+                                massIn += double(in.v[base + x + k]);
+                            }
+                        }
+                    for (; x < nx; ++x) cell(x);
+                });
+            for (int x = 0; x < (rowKernel || gridKernel ? 0 : nx); ++x) {
                 const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
                 const vec3 u0 = u(p);
                 const float cfl = glm::length(u0) * adt;
@@ -481,7 +897,51 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                     // the forward step's stencil again, for the limiter's range: reading `in`
                     // (cached rows) costs less than storing and reloading two grids
                     const RowLookup fwdLook(in, y, z, uRow, -dt, ap.boundary);
-                    for (int x = 0; x < nx; ++x) {
+                    // the correction and the limiter of cell x, from the backward lookup
+                    auto correct = [&](int x, float back, float lo, float hi) {
+                        const size_t i = base + x;
+                        const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
+                        float v = c;
+                        if (ap.limiter) {
+                            if (!(v >= lo)) v = lo; // a NaN c becomes lo
+                            if (v > hi) v = hi;
+                        }
+                        if (!(v == c)) {
+                            ++clamped;
+                            clampMass += std::fabs(double(v) - double(c));
+                        }
+                        dst.v[i] = v;
+                        massOut += double(v);
+                    };
+                    if (gridKernel)
+                        dispatchGrid(vel.kind, ap.boundary, [&]<VelocityKind K, Boundary B>() {
+                            const GridSampler<K> gs(u);
+                            const GridRowVelocity<K> rowU(gs, y, z);
+                            auto cell = [&](int x) {
+                                const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+                                const vec3 u0 = rowU(x);
+                                const int n = substeps(false, ap, glm::length(u0) * adt);
+                                const vec3 dstPos = trace(gs, p, u0, dt, n, ap.backtrace);
+                                const float back =
+                                    sampleDensityImpl(fwd, dstPos, B, nullptr, nullptr);
+                                correct(x, back, ws.lo[base + x], ws.hi[base + x]);
+                            };
+                            int x = 0;
+                            if (B == Boundary::Zero && blocks)
+                                for (; x + 8 <= nx; x += 8) {
+                                    float back[8], cfl[8];
+                                    if (!gridBlock8(gs, rowU, fwd, x, y, z, dt, adt, ap.traceCfl,
+                                                    back, nullptr, nullptr, cfl)) {
+                                        for (int k = 0; k < 8; ++k) cell(x + k);
+                                        continue;
+                                    }
+                                    for (int k = 0; k < 8; ++k)
+                                        correct(x + k, back[k], ws.lo[base + x + k],
+                                                ws.hi[base + x + k]);
+                                }
+                            for (; x < nx; ++x) cell(x);
+                        });
+                    for (int x = 0; x < (gridKernel ? 0 : nx); ++x) {
                         float back, lo = 0.0f, hi = 0.0f;
                         if (rowKernel) {
                             back = look(x);
@@ -497,19 +957,7 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                                 hi = ws.hi[base + x];
                             }
                         }
-                        const size_t i = base + x;
-                        const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
-                        float v = c;
-                        if (ap.limiter) {
-                            if (!(v >= lo)) v = lo; // a NaN c becomes lo
-                            if (v > hi) v = hi;
-                        }
-                        if (!(v == c)) {
-                            ++clamped;
-                            clampMass += std::fabs(double(v) - double(c));
-                        }
-                        dst.v[i] = v;
-                        massOut += double(v);
+                        correct(x, back, lo, hi);
                     }
                     ws.rowMassOut[row] = massOut;
                     ws.rowClampMass[row] = clampMass;

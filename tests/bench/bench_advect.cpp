@@ -6,9 +6,11 @@
 //   BM_AdvectGrid/<scheme>/<threads>       a cell-centred velocity grid (a swirl + drift) of
 //                                          the same size, max CFL ~1.9, 2 trace substeps
 //                                          where the CFL exceeds 1
-//   BM_AdvectCube/<n>/<scheme>/<wind>    an n^3 grid of smooth lobes (the 256^3 and its
-//                                          scaling), wind 0 = layered (row kernel), 1 = a
-//                                          centred velocity grid of the same size; all threads
+//   BM_AdvectCube/<n>/<scheme>/<wind>/<kernel>  an n^3 grid of smooth lobes (the 256^3
+//                                          and its scaling), wind 0 = layered, 1 = a centred
+//                                          velocity grid of the same size, 2 = a staggered one
+//                                          (n + 1 faces); kernel 1 = the row / grid kernel,
+//                                          0 = the per-cell path (the reference); all threads
 // scheme: 0 = semi-Lagrangian, 1 = MacCormack; threads: the TBB thread count. items_per_second
 // is steps per second. Run from the build dir:
 //   ./tests/nimbus_bench --benchmark_filter=Advect
@@ -107,23 +109,36 @@ void BM_AdvectCube(benchmark::State& state) {
     const GridFrame frame{vec3(0.0f), 6400.0f / float(n)}; // 6.4 km across at any n
     const VelocityField layered =
         layeredWind({{800.0f, vec3(8.0f, 0.0f, 2.0f)}, {5600.0f, vec3(16.0f, 0.0f, -4.0f)}});
+    const int wind = int(state.range(2));
+    const bool staggered = wind == 2;
     VelocityGrid g;
-    if (state.range(2)) {
-        g.res = d.res;
+    if (wind) {
+        g.res = d.res + (staggered ? 1 : 0); // staggered: n + 1 faces per axis
         g.frame = frame;
-        g.v.resize(d.v.size());
+        g.v.resize(size_t(g.res.x) * g.res.y * g.res.z);
         const vec3 c(3200.0f);
-        for (int z = 0; z < n; ++z)
-            for (int y = 0; y < n; ++y)
-                for (int x = 0; x < n; ++x) {
-                    const vec3 p = (vec3(x, y, z) + 0.5f) * frame.voxelSize - c;
-                    g.v[g.index(x, y, z)] =
-                        vec3(0.004f * p.z, 0.5f, -0.004f * p.x) + vec3(6.0f, 0.0f, 2.0f);
+        auto swirlAt = [&](vec3 cell) {
+            const vec3 p = cell * frame.voxelSize - c;
+            return vec3(0.004f * p.z, 0.5f, -0.004f * p.x) + vec3(6.0f, 0.0f, 2.0f);
+        };
+        for (int z = 0; z < g.res.z; ++z)
+            for (int y = 0; y < g.res.y; ++y)
+                for (int x = 0; x < g.res.x; ++x) {
+                    const vec3 i(x, y, z);
+                    vec3& w = g.v[g.index(x, y, z)];
+                    if (!staggered) {
+                        w = swirlAt(i + 0.5f);
+                    } else { // each component on its own lower face
+                        w.x = swirlAt(i + vec3(0.0f, 0.5f, 0.5f)).x;
+                        w.y = swirlAt(i + vec3(0.5f, 0.0f, 0.5f)).y;
+                        w.z = swirlAt(i + vec3(0.5f, 0.5f, 0.0f)).z;
+                    }
                 }
     }
-    const VelocityField v = state.range(2) ? centredGrid(g) : layered;
+    const VelocityField v = wind == 0 ? layered : staggered ? staggeredGrid(g) : centredGrid(g);
     AdvectParams p;
     p.scheme = state.range(1) ? AdvectScheme::MacCormack : AdvectScheme::SemiLagrangian;
+    p.rowKernel = state.range(3) != 0;
     AdvectWorkspace ws;
     AdvectStats st;
     const float dt = 0.5f * frame.voxelSize / 16.0f; // max CFL ~0.5 at any n
@@ -136,11 +151,13 @@ void BM_AdvectCube(benchmark::State& state) {
     state.counters["ns/cell"] =
         benchmark::Counter(double(d.v.size()) * state.iterations() * 1e-9,
                            benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+    static const char* const winds[] = {"layered wind", "centred velocity grid",
+                                        "staggered velocity grid"};
     state.SetLabel(std::string(p.scheme == AdvectScheme::MacCormack ? "MacCormack, " : "SL, ") +
-                   (state.range(2) ? "centred velocity grid" : "layered wind"));
+                   winds[wind] + (p.rowKernel ? "" : ", per cell"));
 }
 BENCHMARK(BM_AdvectCube)
-    ->ArgsProduct({{64, 128, 256}, {0, 1}, {0, 1}})
+    ->ArgsProduct({{64, 128, 256}, {0, 1}, {0, 1, 2}, {1, 0}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
