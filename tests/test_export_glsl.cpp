@@ -398,6 +398,9 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(msP1),
         NB_MEMBER(mediumG),
         NB_MEMBER(vdbDensity),
+        NB_MEMBER(sdfScale),
+        NB_MEMBER(sdfFalloff),
+        NB_MEMBER(sdfNodeCount),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());

@@ -30,7 +30,8 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_MS_DIFFUSION", f.diffusion},
             {"RT_MS_PHOTONS", f.photons},
             {"RT_PHOTON_SKIN", f.photonSkin},
-            {"RT_VDB", f.vdb}};
+            {"RT_VDB", f.vdb},
+            {"RT_SDF", f.sdf}};
 }
 
 namespace {
@@ -624,6 +625,14 @@ ParamDoc paramDoc(std::string_view n) {
          {"RT_VDB: the field's density scale (field.density), multiplying the grid's values; the "
           "grid's box is boundsLo/Hi",
           "1 (factor)"}},
+        {"sdfScale",
+         {"RT_SDF: the SDF cloud's density deep inside (field.density)", "1 (density)"}},
+        {"sdfFalloff",
+         {"RT_SDF: the SDF cloud's falloff width w: density = sdfScale * smoothstep(0, w, -d)",
+          "world units"}},
+        {"sdfNodeCount",
+         {"RT_SDF: the number of SdfTreeNode entries in sdf_nodes.bin (postfix, root last)",
+          "nodes"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -848,6 +857,10 @@ std::string bufferMeaning(std::string_view name) {
                "byte 0 to gridSize(), read as uints through PNanoVDB (the grid at address 0); its "
                "own map (world to index) is inside it, its box is boundsLo/Hi and its density "
                "scale vdbDensity in the parameter block";
+    if (name == "RtSdfNodes")
+        return "the SDF cloud's tree: struct SdfTreeNode (core/kernels/sdf_tree.glsl, std430, 144 "
+               "bytes each) per node in postfix order (children before their parent, root last), "
+               "as SdfTree::gpuNodes holds them; sdfNodeCount in the parameter block";
     return "";
 }
 
@@ -859,6 +872,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtPhotonGrid") return "photons.bin";
     if (name == "RtSkinGrid") return "skin_tau.bin";
     if (name == "RtVdbGrid") return "vdb_grid.bin";
+    if (name == "RtSdfNodes") return "sdf_nodes.bin";
     return "";
 }
 
@@ -901,6 +915,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
         if (f.photonSkin)
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
+        if (f.sdf) out.data.emplace_back(bufferFile("RtSdfNodes"), bytesOf(sdfTreeNodes(s)));
         if (f.vdb) {
             const VdbGridBytes g = vdbGridBytes(bindings, error);
             if (!g.data) return false;

@@ -5,7 +5,8 @@
 // MieTable::eval (core/media/mie.cpp), DiffusionVolume::sample with its gradient
 // (core/lighting/diffusion.cpp), PhotonVolume::sample with its skin profile
 // (core/lighting/photons.h) and sampleVoxelCentres (core/geometry.h); and the field's NanoVDB
-// grid (RT_VDB) through PNanoVDB, sampled as GridField::density. Shader storage buffers and
+// grid (RT_VDB) through PNanoVDB, sampled as GridField::density; the SDF cloud's node array
+// (RT_SDF), evaluated by the kernel sdfTreeStep as SdfTree::distance. Shader storage buffers and
 // trilinear interpolation by hand rather than textures: a texture unit's filtering weights are
 // fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. Assembled after
 // march_params.glsl; tests/test_rt_march.cpp compiles it with its own main() to compare each
@@ -33,6 +34,10 @@ layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
 // PNanoVDB; its name is the one PNanoVDB's GLSL buffer functions read
 layout(std430, binding = 9) readonly buffer RtVdbGrid { uint pnanovdb_buf_data[]; };
 // @pnanovdb: plugin/realtime/rt_march.cpp puts the text of PNanoVDB.h here (pnanovdbSource())
+#endif
+#if RT_SDF
+// the SDF cloud's tree: SdfTree::gpuNodes (core/sdf/sdf.h), postfix, root last
+layout(std430, binding = 10) readonly buffer RtSdfNodes { SdfTreeNode rtSdfNode[]; };
 #endif
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
@@ -106,6 +111,29 @@ float rtVdbDensity(vec3 p, float scale) {
     float v = rtLerp(rtLerp(rtLerp(c000, c001, f.z), rtLerp(c010, c011, f.z), f.y),
                      rtLerp(rtLerp(c100, c101, f.z), rtLerp(c110, c111, f.z), f.y), f.x);
     return max(0.0f, v) * scale;
+}
+#endif
+
+#if RT_SDF
+// SdfTree::distance (core/sdf/sdf.cpp): the tree's nodes through the kernel sdfTreeStep
+// (core/kernels/sdf_tree.glsl), the loop SdfTree::evaluate runs on the CPU; +1e30 for an empty
+// tree (kSdfUnbounded).
+float rtSdfDistance(vec3 p) {
+    if (P.sdfNodeCount <= 0) return 1e30f;
+    SdfTreeStack s;
+    s.sp = 0;
+    for (int i = 0; i < P.sdfNodeCount; i++) sdfTreeStep(rtSdfNode[i], p, true, s);
+    return s.v[0];
+}
+
+// Field::density of an SDF cloud (SdfCloudField::density): 0 outside the field's box, else
+// scale * sdfDensityFromDistance(d(p), falloff).
+float rtSdfDensity(vec3 p) {
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+    if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z))
+        return 0.0f;
+    return P.sdfScale * sdfDensityFromDistance(rtSdfDistance(p), P.sdfFalloff);
 }
 #endif
 

@@ -113,6 +113,11 @@ struct RtMarchParams {
     // the VDB grid (RT_VDB): the field's density scale (field.density, GridField::scale); the
     // box is boundsLo/Hi, the grid's own map is read from its buffer
     float vdbDensity;
+    // the SDF cloud (RT_SDF): density = sdfScale * sdfDensityFromDistance(d(p), sdfFalloff), d the
+    // tree of sdfNodeCount nodes in its buffer (binding 10, SdfTreeNode); the box is boundsLo/Hi
+    float sdfScale;
+    float sdfFalloff;
+    int sdfNodeCount;
 };
 
 // Sky kinds (values = the SkyKind enum of core/scene.h).

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "core/image.h"
+#include "core/kernels/kernels.h"
 #include "core/media/mie.h"
 #include "core/plan.h"
 #include "core/render.h"
@@ -67,6 +68,7 @@ struct MarchFeatures {
     bool photons = false;       ///< RT_MS_PHOTONS: the photon grid (the sun's higher orders)
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
+    bool sdf = false; ///< RT_SDF: the field is an SDF cloud (its node array), not the cumulus
 
     /// The #define lines.
     std::string defines() const;
@@ -87,6 +89,10 @@ std::string marchDataShaderSource(const MarchFeatures& features);
 
 /// The Lorenz-Mie table as the shader reads it (binding 3): per node (cos theta, R, G, B).
 std::vector<glm::vec4> mieTableNodes(const MieTable& table);
+
+/// The SDF cloud's tree as the shader reads it (binding 10, RT_SDF): SdfTree::gpuNodes of the
+/// scene's field.kind = "sdf" tree (flattenSdf), postfix, root last; empty for other fields.
+std::vector<kern::SdfTreeNode> sdfTreeNodes(const SceneDesc& scene);
 
 /// The bytes of the field's NanoVDB grid as the shader reads them (binding 9, RT_VDB): the
 /// nanovdb::FloatGrid of `bindings.grid(0)`, from its first byte, gridSize() bytes (PNanoVDB
