@@ -400,6 +400,9 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(vdbDensity),
         NB_MEMBER(baseBakeRes),
         NB_MEMBER(detailBakeRes),
+        NB_MEMBER(sdfScale),
+        NB_MEMBER(sdfFalloff),
+        NB_MEMBER(sdfNodeCount),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());

@@ -31,7 +31,8 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_MS_PHOTONS", f.photons},
             {"RT_PHOTON_SKIN", f.photonSkin},
             {"RT_VDB", f.vdb},
-            {"RT_BAKED_NOISE", f.bakedNoise}};
+            {"RT_BAKED_NOISE", f.bakedNoise},
+            {"RT_SDF", f.sdf}};
 }
 
 namespace {
@@ -633,6 +634,14 @@ ParamDoc paramDoc(std::string_view n) {
          {"RT_BAKED_NOISE: nodes per axis of the detail noise tile (noise_detail.bin; "
           "field.detail_bake_resolution; 0 without)",
           "nodes"}},
+        {"sdfScale",
+         {"RT_SDF: the SDF cloud's density deep inside (field.density)", "1 (density)"}},
+        {"sdfFalloff",
+         {"RT_SDF: the SDF cloud's falloff width w: density = sdfScale * smoothstep(0, w, -d)",
+          "world units"}},
+        {"sdfNodeCount",
+         {"RT_SDF: the number of SdfTreeNode entries in sdf_nodes.bin (postfix, root last)",
+          "nodes"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -865,6 +874,10 @@ std::string bufferMeaning(std::string_view name) {
                "^3 floats, one per node of a periodic tile, x fastest, then y, then z; the noise "
                "with its octaves summed (one value per node, no channels); read trilinearly, "
                "wrapping, at the noise-domain point times the resolution";
+    if (name == "RtSdfNodes")
+        return "the SDF cloud's tree: struct SdfTreeNode (core/kernels/sdf_tree.glsl, std430, 144 "
+               "bytes each) per node in postfix order (children before their parent, root last), "
+               "as SdfTree::gpuNodes holds them; sdfNodeCount in the parameter block";
     return "";
 }
 
@@ -878,6 +891,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtVdbGrid") return "vdb_grid.bin";
     if (name == "RtBaseNoise") return "noise_base.bin";
     if (name == "RtDetailNoise") return "noise_detail.bin";
+    if (name == "RtSdfNodes") return "sdf_nodes.bin";
     return "";
 }
 
@@ -916,6 +930,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
         if (f.photonSkin)
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
+        if (f.sdf) out.data.emplace_back(bufferFile("RtSdfNodes"), bytesOf(sdfTreeNodes(s)));
         if (f.vdb) {
             const VdbGridBytes g = vdbGridBytes(bindings, error);
             if (!g.data) return false;

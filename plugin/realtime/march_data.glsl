@@ -6,7 +6,8 @@
 // (core/lighting/diffusion.cpp), PhotonVolume::sample with its skin profile
 // (core/lighting/photons.h) and sampleVoxelCentres (core/geometry.h); and the field's NanoVDB
 // grid (RT_VDB) through PNanoVDB, sampled as GridField::density; the cumulus noise tiles the CPU
-// baked (RT_BAKED_NOISE), sampled as NoiseVolume::sample. Shader storage buffers and
+// baked (RT_BAKED_NOISE), sampled as NoiseVolume::sample; the SDF cloud's node array (RT_SDF),
+// evaluated by the kernel sdfTreeStep as SdfTree::distance. Shader storage buffers and
 // trilinear interpolation by hand rather than textures: a texture unit's filtering weights are
 // fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. Assembled after
 // march_params.glsl; tests/test_rt_march.cpp compiles it with its own main() to compare each
@@ -42,6 +43,10 @@ layout(std430, binding = 9) readonly buffer RtVdbGrid { uint pnanovdb_buf_data[]
 // P.detailBakeRes. One scalar per node: the CPU bakes each noise with its octaves summed.
 layout(std430, binding = 10) readonly buffer RtBaseNoise { float rtBaseNoise[]; };
 layout(std430, binding = 11) readonly buffer RtDetailNoise { float rtDetailNoise[]; };
+#endif
+#if RT_SDF
+// the SDF cloud's tree: SdfTree::gpuNodes (core/sdf/sdf.h), postfix, root last
+layout(std430, binding = 12) readonly buffer RtSdfNodes { SdfTreeNode rtSdfNode[]; };
 #endif
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
@@ -166,6 +171,29 @@ float rtBakedCumulusDensity(CumulusParams C, vec3 p) {
     precise vec3 ud = cumulusDetailDomain(C, p) * float(P.detailBakeRes);
     float detail = rtNoiseSample(1, P.detailBakeRes, ud);
     return C.density * cloudShape(C.layer, env, base, detail);
+}
+#endif
+
+#if RT_SDF
+// SdfTree::distance (core/sdf/sdf.cpp): the tree's nodes through the kernel sdfTreeStep
+// (core/kernels/sdf_tree.glsl), the loop SdfTree::evaluate runs on the CPU; +1e30 for an empty
+// tree (kSdfUnbounded).
+float rtSdfDistance(vec3 p) {
+    if (P.sdfNodeCount <= 0) return 1e30f;
+    SdfTreeStack s;
+    s.sp = 0;
+    for (int i = 0; i < P.sdfNodeCount; i++) sdfTreeStep(rtSdfNode[i], p, true, s);
+    return s.v[0];
+}
+
+// Field::density of an SDF cloud (SdfCloudField::density): 0 outside the field's box, else
+// scale * sdfDensityFromDistance(d(p), falloff).
+float rtSdfDensity(vec3 p) {
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+    if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z))
+        return 0.0f;
+    return P.sdfScale * sdfDensityFromDistance(rtSdfDistance(p), P.sdfFalloff);
 }
 #endif
 

@@ -116,6 +116,11 @@ struct RtMarchParams {
     // the baked cumulus noise (RT_BAKED_NOISE): nodes per axis of the base and detail tiles
     int baseBakeRes;
     int detailBakeRes;
+    // the SDF cloud (RT_SDF): density = sdfScale * sdfDensityFromDistance(d(p), sdfFalloff), d the
+    // tree of sdfNodeCount nodes in its buffer (binding 12, SdfTreeNode); the box is boundsLo/Hi
+    float sdfScale;
+    float sdfFalloff;
+    int sdfNodeCount;
 };
 
 // The cumulus kernel parameters of the block (cumulusParams() of core/fields/cumulus.cpp).

@@ -1,9 +1,10 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE: only the features the scene uses are compiled in), the embedded kernels
-// (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie
-// table and the multiple-scattering grids, and their lookups), then this file.
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SDF: only the features the scene uses are compiled
+// in), the embedded kernels (core/kernels/source.h), march_params.glsl, march_data.glsl (the
+// parameter block, the Mie table and the multiple-scattering grids, and their lookups), then
+// this file.
 //
 // It is the CPU `march` integrator (core/integrators/march.cpp, MarchContext::renderPixel and
 // traceRay) for the subset rt_march.h lists, written with the same kernels and in the same
@@ -11,11 +12,11 @@
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
 // cumulusDensity evaluated per sample (RT_BAKED_NOISE: its noises read from the tiles the CPU
-// baked; RT_VDB: the field's NanoVDB grid through PNanoVDB),
-// the sun's transmittance by a shadow march per sample, phaseEval (or the Lorenz-Mie table,
-// RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the multiple-scattering grids the
-// CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added as MarchContext::traceRay
-// adds them, the height-occluded sky ambient, marchStep (Hillaire's energy-conserving step) and
+// baked; RT_VDB: the field's NanoVDB grid through PNanoVDB; RT_SDF: the SDF cloud's tree through
+// the kernel sdfTreeStep), the sun's transmittance by a shadow march per sample, phaseEval (or
+// the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the
+// multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added
+// as MarchContext::traceRay adds them, the height-occluded sky ambient, marchStep (Hillaire's energy-conserving step) and
 // the early exit at transmittance < epsilon.
 // What it does not do: empty-space skipping (every step of the box is visited; the CPU's
 // majorant grid skips only samples of zero density, so the picture is the same),
@@ -89,7 +90,8 @@ float rtMaxComponent(vec3 v) { return max(v.x, max(v.y, v.z)); }
 float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 
 // The field the pass marches (Field::density): the procedural cumulus, its noise evaluated per
-// sample, or (RT_VDB) the NanoVDB grid read through PNanoVDB (march_data.glsl, rtVdbDensity).
+// sample, or (RT_VDB) the NanoVDB grid read through PNanoVDB (march_data.glsl, rtVdbDensity), or
+// (RT_SDF) the SDF cloud's tree (rtSdfDensity).
 #if RT_VDB
 struct RtField {
     float scale; // field.density
@@ -102,6 +104,18 @@ RtField rtField() {
 }
 
 float rtDensity(RtField F, vec3 p) { return rtVdbDensity(p, F.scale); }
+#elif RT_SDF
+struct RtField {
+    float scale; // field.density (read from P by rtSdfDensity)
+};
+
+RtField rtField() {
+    RtField F;
+    F.scale = P.sdfScale;
+    return F;
+}
+
+float rtDensity(RtField F, vec3 p) { return rtSdfDensity(p); }
 #else
 struct RtField {
     CumulusParams cumulus;

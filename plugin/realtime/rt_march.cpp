@@ -13,6 +13,7 @@
 
 #include "core/camera.h"
 #include "core/fields/cumulus.h"
+#include "core/fields/sdf_cloud.h"
 #include "core/integrators/march.h"
 #include "core/kernels/source.h"
 #include "core/media/medium.h"
@@ -69,10 +70,16 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
         no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
     if (s.field.advect.enabled)
         no("field.advect", "[field.advect]: the GLSL pass does not advect fields yet");
-    if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb)
+    if (s.field.kind == FieldKind::Sdf)
+        // RT_SDF exists and its tree evaluation matches SdfTree::distance (RtSdfLookups), but the
+        // whole pass does not match the CPU's image yet (docs/realtime.md, "SDF clouds")
+        no("field.kind", "field.kind = \"sdf\": the GLSL pass evaluates SDF trees (RT_SDF) but its "
+                         "image of an SDF cloud does not match the CPU's yet (the sun's shadow "
+                         "march differs on llvmpipe); not enabled");
+    else if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb)
         no("field.kind", std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
                              "\": the GLSL pass renders the procedural cumulus field and VDB "
-                             "grids only (SDF, Gardner, automaton and homogeneous fields are not "
+                             "grids only (Gardner, automaton and homogeneous fields are not "
                              "ported yet)");
     if (!s.volumes.empty()) no("volume", "[[volume]] entries: the GLSL pass renders `field` alone");
     if (p.instanced || !s.instances.empty())
@@ -110,6 +117,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p) {
     f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
     f.vdb = s.field.kind == FieldKind::Vdb;
     f.bakedNoise = s.field.kind == FieldKind::Cumulus && p.bakeNoise;
+    f.sdf = s.field.kind == FieldKind::Sdf;
     return f;
 }
 
@@ -125,6 +133,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_PHOTON_SKIN ") + (photonSkin ? "1" : "0") + "\n";
     d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
     d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
+    d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
     return d;
 }
 
@@ -168,6 +177,11 @@ MarchShader marchShader(const SceneDesc& s, const FramePlan& p) {
     m.features = marchFeatures(s, p);
     m.source = marchShaderSource(m.features);
     return m;
+}
+
+std::vector<kern::SdfTreeNode> sdfTreeNodes(const SceneDesc& s) {
+    if (s.field.kind != FieldKind::Sdf) return {};
+    return flattenSdf(s.field.sdf.root).gpuNodes;
 }
 
 std::vector<glm::vec4> mieTableNodes(const MieTable& t) {
@@ -256,6 +270,16 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
         P.baseBakeRes = c.baseBakeResolution;
         P.detailBakeRes = c.detailBakeResolution;
     }
+    if (s.field.kind == FieldKind::Sdf) {
+        // the field's box on the CPU (makeSdfCloudField: the tree's support, grown by the
+        // margin), its density scale and falloff; the nodes go to their own buffer
+        const Box b = sdfCloudBounds(s.field.sdf);
+        P.boundsLo = v4(b.lo);
+        P.boundsHi = v4(b.hi);
+        P.sdfScale = s.field.sdf.density;
+        P.sdfFalloff = s.field.sdf.falloff;
+        P.sdfNodeCount = int(sdfTreeNodes(s).size());
+    }
 
     P.sunDirection = v4(s.sun.direction);
     P.sunIrradiance = v4(s.sun.irradiance);
@@ -342,7 +366,13 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
     for (const kern::KernelSource& k : kern::kernelSources()) o << " " << k.name;
     o << ", plugin/realtime/march_params.glsl, march_data.glsl"
       << (f.vdb ? " (with PNanoVDB.h)" : "") << ", march_pass.glsl\n";
-    if (f.vdb)
+    if (f.sdf)
+        o << "  GPU field: sdf, " << sdfTreeNodes(s).size()
+          << " tree nodes in a storage buffer evaluated by the kernel sdfTreeStep as "
+             "SdfTree::distance, density "
+          << s.field.sdf.density << ", falloff " << s.field.sdf.falloff
+          << " (every step of the box taken: no sphere tracing on the GPU)\n";
+    else if (f.vdb)
         o << "  GPU field: vdb, the NanoVDB float grid in a storage buffer read through "
              "PNanoVDB, trilinear as on the CPU, density scale "
           << s.field.vdb.density << "\n";
@@ -483,7 +513,8 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     pixels.bind(1);
     counters.bind(2);
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
-    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise;
+    std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
+        sdfNodes;
     // the cumulus noise tiles the CPU baked, their floats as NoiseVolume holds them
     if (f.bakedNoise) {
         const std::vector<float>& b = noise->base->values;
@@ -492,6 +523,13 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         detailNoise = std::make_unique<gl::StorageBuffer>(d.size() * sizeof(float), d.data());
         baseNoise->bind(10);
         detailNoise->bind(11);
+    }
+    // the SDF cloud's tree: its nodes as SdfTree::evaluate walks them (SdfTreeNode, std430)
+    if (f.sdf) {
+        const std::vector<kern::SdfTreeNode> nodes = sdfTreeNodes(s);
+        sdfNodes = std::make_unique<gl::StorageBuffer>(nodes.size() * sizeof(kern::SdfTreeNode),
+                                                       nodes.data());
+        sdfNodes->bind(12);
     }
     // the field's NanoVDB grid, its bytes as the CPU samples them (PNanoVDB reads address 0 on)
     if (f.vdb) {

@@ -41,6 +41,7 @@
 
 #include "core/fields/cumulus.h"
 #include "core/image.h"
+#include "core/kernels/kernels.h"
 #include "core/media/mie.h"
 #include "core/plan.h"
 #include "core/render.h"
@@ -71,6 +72,7 @@ struct MarchFeatures {
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
     bool bakedNoise = false;    ///< RT_BAKED_NOISE: the cumulus noise from the CPU's baked tiles
+    bool sdf = false; ///< RT_SDF: the field is an SDF cloud (its node array), not the cumulus
 
     /// The #define lines.
     std::string defines() const;
@@ -91,6 +93,10 @@ std::string marchDataShaderSource(const MarchFeatures& features);
 
 /// The Lorenz-Mie table as the shader reads it (binding 3): per node (cos theta, R, G, B).
 std::vector<glm::vec4> mieTableNodes(const MieTable& table);
+
+/// The SDF cloud's tree as the shader reads it (binding 12, RT_SDF): SdfTree::gpuNodes of the
+/// scene's field.kind = "sdf" tree (flattenSdf), postfix, root last; empty for other fields.
+std::vector<kern::SdfTreeNode> sdfTreeNodes(const SceneDesc& scene);
 
 /// The bytes of the field's NanoVDB grid as the shader reads them (binding 9, RT_VDB): the
 /// nanovdb::FloatGrid of `bindings.grid(0)`, from its first byte, gridSize() bytes (PNanoVDB
