@@ -19,7 +19,8 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
 A baked variant (field.evaluation = "baked": RT_BAKED_NOISE) has the tiles' buffers and lookup,
 noise_base.bin and noise_detail.bin at bindings 10 and 11 of baseBakeRes^3 and detailBakeRes^3
 floats, and none of the noise kernels (worleyFbm); the others have the noise kernels and no tiles.
-Every variant has no RT_SDF code (its buffer, lookup and the tree kernels are pruned away);
+Every variant has no RT_SDF code (its buffer, lookup and the tree kernels are pruned away) and
+no RT_RESUMABLE code (`nimbus rt`'s march in slices on llvmpipe: its state buffer and loop probe);
 an SDF cloud (examples/scenes/sdf_cloud.toml) is refused with exit 2 for now, naming
 field.kind (the checks of an SDF variant, sdf_nodes.bin at binding 12 holding sdfNodeCount nodes
 of 144 bytes, are written for when it is enabled). With the shared data folder beside the
@@ -99,7 +100,7 @@ else:
 SDF_CLOUD = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
-                "RT_SDF"]
+                "RT_SDF", "RT_RESUMABLE"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
         "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
@@ -128,6 +129,7 @@ MARKERS = {
                        "rtBakedCumulusDensity("],
     "RT_SDF": ["buffer RtSdfNodes", "rtSdfDensity(", "NB_FN void sdfTreeStep(",
                "NB_FN float sdfTreePrimitive("],
+    "RT_RESUMABLE": ["buffer RtSlices", "rtLoopBudgetHeld(", "atomicAdd(unfinished"],
 }
 # code only a frame with neither RT_VDB nor RT_SDF has (the procedural cumulus, direct or baked)
 CUMULUS = ["cumulusEnvelope(", "rtCumulusParams("]

@@ -403,6 +403,9 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(sdfScale),
         NB_MEMBER(sdfFalloff),
         NB_MEMBER(sdfNodeCount),
+        NB_MEMBER(sliceIndex),
+        NB_MEMBER(sliceSteps),
+        NB_MEMBER(loopProbe),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());

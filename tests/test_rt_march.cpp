@@ -514,8 +514,10 @@ double sceneGpuAgainstCpu(const std::string& scene, const std::vector<std::strin
     ::testing::Test::RecordProperty("max_abs_" + tag, std::to_string(*maxAbs));
     ::testing::Test::RecordProperty("gpu_seconds_" + tag, std::to_string(gpuStats.frameSeconds));
     std::printf("[ rt parity ] %s: PSNR %.2f dB, largest difference %.3g, GPU %.3f s "
-                "(compile %.3f s), CPU integration %.3f s, %zu of %zu pixels cloudy\n",
+                "(compile %.3f s; slices of %d steps, %d dispatches, %d renders discarded), CPU "
+                "integration %.3f s, %zu of %zu pixels cloudy\n",
                 tag.c_str(), psnr, *maxAbs, gpuStats.frameSeconds, gpuStats.compileSeconds,
+                gpuStats.sliceSteps, gpuStats.dispatches, gpuStats.budgetRetries,
                 cpuStats.integrateSeconds, cloudy, cpu.transmittance.size() / 3);
     // the AOVs too: transmittance and depth are written by the same pass
     if (!cpu.transmittance.empty()) {
@@ -1230,4 +1232,79 @@ TEST(RtCli, DISABLED_SdfWritesTheSameExrAsRender) {
     EXPECT_EQ(e.exitCode, 0) << e.output;
     EXPECT_TRUE(contains(e.output, "#define RT_SDF 1")) << e.output;
     EXPECT_TRUE(contains(e.output, "GPU field: sdf")) << e.output;
+}
+
+// The loop probe (march_data.glsl, rtLoopBudgetHeld, RT_RESUMABLE) after nested loops of
+// outer x inner iterations whose trip counts come from a buffer (nothing is unrolled): wherever
+// the inner loops did not all run to their end, the probe says so. Mesa llvmpipe ends every
+// loop of a shader once one SIMD batch's loops have taken 65535 iterations in all
+// (LP_MAX_TGSI_LOOP_ITERATIONS): 300 x 300 is cut short there (90,300 iterations), 100 x 100
+// (10,100) is not; a GL without such a budget runs both in full, and the probe holds.
+TEST(RtLoopBudget, ProbeSeesLoopsCutShort) {
+    if (!requireContext()) return;
+    host::Session session;
+    ASSERT_TRUE(session.load(kDefaultScene, paritySettings(32, 18)).ok());
+    rt::MarchFeatures f = rt::marchFeatures(session.scene(), session.plan(1));
+    f.resumable = true;
+    rt::RtMarchParams P = rt::marchParams(session.scene(), session.plan(1));
+    P.loopProbe = 2;
+    for (const int size : {100, 300}) {
+        const std::vector<glm::vec4> in(64, glm::vec4(float(size)));
+        const std::vector<float> out =
+            runLookups(f, P, in, 2,
+                       "int outer = int(testIn[i].x), inner = int(testIn[i].y), c = 0;\n"
+                       "for (int a = 0; a < outer; a++)\n"
+                       "    for (int b = 0; b < inner; b++) c++;\n"
+                       "testOut[2u * i] = float(c);\n"
+                       "testOut[2u * i + 1u] = rtLoopBudgetHeld() ? 1.0f : 0.0f;");
+        ASSERT_EQ(out.size(), 128u);
+        int cut = 0, held = 0;
+        for (std::size_t i = 0; i < 64; ++i) {
+            const bool full = out[2 * i] == float(size * size);
+            const bool probeHeld = out[2 * i + 1] == 1.0f;
+            // never a loop cut short with the probe holding
+            EXPECT_TRUE(full || !probeHeld) << size << " at " << i << ": " << out[2 * i];
+            cut += full ? 0 : 1;
+            held += probeHeld ? 1 : 0;
+        }
+        if (size == 100) EXPECT_EQ(held, 64) << "10,100 iterations are within any budget";
+        std::printf("[ loop budget ] %d x %d: %d of 64 invocations cut short, probe held in %d\n",
+                    size, size, cut, held);
+    }
+}
+
+// The march in slices (RT_RESUMABLE) gives the image of the whole-ray march: the default scene
+// with the sun at 64x36, whole rays in one dispatch and slices of 3 and of 1 camera steps (the
+// ray's state carried between dispatches), equal bit for bit, AOVs included.
+TEST(RtSlices, SlicedMarchEqualsWholeRays) {
+    if (!requireContext()) return;
+    host::Session session;
+    std::vector<std::string> settings = paritySettings(64, 36);
+    settings.push_back("output.aovs=[\"transmittance\", \"depth\"]");
+    ASSERT_TRUE(session.load(kDefaultScene, settings).ok());
+    const FramePlan plan = session.plan(1);
+    auto render = [&](int steps, rt::MarchStats& stats) {
+        rt::MarchPass pass;
+        pass.setSliceSteps(steps);
+        Framebuffer fb;
+        std::string error;
+        EXPECT_TRUE(pass.render(session.scene(), plan, fb, stats, &error)) << error;
+        return fb;
+    };
+    rt::MarchStats whole, three, one;
+    const Framebuffer a = render(rt::MarchPass::kWholeRay, whole);
+    const Framebuffer b = render(3, three);
+    const Framebuffer c = render(1, one);
+    ASSERT_FALSE(a.rgba.empty());
+    EXPECT_EQ(three.sliceSteps, 3);
+    EXPECT_GT(three.dispatches, 10);
+    EXPECT_GT(one.dispatches, three.dispatches);
+    EXPECT_EQ(a.rgba, b.rgba);
+    EXPECT_EQ(a.rgba, c.rgba);
+    ASSERT_FALSE(a.transmittance.empty());
+    EXPECT_EQ(a.transmittance, c.transmittance);
+    EXPECT_EQ(a.depth, c.depth);
+    std::printf("[ slices ] default 64x36: whole rays %d dispatch(es) (%d renders discarded), "
+                "slices of 3: %d, of 1: %d\n",
+                whole.dispatches, whole.budgetRetries, three.dispatches, one.dispatches);
 }

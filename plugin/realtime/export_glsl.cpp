@@ -32,7 +32,8 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_PHOTON_SKIN", f.photonSkin},
             {"RT_VDB", f.vdb},
             {"RT_BAKED_NOISE", f.bakedNoise},
-            {"RT_SDF", f.sdf}};
+            {"RT_SDF", f.sdf},
+            {"RT_RESUMABLE", f.resumable}};
 }
 
 namespace {
@@ -642,6 +643,16 @@ ParamDoc paramDoc(std::string_view n) {
         {"sdfNodeCount",
          {"RT_SDF: the number of SdfTreeNode entries in sdf_nodes.bin (postfix, root last)",
           "nodes"}},
+        {"sliceIndex",
+         {"RT_RESUMABLE only (nimbus rt's march in slices on Mesa llvmpipe; an export has none "
+          "of it): the slice this dispatch marches, 0 starting the rays; an engine leaves 0",
+          "1 (index)"}},
+        {"sliceSteps",
+         {"RT_RESUMABLE only: camera steps per ray per dispatch; an engine leaves 0", "steps"}},
+        {"loopProbe",
+         {"RT_RESUMABLE only: iterations of the loop that checks llvmpipe's loop budget (2); an "
+          "engine leaves 0",
+          "iterations"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},

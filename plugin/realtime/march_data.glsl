@@ -51,6 +51,25 @@ layout(std430, binding = 12) readonly buffer RtSdfNodes { SdfTreeNode rtSdfNode[
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
 
+#if RT_RESUMABLE
+// The loop budget. Mesa's llvmpipe ends every loop of a shader once the loops of one SIMD batch
+// of invocations have taken LP_MAX_TGSI_LOOP_ITERATIONS = 65535 iterations in all (gallivm:
+// "Maximum iterations before loop termination, shared between every loop"): one counter per
+// batch, set at the batch's start and decremented at the end of every iteration of every loop
+// (masked-off ones included), after which each loop runs once; no error is raised. A camera ray
+// whose samples each run a shadow march over an SDF tree needs far more (sdf_cloud.toml: the
+// sun's transmittance came out too high, the image 27-34 dB from the CPU's), so `nimbus rt`
+// marches in slices (march_pass.glsl, RT_RESUMABLE) and checks with rtLoopBudgetHeld, after the
+// march, that the budget held.
+// True when a loop of P.loopProbe (2) iterations still runs them all: the batch's counter was
+// above 1 here, so it never reached 0 before and every loop before ran to its own end.
+bool rtLoopBudgetHeld() {
+    int k = 0;
+    for (int m = 0; m < P.loopProbe; m++) k++;
+    return k == P.loopProbe;
+}
+#endif
+
 #if RT_VDB
 // GridField::density (core/fields/grid.cpp) through PNanoVDB: world to index by the grid's
 // inverse map in float (mVecF, mInvMatF: NanoVDB's worldToIndexF, with the CPU's order of

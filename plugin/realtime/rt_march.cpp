@@ -134,6 +134,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
     d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
     d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
+    d += std::string("#define RT_RESUMABLE ") + (resumable ? "1" : "0") + "\n";
     return d;
 }
 
@@ -358,7 +359,8 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p) {
         for (const Unsupported& u : no) o << "  GPU: not supported: " << u.message << "\n";
         return o.str();
     }
-    const MarchFeatures f = marchFeatures(s, p);
+    MarchFeatures f = marchFeatures(s, p);
+    f.resumable = true; // as MarchPass compiles it
     std::string defs = f.defines();
     for (char& ch : defs)
         if (ch == '\n') ch = ';';
@@ -470,7 +472,8 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         if (error) *error = no.front().message;
         return false;
     }
-    const MarchFeatures f = marchFeatures(s, p);
+    MarchFeatures f = marchFeatures(s, p);
+    f.resumable = true; // the march in slices, checked against llvmpipe's loop budget
     if (const std::string e = frameDataError(s, p, grids, noise, "the GLSL pass"); !e.empty()) {
         if (error) *error = e;
         return false;
@@ -493,7 +496,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     stats.compileSeconds = 0.0;
     if (!program) {
         const auto t0 = Clock::now();
-        program = std::make_unique<gl::ComputeProgram>(marchShader(s, p).source);
+        program = std::make_unique<gl::ComputeProgram>(marchShaderSource(f));
         stats.compileSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     }
     if (!program->valid()) {
@@ -507,11 +510,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     gl::glErrors(); // drop stale errors
     const auto t0 = Clock::now();
     RtMarchParams P = marchParams(s, p, grids, bindings);
-    const gl::StorageBuffer pixels(n * 12 * sizeof(float));
-    const std::uint32_t zero = 0;
-    const gl::StorageBuffer counters(sizeof zero, &zero);
-    pixels.bind(1);
-    counters.bind(2);
+    P.loopProbe = 2;
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
     std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
         sdfNodes;
@@ -560,22 +559,57 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         skin->bind(6);
     }
     // one pass per pixel sample (march_pass.glsl, main), all of them once per accumulation
-    // pass with that pass's frame key; the pass adds to the sums, the resolve below divides
+    // pass with that pass's frame key; the pass adds to the sums, the resolve below divides.
+    // Each pass is dispatched slice by slice until no ray is left marching; a render whose loop
+    // budget ran out is discarded and done again in shorter slices (setSliceSteps).
     const int passes = f.multisample ? P.pixelSamples : 1;
     const std::uint32_t frameKey = P.frameKey;
-    for (int a = 0; a < accumulate_; ++a) {
-        P.frameKey = accumulationKey(frameKey, a);
-        for (int k = 0; k < passes; ++k) {
-            P.sampleIndex = k;
-            const gl::StorageBuffer params(sizeof P, &P);
-            params.bind(0);
-            program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+    std::unique_ptr<gl::StorageBuffer> pixels, counters;
+    stats.dispatches = 0;
+    stats.budgetRetries = 0;
+    for (;;) {
+        pixels = std::make_unique<gl::StorageBuffer>(n * 12 * sizeof(float));
+        const std::uint32_t zero = 0;
+        counters = std::make_unique<gl::StorageBuffer>(sizeof zero, &zero);
+        // the rays' state between slices (RtSlices: 4 counters, then 48 bytes per pixel), zeros
+        const gl::StorageBuffer slices(16 + n * 48);
+        pixels->bind(1);
+        counters->bind(2);
+        slices.bind(13);
+        P.sliceSteps = sliceSteps_;
+        std::uint32_t sliced[2] = {0, 0}; // unfinished, loopBudgetSpent (summed over dispatches)
+        for (int a = 0; a < accumulate_ && sliced[1] == 0; ++a) {
+            P.frameKey = accumulationKey(frameKey, a);
+            for (int k = 0; k < passes && sliced[1] == 0; ++k) {
+                P.sampleIndex = k;
+                for (int slice = 0;; ++slice) {
+                    P.sliceIndex = slice;
+                    const gl::StorageBuffer params(sizeof P, &P);
+                    params.bind(0);
+                    const std::uint32_t before = sliced[0];
+                    program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+                    ++stats.dispatches;
+                    slices.read(sliced, sizeof sliced);
+                    if (sliced[1] != 0 || sliced[0] == before) break;
+                }
+            }
         }
+        if (sliced[1] == 0) break;
+        if (sliceSteps_ == 1) {
+            if (error)
+                *error = "the march pass runs out of the GL's loop budget (Mesa llvmpipe: 65535 "
+                         "loop iterations per batch of invocations) within one camera step of a "
+                         "ray: the shadow march over the field is too long for this GL";
+            return false;
+        }
+        ++stats.budgetRetries;
+        sliceSteps_ = sliceSteps_ > 64 ? 64 : std::max(1, sliceSteps_ / 4);
     }
+    stats.sliceSteps = sliceSteps_;
     std::vector<float> out(n * 12);
-    pixels.read(out.data(), out.size() * sizeof(float));
+    pixels->read(out.data(), out.size() * sizeof(float));
     std::uint32_t bad = 0;
-    counters.read(&bad, sizeof bad);
+    counters->read(&bad, sizeof bad);
     stats.frameSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     const std::string e = gl::glErrors();
     if (!e.empty()) {
