@@ -10,9 +10,9 @@
 /// GridField::density, and the images, on a grid the test writes (tests/rt_vdb_scene.h) and on
 /// smoke1 (skipped without the shared data folder, NIMBUS_SHARED_VDB_DIR). SDF clouds (RT_SDF):
 /// the tree's distance and density through the kernel sdfTreeStep against SdfTree::distance and
-/// Field::density, on examples/scenes/sdf_cloud.toml's tree and on one with every node kind; the
-/// images of sdf_cloud.toml (the sun's shadow marched) are DISABLED with nimbus rt's refusal of
-/// SDF fields (they do not reach 45 dB yet: see RtSdfParity).
+/// Field::density, on examples/scenes/sdf_cloud.toml's tree and on one with every node kind, and
+/// the images of sdf_cloud.toml (the sun's shadow marched), which need the march in slices
+/// against llvmpipe's loop budget (RtLoopBudget, RtSdfParity).
 ///
 /// Like the kernel parity tests (tests/test_glsl_parity.cpp), the GPU tests fail, with the EGL
 /// error, when no headless OpenGL 4.5 context can be made: the packages are required.
@@ -1162,29 +1162,25 @@ TEST(RtSdfShader, HasTheTreeOnlyForSdf) {
     const rt::MarchFeatures g = rt::marchFeatures(cumulus.scene(), cumulus.plan(1));
     EXPECT_FALSE(g.sdf);
     EXPECT_TRUE(contains(g.defines(), "#define RT_SDF 0\n"));
-    // nimbus rt refuses SDF clouds for now (the image does not match the CPU's: RtSdfParity),
-    // and the light-attenuation volume the scene ships with by its own key
+    // nimbus rt renders SDF clouds; the light-attenuation volume the scene ships with is refused
+    // by its own key
     auto keysOf = [](const SceneDesc& sc) {
         std::string keys;
         for (const rt::Unsupported& u : rt::unsupported(sc, planFrame(sc, 1))) keys += u.key + ";";
         return keys;
     };
-    EXPECT_EQ(keysOf(session.scene()), "field.kind;");
+    EXPECT_EQ(keysOf(session.scene()), "");
     host::Session shipped;
     ASSERT_TRUE(shipped.load(kSdfCloud, {}).ok());
-    EXPECT_EQ(keysOf(shipped.scene()), "field.kind;render.shadow;");
+    EXPECT_EQ(keysOf(shipped.scene()), "render.shadow;");
 }
 
 // sdf_cloud.toml at 160x90 with the sun's shadow marched: as it ships otherwise (the diffusion
-// grid) and with multiple scattering off (octaves and the sky ambient). DISABLED with the
-// refusal of field.kind = "sdf" (rt_march.cpp, unsupported()): measured with the refusal lifted
-// on llvmpipe 22.3.6, 33.61 dB (grid) and 27.09 dB (none); without the sun the images were
-// identical (idiff PASS at 96x54), so the difference is in the shadow march, whose density
-// integral computed alone in a test shader matched the CPU's (2,000 points, largest difference
-// 1.8e-5) while the full pass's result changed with the workgroup size and with code motion
-// that cannot change its value (docs/realtime.md, "SDF clouds"). Enable both tests with the
-// refusal's removal.
-TEST(RtSdfParity, DISABLED_SdfCloud) {
+// grid) and with multiple scattering off (octaves and the sky ambient). Before the march in
+// slices (RT_RESUMABLE) llvmpipe 22.3.6 gave 33.61 dB (grid) and 27.09 dB (none): its loop
+// budget (65535 loop iterations per SIMD batch, all loops together) ran out in the shadow
+// marches and cut them short (docs/realtime.md, "SDF clouds").
+TEST(RtSdfParity, SdfCloud) {
     if (!requireContext()) return;
     double maxAbs = 0.0;
     EXPECT_GE(sceneGpuAgainstCpu(kSdfCloud,
@@ -1200,9 +1196,9 @@ TEST(RtSdfParity, DISABLED_SdfCloud) {
               45.0);
 }
 
-// `nimbus rt` on sdf_cloud.toml writes the EXR `nimbus render` writes, within 45 dB. DISABLED
-// with RtSdfParity.SdfCloud (measured with the refusal lifted: 31.04 dB at 64x36).
-TEST(RtCli, DISABLED_SdfWritesTheSameExrAsRender) {
+// `nimbus rt` on sdf_cloud.toml writes the EXR `nimbus render` writes, within 45 dB (31.04 dB at
+// 64x36 before the march in slices).
+TEST(RtCli, SdfWritesTheSameExrAsRender) {
     TempDir dir("rt_cli_sdf");
     const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
                              "'render.shadow=\"march\"' --set 'output.preview=\"\"'";

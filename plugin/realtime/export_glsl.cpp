@@ -888,7 +888,14 @@ std::string bufferMeaning(std::string_view name) {
     if (name == "RtSdfNodes")
         return "the SDF cloud's tree: struct SdfTreeNode (core/kernels/sdf_tree.glsl, std430, 144 "
                "bytes each) per node in postfix order (children before their parent, root last), "
-               "as SdfTree::gpuNodes holds them; sdfNodeCount in the parameter block";
+               "as SdfTree::gpuNodes holds them; sdfNodeCount in the parameter block. Per node, "
+               "byte offsets: 0, 16, 32 the columns of localFromWorld (vec4, w 0); 48 "
+               "localOffset (vec4, local = localFromWorld * p + localOffset); 64 p0, 80 p1 (vec4, "
+               "the primitive's parameters); 96 int kind (SDF_KIND_*: 0 sphere .. 7 plane, 8 "
+               "union, 9 intersection, 10 subtraction); 100 int childCount; 104 float factor; "
+               "108 float k (blend width); 112 float amplitude (displacement, 0 none); 116 int "
+               "noiseKind (0 Perlin, 1 Worley); 120 float frequency; 124 int octaves; 128 float "
+               "gain; 132 uint seed; 136 and 140 two ints of padding";
     return "";
 }
 

@@ -70,17 +70,12 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
         no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
     if (s.field.advect.enabled)
         no("field.advect", "[field.advect]: the GLSL pass does not advect fields yet");
-    if (s.field.kind == FieldKind::Sdf)
-        // RT_SDF exists and its tree evaluation matches SdfTree::distance (RtSdfLookups), but the
-        // whole pass does not match the CPU's image yet (docs/realtime.md, "SDF clouds")
-        no("field.kind", "field.kind = \"sdf\": the GLSL pass evaluates SDF trees (RT_SDF) but its "
-                         "image of an SDF cloud does not match the CPU's yet (the sun's shadow "
-                         "march differs on llvmpipe); not enabled");
-    else if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb)
-        no("field.kind", std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
-                             "\": the GLSL pass renders the procedural cumulus field and VDB "
-                             "grids only (Gardner, automaton and homogeneous fields are not "
-                             "ported yet)");
+    if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb &&
+        s.field.kind != FieldKind::Sdf)
+        no("field.kind",
+           std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
+               "\": the GLSL pass renders the procedural cumulus field, VDB grids and SDF "
+               "clouds only (Gardner, automaton and homogeneous fields are not ported yet)");
     if (!s.volumes.empty()) no("volume", "[[volume]] entries: the GLSL pass renders `field` alone");
     if (p.instanced || !s.instances.empty())
         no("instance",

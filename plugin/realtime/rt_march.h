@@ -1,7 +1,7 @@
 /// @file rt_march.h
 /// @brief The GLSL march pass: the CPU `march` integrator (core/integrators/march.h) on the GPU
-/// for the procedural cumulus field and VDB grids, one compute invocation per pixel, through the
-/// same kernels.
+/// for the procedural cumulus field, VDB grids and SDF clouds, one compute invocation per pixel,
+/// through the same kernels.
 ///
 /// The shader is assembled at run time from text embedded at build time: `#version 430`, the
 /// frame's feature #defines (only the features the frame uses are compiled in: the sun's shadow
