@@ -20,8 +20,13 @@ A baked variant (field.evaluation = "baked": RT_BAKED_NOISE) has the tiles' buff
 noise_base.bin and noise_detail.bin at bindings 10 and 11 of baseBakeRes^3 and detailBakeRes^3
 floats, and none of the noise kernels (worleyFbm); the others have the noise kernels and no tiles.
 Every variant skips empty space (RT_SKIP: majorant.bin at binding 13, majorantResX * Y * Z floats,
-some of them 0) but one with render.skip_empty = false, which has neither the file nor the code.
-With the shared data folder beside the repository, the same checks on smoke1 (a VDB field:
+some of them 0) but one with render.skip_empty = false, which has neither the file nor the code,
+and the SDF cloud (its majorant is sphere tracing, not a grid).
+An SDF cloud (examples/scenes/sdf_cloud.toml, RT_SDF) has the tree's buffer, lookup and kernels
+and sdf_nodes.bin at binding 12 holding sdfNodeCount nodes of 144 bytes, and no cumulus code;
+the others have no RT_SDF code. No variant has RT_RESUMABLE (`nimbus rt`'s march in slices on
+llvmpipe; its state buffer and loop probe are pruned away). With the shared data folder beside
+the repository, the same checks on smoke1 (a VDB field:
 RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at binding 9); without
 it that variant is skipped with a message.
 `nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
@@ -93,15 +98,22 @@ if os.path.isfile(SMOKE1_VDB):
     SCENES["vdb_smoke1"] = SMOKE1
 else:
     print(f"SKIP: the vdb_smoke1 variant: {SMOKE1_VDB} is absent (the shared data folder)")
+# an SDF cloud (RT_SDF): examples/scenes/sdf_cloud.toml with the sun's shadow marched (its light
+# volume is not on the GPU)
+VARIANTS["sdf_cloud"] = ([NONE, 'render.shadow="march"'],
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1))
+SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
-                "RT_SKIP"]
+                "RT_SKIP", "RT_SDF", "RT_RESUMABLE"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
         "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
         "RT_VDB": [("vdb_grid.bin", 9)],
         "RT_BAKED_NOISE": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
-        "RT_SKIP": [("majorant.bin", 13)]}
+        "RT_SKIP": [("majorant.bin", 13)],
+        "RT_SDF": [("sdf_nodes.bin", 12)]}
+SDF_NODE_BYTES = 144  # struct SdfTreeNode (core/kernels/sdf_tree.glsl), std430
 
 # code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
 # and the octaves of the sun, the height-occluded ambient, the sky behind the clouds, the
@@ -123,11 +135,16 @@ MARKERS = {
                        "rtBakedCumulusDensity("],
     "RT_SKIP": ["buffer RtMajorant", "bool rtEmptyCell(", "int rtSkipTo(",
                 "n = rtSkipTo(s, n, tExit, tOut);"],
+    "RT_SDF": ["buffer RtSdfNodes", "rtSdfDensity(", "NB_FN void sdfTreeStep(",
+               "NB_FN float sdfTreePrimitive("],
+    "RT_RESUMABLE": ["buffer RtSlices", "rtLoopBudgetHeld(", "atomicAdd(unfinished"],
 }
-# code only a frame without RT_VDB has (the procedural cumulus, direct or baked)
+# code only a frame with neither RT_VDB nor RT_SDF has (the procedural cumulus, direct or baked)
 CUMULUS = ["cumulusEnvelope(", "rtCumulusParams("]
-# code only a cumulus frame whose noise is evaluated per sample has (the noise kernels)
+# code only a cumulus frame whose noise is evaluated per sample has (the noise kernels; an SDF
+# cloud's displacement calls worleyFbm too)
 DIRECT = ["NB_FN float worleyFbm(", "NB_FN float cumulusDensity("]
+SDF_TOO = ["NB_FN float worleyFbm("]
 
 SIZES = {"vec4": 16, "float": 4, "int": 4, "uint": 4}
 
@@ -162,15 +179,17 @@ for name, (sets, on) in VARIANTS.items():
             check((marker in text) == bool(on),
                   f"{name}: {feature} {'on' if on else 'off'} but '{marker}' is "
                   f"{'absent' if on else 'present'}")
+    other_field = bool(features["RT_VDB"] or features["RT_SDF"])
     for marker in CUMULUS:
-        check((marker in text) != bool(features["RT_VDB"]),
-              f"{name}: RT_VDB {features['RT_VDB']} but '{marker}' is "
-              f"{'present' if features['RT_VDB'] else 'absent'}")
-    direct = not features["RT_VDB"] and not features["RT_BAKED_NOISE"]
+        check((marker in text) != other_field,
+              f"{name}: RT_VDB {features['RT_VDB']}, RT_SDF {features['RT_SDF']} but '{marker}' "
+              f"is {'present' if other_field else 'absent'}")
+    direct = not other_field and not features["RT_BAKED_NOISE"]
     for marker in DIRECT:
-        check((marker in text) == direct,
-              f"{name}: noise evaluated per sample {direct} but '{marker}' is "
-              f"{'absent' if direct else 'present'}")
+        want = direct or (marker in SDF_TOO and bool(features["RT_SDF"]))
+        check((marker in text) == want,
+              f"{name}: noise evaluated per sample {direct}, RT_SDF {features['RT_SDF']} but "
+              f"'{marker}' is {'absent' if want else 'present'}")
     # every line after a #line is the line of the file it names (the header lists the
     # source-string numbers): the renumbering after removed code is right
     sources = dict((int(n), f) for n, f in
@@ -264,6 +283,12 @@ for name, (sets, on) in VARIANTS.items():
               f"{name}: majorant.bin's block distances are not whole numbers 0..255")
     else:
         check(cells == 0, f"{name}: majorantRes {mres} without RT_SKIP")
+    if features["RT_SDF"]:
+        # whole nodes, as many as the block says
+        size = os.path.getsize(os.path.join(out, "sdf_nodes.bin"))
+        count = [m["value"] for m in block["members"] if m["name"] == "sdfNodeCount"]
+        check(size % SDF_NODE_BYTES == 0 and count == [size // SDF_NODE_BYTES] and size > 0,
+              f"{name}: sdf_nodes.bin of {size} bytes, sdfNodeCount {count}")
 check(len(set(texts.values())) == len(texts), "two variants exported the same text")
 
 # the help

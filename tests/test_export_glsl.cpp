@@ -405,6 +405,12 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(majorantResX),
         NB_MEMBER(majorantResY),
         NB_MEMBER(majorantResZ),
+        NB_MEMBER(sdfScale),
+        NB_MEMBER(sdfFalloff),
+        NB_MEMBER(sdfNodeCount),
+        NB_MEMBER(sliceIndex),
+        NB_MEMBER(sliceSteps),
+        NB_MEMBER(loopProbe),
 #undef NB_MEMBER
     };
     ASSERT_EQ(members.size(), cpp.size());
@@ -765,6 +771,41 @@ TEST(ExportGlslGpu, SameImageAsRtWithAVdbGrid) {
 // field.evaluation = "baked": the CPU's noise tiles go out as noise_base.bin and noise_detail.bin
 // (the floats nimbus rt uploads, res^3 each), the shader reads them (RT_BAKED_NOISE) and the
 // image is nimbus rt's; without the tiles the export refuses the frame.
+// An SDF cloud (RT_SDF, examples/scenes/sdf_cloud.toml with the sun's shadow marched): the
+// exported shader, sdf_nodes.bin bound at 12 as params.json says, gives nimbus rt's image. The
+// steps are coarse so that a whole ray fits in llvmpipe's loop budget: the export marches each
+// ray in one dispatch (no RT_RESUMABLE), which on llvmpipe cuts longer marches short.
+TEST(ExportGlslGpu, SameImageAsRtWithAnSdfCloud) {
+    const std::string sdfCloud = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/sdf_cloud.toml";
+    const std::vector<std::string> sets = {
+        "camera.width=48",         "camera.height=27",
+        "render.shadow=\"march\"", "render.multiple_scattering=\"none\"",
+        "render.step=0.3",         "render.shadow_step=0.5"};
+    std::vector<std::string> files;
+    std::string shader;
+    EXPECT_GE(exportAgainstRt(sets, "sdf_cloud", files, sdfCloud, 1, &shader), 45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"sdf_nodes.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_SDF 1"));
+    EXPECT_TRUE(contains(shader, "layout(std430, binding = 12) readonly buffer RtSdfNodes"));
+    EXPECT_TRUE(contains(shader, "NB_FN void sdfTreeStep("));
+    EXPECT_FALSE(contains(shader, "rtCumulusParams("));
+    EXPECT_FALSE(contains(shader, "buffer RtSlices")); // nimbus rt's slices are not exported
+    EXPECT_FALSE(contains(shader, "#if RT_"));
+    // the file holds the tree's nodes as the pass uploads them
+    host::Session session;
+    ASSERT_TRUE(session.load(sdfCloud, sets).ok());
+    std::string error;
+    rt::GlslExport e;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), session.plan(1), sdfCloud, e, &error)) << error;
+    ASSERT_EQ(e.data.size(), 1u);
+    const std::vector<kern::SdfTreeNode> nodes = rt::sdfTreeNodes(session.scene());
+    ASSERT_EQ(nodes.size(), 16u);
+    ASSERT_EQ(e.data[0].second.size(), nodes.size() * sizeof(kern::SdfTreeNode));
+    EXPECT_EQ(std::memcmp(e.data[0].second.data(), nodes.data(), e.data[0].second.size()), 0);
+    EXPECT_TRUE(contains(e.json, "\"sdf_nodes.bin\""));
+    EXPECT_TRUE(contains(e.json, "132 uint seed"));
+}
+
 TEST(ExportGlslGpu, SameImageAsRtWithBakedNoise) {
     std::vector<std::string> files;
     std::string shader;

@@ -6,6 +6,7 @@
 // see tests/gl/kernel_parity.h), and a GlslType for any new struct it takes or returns.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <regex>
@@ -16,6 +17,7 @@
 #include "core/kernels/enum_mirrors.h"
 #include "core/kernels/kernels.h"
 #include "core/kernels/source.h"
+#include "core/sdf/sdf.h"
 #include "plugin/realtime/gl_compute.h"
 #include "tests/gl/kernel_parity.h"
 
@@ -90,6 +92,32 @@ template <> struct GlslType<CumulusParams> {
                            C.detailOffset.x, C.detailOffset.y, C.detailOffset.z};
         for (int i = 0; i < 6; ++i) w[22 + i] = std::bit_cast<std::uint32_t>(v[i]);
     }
+};
+
+template <> struct GlslType<SdfTreeNode> {
+    static_assert(sizeof(SdfTreeNode) == 36 * 4, "SdfTreeNode changed: update its GlslType");
+    static std::string type() { return "SdfTreeNode"; }
+    static std::vector<Field> fields() {
+        std::vector<Field> f;
+        for (const char* v : {".col0", ".col1", ".col2", ".localOffset", ".p0", ".p1"})
+            for (const char* c : {".x", ".y", ".z", ".w"})
+                f.push_back({std::string(v) + c, Word::Float});
+        f.push_back({".kind", Word::Int});
+        f.push_back({".childCount", Word::Int});
+        f.push_back({".factor", Word::Float});
+        f.push_back({".k", Word::Float});
+        f.push_back({".amplitude", Word::Float});
+        f.push_back({".noiseKind", Word::Int});
+        f.push_back({".frequency", Word::Float});
+        f.push_back({".octaves", Word::Int});
+        f.push_back({".gain", Word::Float});
+        f.push_back({".seed", Word::Uint});
+        f.push_back({".pad0", Word::Int});
+        f.push_back({".pad1", Word::Int});
+        return f;
+    }
+    // the struct is 36 four-byte words in the order of fields() (std430 = C++: vec4s first)
+    static void put(const SdfTreeNode& n, std::uint32_t* w) { std::memcpy(w, &n, sizeof n); }
 };
 
 template <> struct GlslType<Tower> {
@@ -1384,6 +1412,64 @@ std::vector<KernelCase> makeCases() {
     c.push_back(kernelCase(
         "sdfSmoothSubtraction", "sdfSmoothSubtraction(a0, a1, a2)",
         [](float a, float b, float k) { return sdfSmoothSubtraction(a, b, k); }, values, distance));
+    // sdf_tree.glsl: one node of a flattened tree (a random transform, parameters valid for its
+    // kind, sometimes a displacement), as nimbus::sdfTreeNode packs it
+    auto treeNode = [sdfSize](Draw& d, bool primitive) {
+        SdfNode n;
+        n.kind = SdfKind(primitive ? d.i(0, 7) : d.i(0, 10));
+        n.childCount = sdfIsPrimitive(n.kind) ? 0 : d.i(1, 2);
+        for (int c = 0; c < 3; ++c) n.localFromWorld[c] = d.v3(-1.5f, 1.5f, {0.0f, 1.0f});
+        n.localOffset = d.v3(-2.0f, 2.0f, {0.0f});
+        n.factor = d.f(0.3f, 1.5f, {1.0f});
+        const vec3 a(sdfSize(d), sdfSize(d), sdfSize(d));
+        n.p0 = vec4(a, 0.5f * std::min(a.x, std::min(a.y, a.z)));
+        if (n.kind == SdfKind::Torus) n.p0 = vec4(std::max(a.x, a.y), std::min(a.x, a.y), 0, 0);
+        if (n.kind == SdfKind::Plane) n.p0 = vec4(d.unitVector(), d.f(-1.0f, 1.0f, {0.0f}));
+        if (n.kind == SdfKind::Capsule) n.p0 = vec4(d.v3(-1.0f, 1.0f), a.x);
+        n.p1 = vec4(d.v3(-1.0f, 1.0f), 0.0f);
+        n.k = d.f(0.0f, 1.0f, {0.0f});
+        if (d.chance(0.5f)) {
+            n.amplitude = d.f(0.05f, 0.5f);
+            n.noise = d.i(0, 1);
+            n.frequency = d.f(0.5f, 3.0f, {1.0f});
+            n.octaves = d.i(1, 4);
+            n.gain = d.f(0.3f, 0.7f, {0.5f});
+            n.seed = d.u({0u, 1u});
+        }
+        return sdfTreeNode(n);
+    };
+    c.push_back(kernelCase(
+        "sdfTreePrimitive", "sdfTreePrimitive(a0, a1)",
+        [](SdfTreeNode n, vec3 q) { return sdfTreePrimitive(n, q); },
+        [=](Draw& d) { return std::tuple(treeNode(d, true), sdfPoint(d)); }, distance));
+    c.push_back(kernelCase(
+        "sdfTreeCombine", "sdfTreeCombine(a0, a1, a2, a3)",
+        [](int op, float a, float b, float k) { return sdfTreeCombine(op, a, b, k); },
+        [=](Draw& d) {
+            const auto [a, b, k] = values(d);
+            return std::tuple(d.i(7, 10), a, b, k);
+        },
+        distance));
+    c.push_back(kernelBlock(
+        "sdfTreeStep",
+        "SdfTreeStack s; s.sp = 2; s.v[0] = a2; s.v[1] = a3; sdfTreeStep(a0, a1, true, s);"
+        " r = float[3](s.v[0], s.v[1], float(s.sp));",
+        [](SdfTreeNode n, vec3 p, float v0, float v1) {
+            SdfTreeStack s;
+            s.sp = 2;
+            s.v[0] = v0;
+            s.v[1] = v1;
+            sdfTreeStep(n, p, true, s);
+            return std::array<float, 3>{s.v[0], s.v[1], float(s.sp)};
+        },
+        [=](Draw& d) {
+            return std::tuple(treeNode(d, false), sdfPoint(d), d.f(-4.0f, 4.0f, {0.0f}),
+                              d.f(-4.0f, 4.0f, {0.0f}));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-16f,
+                  .why = "the transform (three products summed, values up to ~20) feeds the "
+                         "primitive and the noise: 4 ulp of 32 absolute"}));
     c.push_back(kernelCase(
         "sdfNoise", "sdfNoise(a0, a1, a2, a3, a4, a5)",
         [](vec3 p, int kind, float freq, int oct, float gain, uint seed) {

@@ -79,6 +79,45 @@ constexpr bool skyKindsMirrored() {
 }
 static_assert(skyKindsMirrored(), "a SkyKind differs from its SKY_* in lighting.glsl");
 
+/// The sdf_tree.glsl constant of each SdfKind (core/sdf/sdf.h); SdfTreeNode::kind holds
+/// int(SdfKind) and the kernel tests `kind < SDF_KIND_UNION` for a primitive as sdfIsPrimitive.
+constexpr int glslSdfKind(SdfKind k) {
+    switch (k) {
+    case SdfKind::Sphere:
+        return kern::SDF_KIND_SPHERE;
+    case SdfKind::Ellipsoid:
+        return kern::SDF_KIND_ELLIPSOID;
+    case SdfKind::Box:
+        return kern::SDF_KIND_BOX;
+    case SdfKind::RoundBox:
+        return kern::SDF_KIND_ROUND_BOX;
+    case SdfKind::Capsule:
+        return kern::SDF_KIND_CAPSULE;
+    case SdfKind::Torus:
+        return kern::SDF_KIND_TORUS;
+    case SdfKind::Cone:
+        return kern::SDF_KIND_CONE;
+    case SdfKind::Plane:
+        return kern::SDF_KIND_PLANE;
+    case SdfKind::Union:
+        return kern::SDF_KIND_UNION;
+    case SdfKind::Intersection:
+        return kern::SDF_KIND_INTERSECTION;
+    case SdfKind::Subtraction:
+        return kern::SDF_KIND_SUBTRACTION;
+    }
+    return -1;
+}
+
+constexpr bool sdfKindsMirrored() {
+    for (int v = int(SdfKind::Sphere); v <= int(SdfKind::Subtraction); ++v)
+        if (glslSdfKind(SdfKind(v)) != v) return false;
+    return true;
+}
+static_assert(sdfKindsMirrored(), "an SdfKind differs from its SDF_KIND_* in sdf_tree.glsl");
+static_assert(int(SdfKind::Union) == kern::SDF_KIND_UNION); // the first operator
+static_assert(int(SdfNoise::Worley) == kern::SDF_NOISE_WORLEY);
+
 } // namespace nimbus
 
 #pragma GCC diagnostic pop

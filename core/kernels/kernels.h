@@ -19,5 +19,6 @@ namespace nimbus::kern {
 #include "core/kernels/pixel.glsl"
 #include "core/kernels/gardner.glsl"
 #include "core/kernels/sdf.glsl"
+#include "core/kernels/sdf_tree.glsl"
 #include "core/kernels/sdf_shading.glsl"
 } // namespace nimbus::kern

@@ -1,6 +1,7 @@
 #include "core/sdf/sdf.h"
 
 #include <algorithm>
+#include <cstddef>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -231,43 +232,34 @@ Box imageBox(const glm::mat3& m, vec3 t, const Box& b) {
     return r;
 }
 
-float primitiveValue(const SdfNode& n, vec3 q) {
-    switch (n.kind) {
-    case SdfKind::Sphere:
-        return kern::sdSphere(q, n.p0.x);
-    case SdfKind::Ellipsoid:
-        return kern::sdEllipsoid(q, vec3(n.p0));
-    case SdfKind::Box:
-        return kern::sdBox(q, vec3(n.p0));
-    case SdfKind::RoundBox:
-        return kern::sdRoundBox(q, vec3(n.p0), n.p0.w);
-    case SdfKind::Capsule:
-        return kern::sdCapsule(q, vec3(n.p0), vec3(n.p1), n.p0.w);
-    case SdfKind::Torus:
-        return kern::sdTorus(q, n.p0.x, n.p0.y);
-    case SdfKind::Cone:
-        return kern::sdCone(q, n.p0.x, n.p0.y);
-    case SdfKind::Plane:
-        return kern::sdPlane(q, vec3(n.p0), n.p0.w);
-    default:
-        return 0.0f;
-    }
-}
-
-float combine(SdfKind op, float a, float b, float k) {
-    switch (op) {
-    case SdfKind::Union:
-        return kern::sdfSmoothUnion(a, b, k);
-    case SdfKind::Intersection:
-        return kern::sdfSmoothIntersection(a, b, k);
-    case SdfKind::Subtraction:
-        return kern::sdfSmoothSubtraction(a, b, k);
-    default:
-        return a;
-    }
-}
-
 } // namespace
+
+// the layout the GLSL port's std430 buffer has: vec4s at multiples of 16, then the scalars
+static_assert(sizeof(kern::SdfTreeNode) == 144);
+static_assert(offsetof(kern::SdfTreeNode, p1) == 80);
+static_assert(offsetof(kern::SdfTreeNode, kind) == 96);
+static_assert(offsetof(kern::SdfTreeNode, seed) == 132);
+
+kern::SdfTreeNode sdfTreeNode(const SdfNode& n) {
+    kern::SdfTreeNode g{};
+    g.col0 = vec4(n.localFromWorld[0], 0.0f);
+    g.col1 = vec4(n.localFromWorld[1], 0.0f);
+    g.col2 = vec4(n.localFromWorld[2], 0.0f);
+    g.localOffset = vec4(n.localOffset, 0.0f);
+    g.p0 = n.p0;
+    g.p1 = n.p1;
+    g.kind = int(n.kind);
+    g.childCount = n.childCount;
+    g.factor = n.factor;
+    g.k = n.k;
+    g.amplitude = n.amplitude;
+    g.noiseKind = n.noise;
+    g.frequency = n.frequency;
+    g.octaves = n.octaves;
+    g.gain = n.gain;
+    g.seed = n.seed;
+    return g;
+}
 
 SdfTree flattenSdf(const SdfNodeDesc& root) {
     SdfTree tree;
@@ -275,6 +267,8 @@ SdfTree flattenSdf(const SdfNodeDesc& root) {
     int need = 0;
     f.add(root, glm::mat4(1.0f), 1.0f, 0, need);
     tree.stackDepth = need;
+    tree.gpuNodes.reserve(tree.nodes.size());
+    for (const SdfNode& n : tree.nodes) tree.gpuNodes.push_back(sdfTreeNode(n));
     // the displacement bound: the largest sum of amplitudes along a root-to-leaf path
     std::vector<float> pathSum(tree.nodes.size(), 0.0f);
     for (size_t i = tree.nodes.size(); i-- > 0;) {
@@ -286,24 +280,11 @@ SdfTree flattenSdf(const SdfNodeDesc& root) {
 }
 
 float SdfTree::evaluate(vec3 p, bool displaced) const {
-    if (nodes.empty()) return kSdfUnbounded;
-    float stack[kSdfMaxStack];
-    int sp = 0;
-    for (const SdfNode& n : nodes) {
-        const vec3 q = n.localFromWorld * p + n.localOffset;
-        float v;
-        if (sdfIsPrimitive(n.kind)) {
-            v = n.factor * primitiveValue(n, q);
-        } else {
-            sp -= n.childCount;
-            v = stack[sp];
-            for (int i = 1; i < n.childCount; ++i) v = combine(n.kind, v, stack[sp + i], n.k);
-        }
-        if (displaced && n.amplitude > 0.0f)
-            v += n.amplitude * kern::sdfNoise(q, n.noise, n.frequency, n.octaves, n.gain, n.seed);
-        stack[sp++] = v;
-    }
-    return stack[0];
+    if (gpuNodes.empty()) return kSdfUnbounded;
+    kern::SdfTreeStack stack;
+    stack.sp = 0;
+    for (const kern::SdfTreeNode& n : gpuNodes) kern::sdfTreeStep(n, p, displaced, stack);
+    return stack.v[0];
 }
 
 float SdfTree::skipDistance(vec3 p, float level) const {

@@ -40,6 +40,7 @@
 #include <glm/glm.hpp>
 
 #include "core/geometry.h"
+#include "core/kernels/kernels.h"
 
 namespace nimbus {
 
@@ -128,9 +129,17 @@ struct SdfNode {
 
 /// Deepest value stack an SdfTree may need (flattenSdf refuses deeper trees).
 constexpr int kSdfMaxStack = 64;
+static_assert(kSdfMaxStack == kern::SDF_MAX_STACK);
+
+/// The node in the kernel's layout (kern::SdfTreeNode): the columns of localFromWorld, the
+/// offset, the parameters; what SdfTree::gpuNodes holds.
+kern::SdfTreeNode sdfTreeNode(const SdfNode& n);
 
 struct SdfTree {
-    std::vector<SdfNode> nodes;     ///< postfix, root last; empty: no surface (distance = +inf)
+    std::vector<SdfNode> nodes; ///< postfix, root last; empty: no surface (distance = +inf)
+    /// The same nodes in the kernel's layout (core/kernels/sdf_tree.glsl, std430): what
+    /// evaluate() walks with kern::sdfTreeStep and what the GLSL port uploads as is.
+    std::vector<kern::SdfTreeNode> gpuNodes;
     float displacementBound = 0.0f; ///< |distance(p) - bound(p)| <= this, everywhere
     int stackDepth = 0;
 

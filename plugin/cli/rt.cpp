@@ -187,6 +187,11 @@ int runRt(const RtOptions& o) {
                                   .c_str()
                             : "",
                         session.outputPath(frame).c_str());
+        if (!o.quiet && stats.sliceSteps < rt::MarchPass::kWholeRay)
+            std::printf("frame %d: marched in slices of %d camera steps (%d dispatches, %d renders "
+                        "discarded): the GL's loop budget is too small for whole rays "
+                        "(docs/realtime.md, \"SDF clouds\")\n",
+                        frame, stats.sliceSteps, stats.dispatches, stats.budgetRetries);
         if (!o.quiet && display)
             std::printf("frame %d: preview's display transform %.4f s on the GPU -> %s\n", frame,
                         displaySeconds, io::expandFramePattern(out.preview, frame).c_str());

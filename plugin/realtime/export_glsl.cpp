@@ -32,7 +32,9 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_PHOTON_SKIN", f.photonSkin},
             {"RT_VDB", f.vdb},
             {"RT_BAKED_NOISE", f.bakedNoise},
-            {"RT_SKIP", f.skip}};
+            {"RT_SKIP", f.skip},
+            {"RT_SDF", f.sdf},
+            {"RT_RESUMABLE", f.resumable}};
 }
 
 namespace {
@@ -641,6 +643,24 @@ ParamDoc paramDoc(std::string_view n) {
          {"RT_SKIP: majorant grid cells along x (majorant.bin: x fastest; 0 without)", "cells"}},
         {"majorantResY", {"RT_SKIP: majorant grid cells along y", "cells"}},
         {"majorantResZ", {"RT_SKIP: majorant grid cells along z", "cells"}},
+        {"sdfScale",
+         {"RT_SDF: the SDF cloud's density deep inside (field.density)", "1 (density)"}},
+        {"sdfFalloff",
+         {"RT_SDF: the SDF cloud's falloff width w: density = sdfScale * smoothstep(0, w, -d)",
+          "world units"}},
+        {"sdfNodeCount",
+         {"RT_SDF: the number of SdfTreeNode entries in sdf_nodes.bin (postfix, root last)",
+          "nodes"}},
+        {"sliceIndex",
+         {"RT_RESUMABLE only (nimbus rt's march in slices on Mesa llvmpipe; an export has none "
+          "of it): the slice this dispatch marches, 0 starting the rays; an engine leaves 0",
+          "1 (index)"}},
+        {"sliceSteps",
+         {"RT_RESUMABLE only: camera steps per ray per dispatch; an engine leaves 0", "steps"}},
+        {"loopProbe",
+         {"RT_RESUMABLE only: iterations of the loop that checks llvmpipe's loop budget (2); an "
+          "engine leaves 0",
+          "iterations"}},
         {"camForward", {"camera viewing direction (unit xyz; w 0)", "unit vector"}},
         {"camRight", {"camera right vector (unit xyz; w 0)", "unit vector"}},
         {"camUp", {"camera up vector (unit xyz; w 0)", "unit vector"}},
@@ -884,6 +904,17 @@ std::string bufferMeaning(std::string_view name) {
                "such block, at most 255 (the cube of 2 d - 1 blocks around it is empty). The "
                "pass reads only whether a bound is 0, and leaps over empty cells and blocks "
                "(empty-space skipping)";
+    if (name == "RtSdfNodes")
+        return "the SDF cloud's tree: struct SdfTreeNode (core/kernels/sdf_tree.glsl, std430, 144 "
+               "bytes each) per node in postfix order (children before their parent, root last), "
+               "as SdfTree::gpuNodes holds them; sdfNodeCount in the parameter block. Per node, "
+               "byte offsets: 0, 16, 32 the columns of localFromWorld (vec4, w 0); 48 "
+               "localOffset (vec4, local = localFromWorld * p + localOffset); 64 p0, 80 p1 (vec4, "
+               "the primitive's parameters); 96 int kind (SDF_KIND_*: 0 sphere .. 7 plane, 8 "
+               "union, 9 intersection, 10 subtraction); 100 int childCount; 104 float factor; "
+               "108 float k (blend width); 112 float amplitude (displacement, 0 none); 116 int "
+               "noiseKind (0 Perlin, 1 Worley); 120 float frequency; 124 int octaves; 128 float "
+               "gain; 132 uint seed; 136 and 140 two ints of padding";
     return "";
 }
 
@@ -898,6 +929,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtBaseNoise") return "noise_base.bin";
     if (name == "RtDetailNoise") return "noise_detail.bin";
     if (name == "RtMajorant") return "majorant.bin";
+    if (name == "RtSdfNodes") return "sdf_nodes.bin";
     return "";
 }
 
@@ -936,6 +968,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
         if (f.photonSkin)
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
+        if (f.sdf) out.data.emplace_back(bufferFile("RtSdfNodes"), bytesOf(sdfTreeNodes(s)));
         if (f.vdb) {
             const VdbGridBytes g = vdbGridBytes(bindings, error);
             if (!g.data) return false;

@@ -6,7 +6,8 @@
 // (core/lighting/diffusion.cpp), PhotonVolume::sample with its skin profile
 // (core/lighting/photons.h) and sampleVoxelCentres (core/geometry.h); and the field's NanoVDB
 // grid (RT_VDB) through PNanoVDB, sampled as GridField::density; the cumulus noise tiles the CPU
-// baked (RT_BAKED_NOISE), sampled as NoiseVolume::sample. Shader storage buffers and
+// baked (RT_BAKED_NOISE), sampled as NoiseVolume::sample; the SDF cloud's node array (RT_SDF),
+// evaluated by the kernel sdfTreeStep as SdfTree::distance. Shader storage buffers and
 // trilinear interpolation by hand rather than textures: a texture unit's filtering weights are
 // fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. Assembled after
 // march_params.glsl; tests/test_rt_march.cpp compiles it with its own main() to compare each
@@ -52,8 +53,31 @@ layout(std430, binding = 11) readonly buffer RtDetailNoise { float rtDetailNoise
 // cloud, its padding included), and the distances, to leap over empty blocks.
 layout(std430, binding = 13) readonly buffer RtMajorant { float rtMajorant[]; };
 #endif
+#if RT_SDF
+// the SDF cloud's tree: SdfTree::gpuNodes (core/sdf/sdf.h), postfix, root last
+layout(std430, binding = 12) readonly buffer RtSdfNodes { SdfTreeNode rtSdfNode[]; };
+#endif
 
 vec3 rtXyz(vec4 v) { return vec3(v.x, v.y, v.z); }
+
+#if RT_RESUMABLE
+// The loop budget. Mesa's llvmpipe ends every loop of a shader once the loops of one SIMD batch
+// of invocations have taken LP_MAX_TGSI_LOOP_ITERATIONS = 65535 iterations in all (gallivm:
+// "Maximum iterations before loop termination, shared between every loop"): one counter per
+// batch, set at the batch's start and decremented at the end of every iteration of every loop
+// (masked-off ones included), after which each loop runs once; no error is raised. A camera ray
+// whose samples each run a shadow march over an SDF tree needs far more (sdf_cloud.toml: the
+// sun's transmittance came out too high, the image 27-34 dB from the CPU's), so `nimbus rt`
+// marches in slices (march_pass.glsl, RT_RESUMABLE) and checks with rtLoopBudgetHeld, after the
+// march, that the budget held.
+// True when a loop of P.loopProbe (2) iterations still runs them all: the batch's counter was
+// above 1 here, so it never reached 0 before and every loop before ran to its own end.
+bool rtLoopBudgetHeld() {
+    int k = 0;
+    for (int m = 0; m < P.loopProbe; m++) k++;
+    return k == P.loopProbe;
+}
+#endif
 
 #if RT_VDB
 // GridField::density (core/fields/grid.cpp) through PNanoVDB: world to index by the grid's
@@ -175,6 +199,29 @@ float rtBakedCumulusDensity(CumulusParams C, vec3 p) {
     precise vec3 ud = cumulusDetailDomain(C, p) * float(P.detailBakeRes);
     float detail = rtNoiseSample(1, P.detailBakeRes, ud);
     return C.density * cloudShape(C.layer, env, base, detail);
+}
+#endif
+
+#if RT_SDF
+// SdfTree::distance (core/sdf/sdf.cpp): the tree's nodes through the kernel sdfTreeStep
+// (core/kernels/sdf_tree.glsl), the loop SdfTree::evaluate runs on the CPU; +1e30 for an empty
+// tree (kSdfUnbounded).
+float rtSdfDistance(vec3 p) {
+    if (P.sdfNodeCount <= 0) return 1e30f;
+    SdfTreeStack s;
+    s.sp = 0;
+    for (int i = 0; i < P.sdfNodeCount; i++) sdfTreeStep(rtSdfNode[i], p, true, s);
+    return s.v[0];
+}
+
+// Field::density of an SDF cloud (SdfCloudField::density): 0 outside the field's box, else
+// scale * sdfDensityFromDistance(d(p), falloff).
+float rtSdfDensity(vec3 p) {
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+    if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z))
+        return 0.0f;
+    return P.sdfScale * sdfDensityFromDistance(rtSdfDistance(p), P.sdfFalloff);
 }
 #endif
 

@@ -123,6 +123,18 @@ struct RtMarchParams {
     int majorantResX;
     int majorantResY;
     int majorantResZ;
+    // the SDF cloud (RT_SDF): density = sdfScale * sdfDensityFromDistance(d(p), sdfFalloff), d the
+    // tree of sdfNodeCount nodes in its buffer (binding 12, SdfTreeNode); the box is boundsLo/Hi
+    float sdfScale;
+    float sdfFalloff;
+    int sdfNodeCount;
+    // the march in slices (RT_RESUMABLE, `nimbus rt`; an engine's export has none of it): each
+    // dispatch takes at most sliceSteps camera steps per ray from where the last one stopped
+    // (sliceIndex 0 starts the rays), and checks Mesa llvmpipe's loop budget with a loop of
+    // loopProbe (2) iterations (march_pass.glsl, "The loop budget")
+    int sliceIndex;
+    int sliceSteps;
+    int loopProbe;
 };
 
 // The cumulus kernel parameters of the block (cumulusParams() of core/fields/cumulus.cpp).

@@ -1,10 +1,10 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SKIP: only the features the scene uses are
-// compiled in), the embedded kernels (core/kernels/source.h), march_params.glsl,
-// march_data.glsl (the parameter block, the Mie table, the multiple-scattering grids, the
-// majorant grid, and their lookups), then this file.
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SDF, RT_SKIP: only the features the scene uses are
+// compiled in; RT_RESUMABLE: `nimbus rt`'s march in slices, below), the embedded kernels
+// (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie table,
+// the multiple-scattering grids, the majorant grid, and their lookups), then this file.
 //
 // It is the CPU `march` integrator (core/integrators/march.cpp, MarchContext::renderPixel and
 // traceRay) for the subset rt_march.h lists, written with the same kernels and in the same
@@ -12,12 +12,12 @@
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
 // cumulusDensity evaluated per sample (RT_BAKED_NOISE: its noises read from the tiles the CPU
-// baked; RT_VDB: the field's NanoVDB grid through PNanoVDB),
-// the sun's transmittance by a shadow march per sample, phaseEval (or the Lorenz-Mie table,
-// RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the multiple-scattering grids the
-// CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added as MarchContext::traceRay
-// adds them, the height-occluded sky ambient, marchStep (Hillaire's energy-conserving step) and
-// the early exit at transmittance < epsilon.
+// baked; RT_VDB: the field's NanoVDB grid through PNanoVDB; RT_SDF: the SDF cloud's tree through
+// the kernel sdfTreeStep), the sun's transmittance by a shadow march per sample, phaseEval (or
+// the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the
+// multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added
+// as MarchContext::traceRay adds them, the height-occluded sky ambient, marchStep (Hillaire's
+// energy-conserving step) and the early exit at transmittance < epsilon.
 // Empty-space skipping (RT_SKIP): a sample whose majorant cell (the CPU's grid for the frame) has
 // the bound 0 is not evaluated, and the step index jumps to the step holding the ray's exit
 // from that cell, or from the cube of empty blocks around it; the samples visited stay on the
@@ -34,6 +34,29 @@ layout(std430, binding = 2) buffer RtCounters { uint nonFinite; };
 
 const float RT_FLOAT_MAX = 3.402823466e38f;
 const int RT_MAX_STEPS = 1048576; // a bound on any loop over steps (a GPU must not hang)
+
+#if RT_RESUMABLE
+// The march in slices against llvmpipe's loop budget (march_data.glsl, "The loop budget"):
+// each dispatch takes at most P.sliceSteps camera steps per ray from where the last stopped, the
+// ray's state in RtSlices between dispatches; the host dispatches again while `unfinished` grows
+// and renders the frame again in shorter slices when `loopBudgetSpent` is not 0. The samples and
+// their arithmetic do not depend on the slicing (a ray's state is stored as the floats it holds).
+struct RtRayState {
+    vec4 L;       // radiance so far (w 0)
+    vec4 T;       // transmittance so far (w 0)
+    float depth;
+    int depthSet;
+    int n;        // the next step of the camera schedule
+    int marching; // 1: the ray goes on in the next slice; 0: done (or never started)
+};
+layout(std430, binding = 14) buffer RtSlices {
+    uint unfinished;      // rays left marching, summed over the dispatches of a frame
+    uint loopBudgetSpent; // invocations whose loop budget ran out, summed likewise
+    uint slicePad0;
+    uint slicePad1;
+    RtRayState rtRayState[]; // per pixel, row-major from the top-left
+};
+#endif
 
 // The step schedule of core/tracking/step_schedule.h: fixed steps dt0 up to tg = ceil(1 / growth)
 // dt0, then steps growing geometrically by (1 + growth).
@@ -144,7 +167,8 @@ int rtSkipTo(RtSchedule s, int n, float tExit, float tOut) {
 #endif
 
 // The field the pass marches (Field::density): the procedural cumulus, its noise evaluated per
-// sample, or (RT_VDB) the NanoVDB grid read through PNanoVDB (march_data.glsl, rtVdbDensity).
+// sample, or (RT_VDB) the NanoVDB grid read through PNanoVDB (march_data.glsl, rtVdbDensity), or
+// (RT_SDF) the SDF cloud's tree (rtSdfDensity).
 #if RT_VDB
 struct RtField {
     float scale; // field.density
@@ -157,6 +181,18 @@ RtField rtField() {
 }
 
 float rtDensity(RtField F, vec3 p) { return rtVdbDensity(p, F.scale); }
+#elif RT_SDF
+struct RtField {
+    float scale; // field.density (read from P by rtSdfDensity)
+};
+
+RtField rtField() {
+    RtField F;
+    F.scale = P.sdfScale;
+    return F;
+}
+
+float rtDensity(RtField F, vec3 p) { return rtSdfDensity(p); }
 #else
 struct RtField {
     CumulusParams cumulus;
@@ -230,18 +266,42 @@ struct RtSample {
     float depth;
 };
 
+// A camera ray's march so far: what MarchContext::traceRay accumulates, and where it is.
+struct RtRay {
+    vec3 L;
+    vec3 T;
+    float depth;
+    bool depthSet;
+    bool started; // n is set (the first step is known once the box is hit)
+    int n;        // the next step of the camera schedule
+    bool marching;
+};
+
+RtRay rtRayStart() {
+    RtRay r;
+    r.L = vec3(0.0f);
+    r.T = vec3(1.0f);
+    r.depth = 0.0f;
+    r.depthSet = false;
+    r.started = false;
+    r.n = 0;
+    r.marching = true;
+    return r;
+}
+
 // One camera ray (MarchContext::traceRay without surfaces, light volumes or the column and
-// single-scattered sky).
-RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
-                    float jitter) {
+// single-scattered sky), marched from r for at most maxSteps steps (RT_MAX_STEPS: to its end);
+// r.marching is false once the ray is done.
+void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, float jitter,
+                int maxSteps, inout RtRay r) {
     vec3 sunDir = rtXyz(P.sunDirection);
     float cosTheta = dot(d, sunDir);
     vec3 sigmaS = rtXyz(P.sigmaS);
     vec3 sigmaT = rtXyz(P.sigmaT);
-    vec3 L = vec3(0.0f);
-    vec3 T = vec3(1.0f);
-    float depth = 0.0f;
-    bool depthSet = false;
+    vec3 L = r.L;
+    vec3 T = r.T;
+    float depth = r.depth;
+    bool depthSet = r.depthSet;
     vec3 lo = rtXyz(P.boundsLo);
     vec3 hi = rtXyz(P.boundsHi);
 #if RT_MIE_TABLE
@@ -249,12 +309,16 @@ RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
     vec3 mie = rtMieEval(cosTheta);
 #endif
     float tIn, tOut;
+    bool marching = false;
     if (rtIntersectBox(o, d, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) {
         RtSchedule s = rtSchedule(P.step, P.stepGrowth);
         int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
+        if (!r.started) r.n = n0;
+        int nEnd = min(n0 + RT_MAX_STEPS, r.n + min(maxSteps, RT_MAX_STEPS));
+        int n = r.n;
         // (the step loops end by their condition, without break or continue)
-        bool marching = true;
-        for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
+        marching = r.marching;
+        for (; marching && n < nEnd; n++) {
             float tA = max(rtScheduleT(s, float(n)), tIn);
             float tB = min(rtScheduleT(s, float(n + 1)), tOut);
             if (!(tB > tA)) {
@@ -341,8 +405,22 @@ RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
                 }
             }
         }
+        r.n = n;
+        marching = marching && n < n0 + RT_MAX_STEPS;
     }
+    r.L = L;
+    r.T = T;
+    r.depth = depth;
+    r.depthSet = depthSet;
+    r.started = true;
+    r.marching = marching;
+}
+
+// The sample of a finished ray (traceRay's end: the sky behind the clouds).
+RtSample rtFinishRay(RtRay ray, vec3 d) {
     RtSample r;
+    vec3 L = ray.L;
+    vec3 T = ray.T;
     r.alpha = 1.0f - (T.x + T.y + T.z) / 3.0f;
 #if RT_BACKGROUND_SKY
     L += T * rtSkyRadiance(P, d);
@@ -350,7 +428,7 @@ RtSample rtTraceRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey,
 #endif
     r.L = L;
     r.T = T;
-    r.depth = depth;
+    r.depth = ray.depth;
     return r;
 }
 
@@ -368,14 +446,20 @@ bool rtFinite(vec3 v) {
 // One pass per pixel sample: with RT_MULTISAMPLE the host dispatches the pass once per sample
 // k = P.sampleIndex and the pass adds the sample, weighted by the filter, to the pixel's sums;
 // the host divides by the summed weights (MarchContext::renderPixel does both in one loop; a
-// loop over the samples around rtTraceRay inside the shader lost samples on Mesa 22.3.6's
+// loop over the samples around the march inside the shader lost samples on Mesa 22.3.6's
 // llvmpipe: the loop stopped after 2 of 4 iterations at some pixels, PSNR 35.7 dB against the
-// CPU). Per pixel, 12 floats: sum w L (RGB), sum w alpha, sum w T (RGB), sum w, sum w depth,
-// sum of the weights of the samples with a depth, 2 unused.
+// CPU: the loop budget above ran out). With RT_RESUMABLE a sample is added in the slice where
+// its ray ends. Per pixel, 12 floats: sum w L (RGB), sum w alpha, sum w T (RGB), sum w, sum w
+// depth, sum of the weights of the samples with a depth, 2 unused.
 void main() {
     int x = int(gl_GlobalInvocationID.x);
     int y = int(gl_GlobalInvocationID.y);
     if (x >= P.width || y >= P.height) return;
+#if RT_RESUMABLE
+    int j = y * P.width + x;
+    // a ray that ended in an earlier slice (or that this sample does not take) is left alone
+    if (P.sliceIndex > 0 && rtRayState[j].marching == 0) return;
+#endif
     RtField F = rtField();
     PhaseParams phase = rtPhaseParams(P);
     vec3 origin = rtXyz(P.camOrigin);
@@ -392,19 +476,53 @@ void main() {
     float w = pixelFilterWeight(P.filterKind, off.x, off.y, P.filterWidth);
     if (!(w > 0.0f)) return;
     float jitter = P.jitter != 0 ? hashToUnit(key) : 0.5f;
-    RtSample smp = rtTraceRay(
-        F, phase, origin, rtCameraDirection(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y),
-        key, jitter);
+    uint rayKey = key;
+    vec3 d = rtCameraDirection(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+#else
+    float w = 1.0f;
+    float jitter = P.jitter != 0 ? hashToUnit(pixelKey) : 0.5f;
+    uint rayKey = pixelKey;
+    vec3 d = rtCameraDirection(float(x) + 0.5f, float(y) + 0.5f);
+#endif
+#if RT_RESUMABLE
+    RtRay ray = rtRayStart();
+    if (P.sliceIndex > 0) {
+        RtRayState st = rtRayState[j];
+        ray.L = rtXyz(st.L);
+        ray.T = rtXyz(st.T);
+        ray.depth = st.depth;
+        ray.depthSet = st.depthSet != 0;
+        ray.started = true;
+        ray.n = st.n;
+    }
+    rtMarchRay(F, phase, origin, d, rayKey, jitter, P.sliceSteps, ray);
+    if (!rtLoopBudgetHeld()) {
+        // this slice's values are cut short: the host renders the frame again
+        atomicAdd(loopBudgetSpent, 1u);
+        return;
+    }
+    RtRayState st;
+    st.L = vec4(ray.L, 0.0f);
+    st.T = vec4(ray.T, 0.0f);
+    st.depth = ray.depth;
+    st.depthSet = ray.depthSet ? 1 : 0;
+    st.n = ray.n;
+    st.marching = ray.marching ? 1 : 0;
+    rtRayState[j] = st;
+    if (ray.marching) {
+        atomicAdd(unfinished, 1u);
+        return;
+    }
+#else
+    RtRay ray = rtRayStart();
+    rtMarchRay(F, phase, origin, d, rayKey, jitter, RT_MAX_STEPS, ray);
+#endif
+    RtSample smp = rtFinishRay(ray, d);
+#if RT_MULTISAMPLE
     if (!rtFinite(smp.L)) {
         atomicAdd(nonFinite, 1u);
         return;
     }
-#else
-    float w = 1.0f;
-    float jitter = P.jitter != 0 ? hashToUnit(pixelKey) : 0.5f;
-    RtSample smp = rtTraceRay(F, phase, origin,
-                              rtCameraDirection(float(x) + 0.5f, float(y) + 0.5f), pixelKey,
-                              jitter);
 #endif
     pixels[i + 0] += w * smp.L.x;
     pixels[i + 1] += w * smp.L.y;

@@ -13,6 +13,7 @@
 
 #include "core/camera.h"
 #include "core/fields/cumulus.h"
+#include "core/fields/sdf_cloud.h"
 #include "core/integrators/march.h"
 #include "core/kernels/source.h"
 #include "core/media/medium.h"
@@ -69,11 +70,12 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
         no("render.integrator", "render.integrator = \"pathtrace\": the GLSL pass is march only");
     if (s.field.advect.enabled)
         no("field.advect", "[field.advect]: the GLSL pass does not advect fields yet");
-    if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb)
-        no("field.kind", std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
-                             "\": the GLSL pass renders the procedural cumulus field and VDB "
-                             "grids only (SDF, Gardner, automaton and homogeneous fields are not "
-                             "ported yet)");
+    if (s.field.kind != FieldKind::Cumulus && s.field.kind != FieldKind::Vdb &&
+        s.field.kind != FieldKind::Sdf)
+        no("field.kind",
+           std::string("field.kind = \"") + fieldKindWord(s.field.kind) +
+               "\": the GLSL pass renders the procedural cumulus field, VDB grids and SDF "
+               "clouds only (Gardner, automaton and homogeneous fields are not ported yet)");
     if (!s.volumes.empty()) no("volume", "[[volume]] entries: the GLSL pass renders `field` alone");
     if (p.instanced || !s.instances.empty())
         no("instance",
@@ -136,6 +138,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.vdb = s.field.kind == FieldKind::Vdb;
     f.bakedNoise = s.field.kind == FieldKind::Cumulus && p.bakeNoise;
     f.skip = skipsWith(p, majorant);
+    f.sdf = s.field.kind == FieldKind::Sdf;
     return f;
 }
 
@@ -152,6 +155,8 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
     d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
     d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
+    d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
+    d += std::string("#define RT_RESUMABLE ") + (resumable ? "1" : "0") + "\n";
     return d;
 }
 
@@ -195,6 +200,11 @@ MarchShader marchShader(const SceneDesc& s, const FramePlan& p, const MajorantGr
     m.features = marchFeatures(s, p, majorant);
     m.source = marchShaderSource(m.features);
     return m;
+}
+
+std::vector<kern::SdfTreeNode> sdfTreeNodes(const SceneDesc& s) {
+    if (s.field.kind != FieldKind::Sdf) return {};
+    return flattenSdf(s.field.sdf.root).gpuNodes;
 }
 
 std::vector<glm::vec4> mieTableNodes(const MieTable& t) {
@@ -283,6 +293,16 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
         P.baseBakeRes = c.baseBakeResolution;
         P.detailBakeRes = c.detailBakeResolution;
     }
+    if (s.field.kind == FieldKind::Sdf) {
+        // the field's box on the CPU (makeSdfCloudField: the tree's support, grown by the
+        // margin), its density scale and falloff; the nodes go to their own buffer
+        const Box b = sdfCloudBounds(s.field.sdf);
+        P.boundsLo = v4(b.lo);
+        P.boundsHi = v4(b.hi);
+        P.sdfScale = s.field.sdf.density;
+        P.sdfFalloff = s.field.sdf.falloff;
+        P.sdfNodeCount = int(sdfTreeNodes(s).size());
+    }
 
     P.sunDirection = v4(s.sun.direction);
     P.sunIrradiance = v4(s.sun.irradiance);
@@ -368,7 +388,8 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
         for (const Unsupported& u : no) o << "  GPU: not supported: " << u.message << "\n";
         return o.str();
     }
-    const MarchFeatures f = marchFeatures(s, p, majorant);
+    MarchFeatures f = marchFeatures(s, p, majorant);
+    f.resumable = true; // as MarchPass compiles it
     std::string defs = f.defines();
     for (char& ch : defs)
         if (ch == '\n') ch = ';';
@@ -376,7 +397,13 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
     for (const kern::KernelSource& k : kern::kernelSources()) o << " " << k.name;
     o << ", plugin/realtime/march_params.glsl, march_data.glsl"
       << (f.vdb ? " (with PNanoVDB.h)" : "") << ", march_pass.glsl\n";
-    if (f.vdb)
+    if (f.sdf)
+        o << "  GPU field: sdf, " << sdfTreeNodes(s).size()
+          << " tree nodes in a storage buffer evaluated by the kernel sdfTreeStep as "
+             "SdfTree::distance, density "
+          << s.field.sdf.density << ", falloff " << s.field.sdf.falloff
+          << " (every step of the box taken: no sphere tracing on the GPU)\n";
+    else if (f.vdb)
         o << "  GPU field: vdb, the NanoVDB float grid in a storage buffer read through "
              "PNanoVDB, trilinear as on the CPU, density scale "
           << s.field.vdb.density << "\n";
@@ -492,7 +519,8 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         if (error) *error = no.front().message;
         return false;
     }
-    const MarchFeatures f = marchFeatures(s, p, majorant);
+    MarchFeatures f = marchFeatures(s, p, majorant);
+    f.resumable = true; // the march in slices, checked against llvmpipe's loop budget
     if (const std::string e = frameDataError(s, p, grids, noise, "the GLSL pass"); !e.empty()) {
         if (error) *error = e;
         return false;
@@ -515,7 +543,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     stats.compileSeconds = 0.0;
     if (!program) {
         const auto t0 = Clock::now();
-        program = std::make_unique<gl::ComputeProgram>(marchShader(s, p, majorant).source);
+        program = std::make_unique<gl::ComputeProgram>(marchShaderSource(f));
         stats.compileSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     }
     if (!program->valid()) {
@@ -529,14 +557,10 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     gl::glErrors(); // drop stale errors
     const auto t0 = Clock::now();
     RtMarchParams P = marchParams(s, p, grids, bindings, majorant);
-    const gl::StorageBuffer pixels(n * 12 * sizeof(float));
-    const std::uint32_t zero = 0;
-    const gl::StorageBuffer counters(sizeof zero, &zero);
-    pixels.bind(1);
-    counters.bind(2);
+    P.loopProbe = 2;
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
     std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
-        bounds;
+        sdfNodes, bounds;
     // the majorant grid the CPU renders with: a density bound per cell, then the block distances
     // (RT_SKIP)
     if (f.skip) {
@@ -552,6 +576,13 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         detailNoise = std::make_unique<gl::StorageBuffer>(d.size() * sizeof(float), d.data());
         baseNoise->bind(10);
         detailNoise->bind(11);
+    }
+    // the SDF cloud's tree: its nodes as SdfTree::evaluate walks them (SdfTreeNode, std430)
+    if (f.sdf) {
+        const std::vector<kern::SdfTreeNode> nodes = sdfTreeNodes(s);
+        sdfNodes = std::make_unique<gl::StorageBuffer>(nodes.size() * sizeof(kern::SdfTreeNode),
+                                                       nodes.data());
+        sdfNodes->bind(12);
     }
     // the field's NanoVDB grid, its bytes as the CPU samples them (PNanoVDB reads address 0 on)
     if (f.vdb) {
@@ -582,22 +613,57 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         skin->bind(6);
     }
     // one pass per pixel sample (march_pass.glsl, main), all of them once per accumulation
-    // pass with that pass's frame key; the pass adds to the sums, the resolve below divides
+    // pass with that pass's frame key; the pass adds to the sums, the resolve below divides.
+    // Each pass is dispatched slice by slice until no ray is left marching; a render whose loop
+    // budget ran out is discarded and done again in shorter slices (setSliceSteps).
     const int passes = f.multisample ? P.pixelSamples : 1;
     const std::uint32_t frameKey = P.frameKey;
-    for (int a = 0; a < accumulate_; ++a) {
-        P.frameKey = accumulationKey(frameKey, a);
-        for (int k = 0; k < passes; ++k) {
-            P.sampleIndex = k;
-            const gl::StorageBuffer params(sizeof P, &P);
-            params.bind(0);
-            program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+    std::unique_ptr<gl::StorageBuffer> pixels, counters;
+    stats.dispatches = 0;
+    stats.budgetRetries = 0;
+    for (;;) {
+        pixels = std::make_unique<gl::StorageBuffer>(n * 12 * sizeof(float));
+        const std::uint32_t zero = 0;
+        counters = std::make_unique<gl::StorageBuffer>(sizeof zero, &zero);
+        // the rays' state between slices (RtSlices: 4 counters, then 48 bytes per pixel), zeros
+        const gl::StorageBuffer slices(16 + n * 48);
+        pixels->bind(1);
+        counters->bind(2);
+        slices.bind(14);
+        P.sliceSteps = sliceSteps_;
+        std::uint32_t sliced[2] = {0, 0}; // unfinished, loopBudgetSpent (summed over dispatches)
+        for (int a = 0; a < accumulate_ && sliced[1] == 0; ++a) {
+            P.frameKey = accumulationKey(frameKey, a);
+            for (int k = 0; k < passes && sliced[1] == 0; ++k) {
+                P.sampleIndex = k;
+                for (int slice = 0;; ++slice) {
+                    P.sliceIndex = slice;
+                    const gl::StorageBuffer params(sizeof P, &P);
+                    params.bind(0);
+                    const std::uint32_t before = sliced[0];
+                    program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+                    ++stats.dispatches;
+                    slices.read(sliced, sizeof sliced);
+                    if (sliced[1] != 0 || sliced[0] == before) break;
+                }
+            }
         }
+        if (sliced[1] == 0) break;
+        if (sliceSteps_ == 1) {
+            if (error)
+                *error = "the march pass runs out of the GL's loop budget (Mesa llvmpipe: 65535 "
+                         "loop iterations per batch of invocations) within one camera step of a "
+                         "ray: the shadow march over the field is too long for this GL";
+            return false;
+        }
+        ++stats.budgetRetries;
+        sliceSteps_ = sliceSteps_ > 64 ? 64 : std::max(1, sliceSteps_ / 4);
     }
+    stats.sliceSteps = sliceSteps_;
     std::vector<float> out(n * 12);
-    pixels.read(out.data(), out.size() * sizeof(float));
+    pixels->read(out.data(), out.size() * sizeof(float));
     std::uint32_t bad = 0;
-    counters.read(&bad, sizeof bad);
+    counters->read(&bad, sizeof bad);
     stats.frameSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     const std::string e = gl::glErrors();
     if (!e.empty()) {

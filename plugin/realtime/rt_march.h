@@ -1,7 +1,7 @@
 /// @file rt_march.h
 /// @brief The GLSL march pass: the CPU `march` integrator (core/integrators/march.h) on the GPU
-/// for the procedural cumulus field and VDB grids, one compute invocation per pixel, through the
-/// same kernels.
+/// for the procedural cumulus field, VDB grids and SDF clouds, one compute invocation per pixel,
+/// through the same kernels.
 ///
 /// The shader is assembled at run time from text embedded at build time: `#version 430`, the
 /// frame's feature #defines (only the features the frame uses are compiled in: the sun's shadow
@@ -42,6 +42,7 @@
 
 #include "core/fields/cumulus.h"
 #include "core/image.h"
+#include "core/kernels/kernels.h"
 #include "core/media/mie.h"
 #include "core/plan.h"
 #include "core/render.h"
@@ -73,7 +74,12 @@ struct MarchFeatures {
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
     bool bakedNoise = false;    ///< RT_BAKED_NOISE: the cumulus noise from the CPU's baked tiles
     bool skip =
-        false; ///< RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
+        false;        ///< RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
+    bool sdf = false; ///< RT_SDF: the field is an SDF cloud (its node array), not the cumulus
+    /// RT_RESUMABLE: the march in slices of camera steps with the loop-budget check
+    /// (march_pass.glsl, "The loop budget"); MarchPass sets it, marchFeatures and the export
+    /// leave it off
+    bool resumable = false;
 
     /// The #define lines.
     std::string defines() const;
@@ -110,6 +116,10 @@ std::string marchDataShaderSource(const MarchFeatures& features);
 
 /// The Lorenz-Mie table as the shader reads it (binding 3): per node (cos theta, R, G, B).
 std::vector<glm::vec4> mieTableNodes(const MieTable& table);
+
+/// The SDF cloud's tree as the shader reads it (binding 12, RT_SDF): SdfTree::gpuNodes of the
+/// scene's field.kind = "sdf" tree (flattenSdf), postfix, root last; empty for other fields.
+std::vector<kern::SdfTreeNode> sdfTreeNodes(const SceneDesc& scene);
 
 /// The bytes of the field's NanoVDB grid as the shader reads them (binding 9, RT_VDB): the
 /// nanovdb::FloatGrid of `bindings.grid(0)`, from its first byte, gridSize() bytes (PNanoVDB
@@ -167,6 +177,9 @@ struct MarchStats {
     double compileSeconds = 0.0; ///< compiling the program (0 when it was cached)
     double frameSeconds = 0.0;   ///< parameter upload, dispatch, wait and read-back (all passes)
     std::uint64_t nonFinite = 0; ///< pixels or samples that were NaN/Inf (as RenderStats)
+    int sliceSteps = 0;          ///< camera steps per ray per dispatch the frame was rendered with
+    int dispatches = 0;          ///< dispatches of the frame, the discarded renders' included
+    int budgetRetries = 0; ///< renders discarded: llvmpipe's loop budget ran out (slices shrunk)
 };
 
 /// Renders frames with the GLSL march pass. Needs a current gl::ComputeContext; keeps one
@@ -212,9 +225,19 @@ class MarchPass {
     void setAccumulation(int passes) { accumulate_ = passes < 1 ? 1 : passes; }
     int accumulation() const { return accumulate_; }
 
+    /// The march in slices (RT_RESUMABLE; march_pass.glsl, "The loop budget"): each dispatch
+    /// takes at most this many camera steps per ray (kWholeRay: the whole ray in one dispatch).
+    /// A render whose loop budget ran out anywhere is discarded and done again with slices a
+    /// quarter as long (after the whole ray, 64 steps), down to 1 step; the slice found is kept
+    /// for the next frames. False from render() when even 1 step is too much.
+    static constexpr int kWholeRay = 1048576; // RT_MAX_STEPS (march_pass.glsl)
+    void setSliceSteps(int steps) { sliceSteps_ = steps < 1 ? 1 : steps; }
+    int sliceSteps() const { return sliceSteps_; }
+
   private:
     std::map<std::string, std::unique_ptr<gl::ComputeProgram>> programs_;
     int accumulate_ = 1;
+    int sliceSteps_ = kWholeRay;
 };
 
 } // namespace nimbus::rt
