@@ -73,8 +73,8 @@ struct MarchFeatures {
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
     bool bakedNoise = false;    ///< RT_BAKED_NOISE: the cumulus noise from the CPU's baked tiles
-    bool skip =
-        false;        ///< RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
+    /// RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
+    bool skip = false;
     bool sdf = false; ///< RT_SDF: the field is an SDF cloud (its node array), not the cumulus
     /// RT_RESUMABLE: the march in slices of camera steps with the loop-budget check
     /// (march_pass.glsl, "The loop budget"); MarchPass sets it, marchFeatures and the export
