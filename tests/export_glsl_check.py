@@ -20,8 +20,7 @@ A baked variant (field.evaluation = "baked": RT_BAKED_NOISE) has the tiles' buff
 noise_base.bin and noise_detail.bin at bindings 10 and 11 of baseBakeRes^3 and detailBakeRes^3
 floats, and none of the noise kernels (worleyFbm); the others have the noise kernels and no tiles.
 Every variant skips empty space (RT_SKIP: majorant.bin at binding 13, majorantResX * Y * Z floats,
-some of them 0) but one with render.skip_empty = false, which has neither the file nor the code,
-and the SDF cloud (its majorant is sphere tracing, not a grid).
+some of them 0) but one with render.skip_empty = false, which has neither the file nor the code.
 An SDF cloud (examples/scenes/sdf_cloud.toml, RT_SDF) has the tree's buffer, lookup and kernels
 and sdf_nodes.bin at binding 12 holding sdfNodeCount nodes of 144 bytes, and no cumulus code;
 the others have no RT_SDF code. No variant has RT_RESUMABLE (`nimbus rt`'s march in slices on
@@ -101,7 +100,7 @@ else:
 # an SDF cloud (RT_SDF): examples/scenes/sdf_cloud.toml with the sun's shadow marched (its light
 # volume is not on the GPU)
 VARIANTS["sdf_cloud"] = ([NONE, 'render.shadow="march"'],
-                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1))
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1, RT_SKIP=1))
 SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",

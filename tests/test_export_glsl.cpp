@@ -772,7 +772,8 @@ TEST(ExportGlslGpu, SameImageAsRtWithAVdbGrid) {
 // (the floats nimbus rt uploads, res^3 each), the shader reads them (RT_BAKED_NOISE) and the
 // image is nimbus rt's; without the tiles the export refuses the frame.
 // An SDF cloud (RT_SDF, examples/scenes/sdf_cloud.toml with the sun's shadow marched): the
-// exported shader, sdf_nodes.bin bound at 12 as params.json says, gives nimbus rt's image. The
+// exported shader, sdf_nodes.bin bound at 12 (and the majorant grid at 13: the SDF cloud's grid
+// has empty cells) as params.json says, gives nimbus rt's image. The
 // steps are coarse so that a whole ray fits in llvmpipe's loop budget: the export marches each
 // ray in one dispatch (no RT_RESUMABLE), which on llvmpipe cuts longer marches short.
 TEST(ExportGlslGpu, SameImageAsRtWithAnSdfCloud) {
@@ -784,7 +785,7 @@ TEST(ExportGlslGpu, SameImageAsRtWithAnSdfCloud) {
     std::vector<std::string> files;
     std::string shader;
     EXPECT_GE(exportAgainstRt(sets, "sdf_cloud", files, sdfCloud, 1, &shader), 45.0);
-    EXPECT_EQ(files, (std::vector<std::string>{"sdf_nodes.bin"}));
+    EXPECT_EQ(files, (std::vector<std::string>{"majorant.bin", "sdf_nodes.bin"}));
     EXPECT_TRUE(contains(shader, "#define RT_SDF 1"));
     EXPECT_TRUE(contains(shader, "layout(std430, binding = 12) readonly buffer RtSdfNodes"));
     EXPECT_TRUE(contains(shader, "NB_FN void sdfTreeStep("));

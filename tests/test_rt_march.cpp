@@ -1515,3 +1515,18 @@ TEST(RtSlices, SlicedMarchEqualsWholeRays) {
                 "slices of 3: %d, of 1: %d\n",
                 whole.dispatches, whole.budgetRetries, three.dispatches, one.dispatches);
 }
+
+// The SDF cloud skips over its majorant grid too (the grid the CPU builds for the frame: the
+// tree's bound per cell); the sun's shadow marched, the march in slices as nimbus rt runs it.
+TEST(RtSkip, SdfCloudBitIdentical) {
+    if (!requireContext()) return;
+    const SkipRun r = skipAgainstNoSkip(
+        kSdfCloud,
+        {"camera.width=64", "camera.height=36", "render.shadow=\"march\"",
+         "render.multiple_scattering=\"none\"", "output.aovs=[\"transmittance\", \"depth\"]"},
+        1, "sdf_cloud");
+    EXPECT_TRUE(r.skip);
+    EXPECT_GT(r.emptyFraction, 0.05);
+    EXPECT_GT(r.cloudy, 64u * 36u / 20u);
+    EXPECT_EQ(r.differing, 0u);
+}
