@@ -474,8 +474,14 @@ struct RowLookup {
 // (AdvectGridKernel.SameBitsAsThePerCellPathOnRandomVelocityGrids). A block whose cells need
 // more than one trace substep is left to the scalar kernel.
 
+// (clang ignores GCC's target pragma: its own attribute pragma gives every function of the region,
+// lambdas included, the target)
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx2")
+#endif
 
 struct Vec8 {
     __m256 x, y, z;
@@ -698,7 +704,11 @@ bool gridBlock8(const GridSampler<K>& gs, const GridRowVelocity<K>& rowU, const 
     return true;
 }
 
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 
 /// Whether the 8-cell blocks may run: AVX2 on this CPU, and grid offsets that fit in an int.
 bool gridBlocksUsable(const VelocityGrid& g, const DensityGrid& d) {
