@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Smoke test of examples/realtime_viewer (nimbus_viewer) under Xvfb.
 
-usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR
+usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR [NIMBUS_HEADLESS]
 
 1. `nimbus export-glsl` of the default scene at 160x90 (render.multiple_scattering = "none",
    frame 1; it skips empty space, RT_SKIP, so majorant.bin is among its data files), then
@@ -17,6 +17,11 @@ usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR
 4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
    and a message naming the file and the problem; a march.comp that does not compile: exit 3 and
    the compiler's log.
+5. With NIMBUS_HEADLESS (nimbus_headless: the same export without a window, EGL): its image of
+   the export against `nimbus rt` (>= 45 dB), with --accumulate 4 against `nimbus rt
+   --accumulate 4` (>= 45 dB: the same pass keys) and far from the single pass (< 60 dB); its
+   timing lines (one GPU time per accumulation pass); a bad count exits 2, a missing export 2
+   with the file named, a shader that does not compile 3.
 Pixels are read from both files by oiiotool --dumpdata (OpenImageIO), not by this script.
 """
 import math
@@ -29,6 +34,7 @@ import sys
 import numpy as np
 
 NIMBUS, VIEWER, XVFB_RUN, SCENE, SCRATCH = sys.argv[1:6]
+HEADLESS = sys.argv[6] if len(sys.argv) > 6 else None
 SIZE = ["camera.width=160", "camera.height=90"]
 SETS = ['render.multiple_scattering="none"', 'output.preview=""'] + SIZE
 ENV = {k: v for k, v in os.environ.items() if k != "OCIO"}  # the working space is ACEScg
@@ -68,9 +74,9 @@ def xvfb(args):
     return run([XVFB_RUN, "-a", "-s", "-screen 0 1024x768x24", VIEWER] + args)
 
 
-def rt_reference(name, sets):
+def rt_reference(name, sets, extra=()):
     out = os.path.join(SCRATCH, name + ".####.exr")
-    args = [NIMBUS, "rt", SCENE, "--frames", "1", "-o", out]
+    args = [NIMBUS, "rt", SCENE, "--frames", "1", "-o", out] + list(extra)
     for s in SETS + sets:
         args += ["--set", s]
     rc, text = run(args)
@@ -219,6 +225,41 @@ broken("short_grid", rewrite("diffusion.bin", lambda b: b[:-12]),
 # a shader the driver rejects: exit 3 (GL), with the compiler's log
 broken("bad_shader", rewrite("march.comp", lambda b: b + b"\nthis is not GLSL\n"),
        r"march\.comp does not compile:\n.*(error|ERROR)", want=3)
+
+# 5. nimbus_headless: the export without a window (EGL), timed, its image written as PFM
+if HEADLESS:
+    scene_export = os.path.join(SCRATCH, "export")
+    shots = {}
+    for n in (1, 4):
+        shot = os.path.join(SCRATCH, f"headless_{n}.pfm")
+        rc, out = run([HEADLESS, scene_export, "--frames", "2", "--warmup", "1",
+                       "--accumulate", str(n), "--pfm", shot])
+        print(out.rstrip())
+        check(rc == 0, f"headless, accumulate {n}: exit {rc}")
+        if rc != 0:
+            continue
+        m = re.search(r"^pass GPU ms: median [0-9.]+, min [0-9.]+, max [0-9.]+ over (\d+) "
+                      r"accumulation passes$", out, re.M)
+        check(m is not None and int(m.group(1)) == 2 * n,
+              f"headless, accumulate {n}: a GPU time per accumulation pass (2 frames x {n})")
+        check(re.search(r"^frame GPU ms: median [0-9.]+", out, re.M) is not None and
+              "(0 non-finite values)" in out, f"headless, accumulate {n}: frame times, no NaN")
+        shots[n] = pixels(shot)
+        ref = reference if n == 1 else rt_reference("rt_acc4", [], ["--accumulate", "4"])
+        p = psnr(shots[n], ref)
+        print(f"PSNR headless, accumulate {n}, against nimbus rt: {p:.2f} dB")
+        check(p >= 45.0, f"headless, accumulate {n}: PSNR {p:.2f} dB >= 45")
+    if 1 in shots and 4 in shots:
+        q = psnr(shots[4], shots[1])
+        print(f"PSNR headless accumulate 4 against 1: {q:.2f} dB")
+        check(q < 60.0, f"the accumulated passes differ from one pass ({q:.2f} dB < 60)")
+    rc, out = run([HEADLESS, scene_export, "--accumulate", "0"])
+    check(rc == 2 and "--accumulate wants a count" in out, f"headless --accumulate 0: exit {rc}")
+    rc, out = run([HEADLESS, os.path.join(SCRATCH, "no_such_export")])
+    check(rc == 2 and "no_such_export/" in out and "cannot open" in out,
+          f"headless, missing export: exit {rc}: {out.strip()!r}")
+    rc, out = run([HEADLESS, os.path.join(SCRATCH, "bad_bad_shader"), "--frames", "1"])
+    check(rc == 3 and "does not compile" in out, f"headless, bad shader: exit {rc}")
 
 if failures:
     print(f"{len(failures)} check(s) failed")

@@ -10,9 +10,6 @@
 /// stdout once a second. See README.md for building, running and the controls.
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
-#define GL_GLEXT_PROTOTYPES 1
-#include <GL/glcorearb.h>
-
 #include <glm/glm.hpp>
 
 #include <algorithm>
@@ -25,6 +22,7 @@
 #include <vector>
 
 #include "export_folder.h"
+#include "export_pass.h"
 
 namespace {
 
@@ -102,74 +100,6 @@ void writeCamera(std::vector<std::uint8_t>& block, const CameraMembers& cm, cons
 
 // --- GL helpers --------------------------------------------------------------------------------
 
-GLuint compile(GLenum kind, const std::string& source, const char* name, std::string* log) {
-    const GLuint shader = glCreateShader(kind);
-    const char* text = source.c_str();
-    glShaderSource(shader, 1, &text, nullptr);
-    glCompileShader(shader);
-    GLint ok = 0, length = 0;
-    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-    glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
-    if (!ok) {
-        std::string info(std::size_t(std::max(length, 1)), '\0');
-        glGetShaderInfoLog(shader, length, nullptr, info.data());
-        *log = std::string(name) + " does not compile:\n" + info;
-        glDeleteShader(shader);
-        return 0;
-    }
-    return shader;
-}
-
-/// Links the shaders (0 = missing: the compile failed); 0 with *log on failure.
-GLuint link(std::initializer_list<GLuint> shaders, const char* name, std::string* log) {
-    for (GLuint s : shaders)
-        if (!s) return 0;
-    const GLuint program = glCreateProgram();
-    for (GLuint s : shaders) glAttachShader(program, s);
-    glLinkProgram(program);
-    for (GLuint s : shaders) glDeleteShader(s);
-    GLint ok = 0, length = 0;
-    glGetProgramiv(program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-        std::string info(std::size_t(std::max(length, 1)), '\0');
-        glGetProgramInfoLog(program, length, nullptr, info.data());
-        *log = std::string(name) + " does not link:\n" + info;
-        glDeleteProgram(program);
-        return 0;
-    }
-    return program;
-}
-
-const char* const kFullscreenVertex = R"(#version 430
-out vec2 uv;
-void main() { // one triangle over the viewport
-    vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
-    uv = 0.5 * p + 0.5;
-    gl_Position = vec4(p, 0.0, 1.0);
-}
-)";
-
-// The export's resolve (params.json output.resolve), per pixel of the export's image; row 0 of
-// the output buffer is the top of the image, row 0 of the texture its bottom.
-const char* const kResolveFragment = R"(#version 430
-layout(std430) readonly buffer Pixels { float sums[]; };
-uniform int width;
-uniform int height;
-uniform int stride;       // output.floats_per_pixel
-uniform ivec4 rgbaIndex;  // of "sum w*R", "sum w*G", "sum w*B", "sum w*alpha"
-uniform int weightIndex;  // of "sum w"
-out vec4 color;
-void main() {
-    int x = int(gl_FragCoord.x), y = height - 1 - int(gl_FragCoord.y);
-    int i = stride * (y * width + x);
-    float w = sums[i + weightIndex];
-    vec4 s = vec4(sums[i + rgbaIndex.x], sums[i + rgbaIndex.y], sums[i + rgbaIndex.z],
-                  sums[i + rgbaIndex.w]);
-    color = w > 0.0 ? s / w : vec4(0.0);
-}
-)";
-
 // Premultiplied RGBA over black, ACEScg (the working space unless $OCIO changed it) to linear
 // Rec.709 (the usual AP1-to-sRGB matrix, Bradford D60 to D65), times the exposure, sRGB-encoded.
 // A preview, not nimbus rt's OpenColorIO output transform.
@@ -187,18 +117,6 @@ void main() {
     color = vec4(srgb, 1.0);
 }
 )";
-
-bool writePfm(const std::string& path, int w, int h, const std::vector<float>& rgbaBottomUp) {
-    FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) return false;
-    std::fprintf(f, "PF\n%d %d\n-1.0\n", w, h); // little-endian, rows bottom to top
-    std::vector<float> rgb(std::size_t(w) * std::size_t(h) * 3);
-    for (std::size_t i = 0; i < rgb.size() / 3; ++i)
-        for (int c = 0; c < 3; ++c)
-            rgb[3 * i + std::size_t(c)] = rgbaBottomUp[4 * i + std::size_t(c)];
-    const bool ok = std::fwrite(rgb.data(), sizeof(float), rgb.size(), f) == rgb.size();
-    return std::fclose(f) == 0 && ok;
-}
 
 bool writePpm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& rgbBottomUp) {
     FILE* f = std::fopen(path.c_str(), "wb");
@@ -378,76 +296,19 @@ int main(int argc, char** argv) {
                 reinterpret_cast<const char*>(glGetString(GL_VERSION)));
 
     std::string log;
-    const GLuint march =
-        link({compile(GL_COMPUTE_SHADER, ex.shader, "march.comp", &log)}, "march.comp", &log);
-    const GLuint resolve =
-        link({compile(GL_VERTEX_SHADER, kFullscreenVertex, "the fullscreen vertex shader", &log),
-              compile(GL_FRAGMENT_SHADER, kResolveFragment, "the resolve shader", &log)},
-             "the resolve program", &log);
-    const GLuint display =
-        link({compile(GL_VERTEX_SHADER, kFullscreenVertex, "the fullscreen vertex shader", &log),
-              compile(GL_FRAGMENT_SHADER, kDisplayFragment, "the display shader", &log)},
-             "the display program", &log);
-    if (!march || !resolve || !display) {
+    viewer::ExportPass pass;
+    const GLuint display = viewer::linkProgram(
+        {viewer::compileShader(GL_VERTEX_SHADER, viewer::kFullscreenVertex,
+                               "the fullscreen vertex shader", &log),
+         viewer::compileShader(GL_FRAGMENT_SHADER, kDisplayFragment, "the display shader", &log)},
+        "the display program", &log);
+    if (!display || !viewer::createExportPass(ex, pass, &log)) {
         std::fprintf(stderr, "nimbus_viewer: %s\n", log.c_str());
         glfwTerminate();
         return kExitGl;
     }
-
-    // --- buffers: the parameter block and the work buffers of params.json ---
-    GLuint paramBuffer = 0;
-    glGenBuffers(1, &paramBuffer);
-    glBindBuffer(GL_SHADER_STORAGE_BUFFER, paramBuffer);
-    glBufferData(GL_SHADER_STORAGE_BUFFER, GLsizeiptr(ex.params.size()), ex.params.data(),
-                 GL_DYNAMIC_DRAW);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, ex.paramBinding, paramBuffer);
-    std::vector<GLuint> work(ex.buffers.size());
-    glGenBuffers(GLsizei(work.size()), work.data());
-    for (std::size_t k = 0; k < work.size(); ++k) {
-        glBindBuffer(GL_SHADER_STORAGE_BUFFER, work[k]);
-        const bool data = !ex.buffers[k].data.empty(); // a data buffer: its file, once
-        glBufferData(GL_SHADER_STORAGE_BUFFER, GLsizeiptr(ex.buffers[k].bytes),
-                     data ? ex.buffers[k].data.data() : nullptr,
-                     data ? GL_STATIC_DRAW : GL_DYNAMIC_COPY);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, ex.buffers[k].binding, work[k]);
-    }
-    // the resolve pass reads the output buffer at output.buffer_binding
-    glShaderStorageBlockBinding(
-        resolve, glGetProgramResourceIndex(resolve, GL_SHADER_STORAGE_BLOCK, "Pixels"),
-        ex.outputBinding);
-    glUseProgram(resolve);
-    glUniform1i(glGetUniformLocation(resolve, "width"), ex.width);
-    glUniform1i(glGetUniformLocation(resolve, "height"), ex.height);
-    glUniform1i(glGetUniformLocation(resolve, "stride"), ex.floatsPerPixel);
-    glUniform4i(glGetUniformLocation(resolve, "rgbaIndex"), ex.rgbaIndex[0], ex.rgbaIndex[1],
-                ex.rgbaIndex[2], ex.rgbaIndex[3]);
-    glUniform1i(glGetUniformLocation(resolve, "weightIndex"), ex.weightIndex);
-
-    // the resolved image: RGBA32F at the export's size
-    GLuint image = 0, framebuffer = 0, vao = 0, timer = 0;
-    glGenTextures(1, &image);
-    glBindTexture(GL_TEXTURE_2D, image);
-    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, ex.width, ex.height);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    glGenFramebuffers(1, &framebuffer);
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, image, 0);
-    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-        std::fprintf(stderr, "nimbus_viewer: an RGBA32F framebuffer is not complete\n");
-        glfwTerminate();
-        return kExitGl;
-    }
-    glGenVertexArrays(1, &vao);
-    glBindVertexArray(vao);
+    GLuint timer = 0;
     glGenQueries(1, &timer);
-    if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
-        std::fprintf(stderr, "nimbus_viewer: GL error 0x%04X while setting up\n", e);
-        glfwTerminate();
-        return kExitGl;
-    }
 
     float exposure = 1.0f;
     bool timerPending = false;
@@ -509,9 +370,7 @@ int main(int argc, char** argv) {
         }
         if (cameraChanged) {
             writeCamera(ex.params, cm, camera);
-            glBindBuffer(GL_SHADER_STORAGE_BUFFER, paramBuffer);
-            glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(ex.params.size()),
-                            ex.params.data());
+            viewer::uploadParams(ex, pass);
             cameraChanged = false;
         }
 
@@ -523,34 +382,12 @@ int main(int argc, char** argv) {
             ++marchFrames;
         }
         glBeginQuery(GL_TIME_ELAPSED, timer);
-        for (std::size_t k = 0; k < work.size(); ++k) {
-            if (!ex.buffers[k].data.empty()) continue; // data the pass reads
-            glBindBuffer(GL_SHADER_STORAGE_BUFFER, work[k]);
-            glClearBufferData(GL_SHADER_STORAGE_BUFFER, GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT,
-                              nullptr);
-        }
-        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        glUseProgram(march);
-        for (int pass = 0; pass < ex.passes; ++pass) {
-            if (sampleIndex) {
-                const std::int32_t k = pass;
-                std::memcpy(ex.params.data() + sampleIndex->offset, &k, sizeof k);
-                glBindBuffer(GL_SHADER_STORAGE_BUFFER, paramBuffer);
-                glBufferSubData(GL_SHADER_STORAGE_BUFFER, GLintptr(sampleIndex->offset), sizeof k,
-                                &k);
-            }
-            glDispatchCompute(ex.groups[0], ex.groups[1], ex.groups[2]);
-            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        }
+        viewer::dispatchFrame(ex, pass, 1);
         glEndQuery(GL_TIME_ELAPSED);
         timerPending = true;
 
         // --- resolve into the float image, then show it letterboxed ---
-        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-        glViewport(0, 0, ex.width, ex.height);
-        glUseProgram(resolve);
-        glDrawArrays(GL_TRIANGLES, 0, 3);
-        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        viewer::resolveFrame(ex, pass);
         int fbW = 0, fbH = 0;
         glfwGetFramebufferSize(window, &fbW, &fbH);
         glClearColor(0.1f, 0.1f, 0.1f, 1.0f);
@@ -564,7 +401,7 @@ int main(int argc, char** argv) {
         glViewport((fbW - vw) / 2, (fbH - vh) / 2, vw, vh);
         glUseProgram(display);
         glUniform1f(glGetUniformLocation(display, "exposure"), exposure);
-        glBindTexture(GL_TEXTURE_2D, image);
+        glBindTexture(GL_TEXTURE_2D, pass.image);
         glDrawArrays(GL_TRIANGLES, 0, 3);
 
         // --- screenshots: --frames' last frame, or key P ---
@@ -574,11 +411,7 @@ int main(int argc, char** argv) {
             for (const std::string& file : files) {
                 bool ok = false;
                 if (endsWith(file, ".pfm")) {
-                    std::vector<float> rgba(std::size_t(ex.width) * std::size_t(ex.height) * 4);
-                    glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer);
-                    glReadPixels(0, 0, ex.width, ex.height, GL_RGBA, GL_FLOAT, rgba.data());
-                    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-                    ok = writePfm(file, ex.width, ex.height, rgba);
+                    ok = viewer::writePfm(file, ex.width, ex.height, viewer::readImage(ex, pass));
                 } else {
                     std::vector<std::uint8_t> rgb(std::size_t(fbW) * std::size_t(fbH) * 3);
                     glReadBuffer(GL_BACK);

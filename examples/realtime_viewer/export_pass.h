@@ -1,0 +1,94 @@
+/// @file export_pass.h
+/// @brief The GL side of running an export (docs/realtime.md, "Export for engines"), shared by
+///        the window (viewer.cpp) and the headless runner (headless.cpp): march.comp compiled,
+///        the parameter block and the work buffers of params.json made, a frame dispatched
+///        (work buffers zeroed, one dispatch per pixel-sample pass, optionally several
+///        accumulation passes with their own frame keys), the output resolved into an RGBA32F
+///        image at the export's size. Needs a current OpenGL 4.3 core context.
+#pragma once
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include <cstdint>
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+#include "export_folder.h"
+
+namespace viewer {
+
+/// A vertex shader drawing one triangle over the viewport, `out vec2 uv` in [0,1].
+extern const char* const kFullscreenVertex;
+
+/// A shader of @p kind from @p source; 0 with *log (naming @p name) when it does not compile.
+GLuint compileShader(GLenum kind, const std::string& source, const char* name, std::string* log);
+
+/// Links the shaders (0 = missing: the compile failed); 0 with *log on failure.
+GLuint linkProgram(std::initializer_list<GLuint> shaders, const char* name, std::string* log);
+
+/// The key of accumulation pass @p pass of a frame whose key is @p frameKey: the frame's own
+/// for pass 0, pcg(frameKey ^ pcg(pass ^ 0x68e31da4)) after it (what `nimbus rt --accumulate`
+/// gives its passes, docs/realtime.md "Temporal accumulation"; pcg: Jarzynski & Olano 2020).
+std::uint32_t accumulationKey(std::uint32_t frameKey, int pass);
+
+/// What the GL side of an export holds once made.
+struct ExportPass {
+    GLuint march = 0, resolve = 0;
+    GLuint paramBuffer = 0;
+    std::vector<GLuint> work; ///< one per ExportFolder::buffers
+    GLuint image = 0, framebuffer = 0, vao = 0;
+    const Member* sampleIndex = nullptr; ///< when the export has more than one pass
+    const Member* frameKey = nullptr;    ///< when present: accumulation passes re-key it
+    std::uint32_t exportedKey = 0;       ///< the frame key params.bin was written with
+};
+
+/// Compiles march.comp and the resolve program, uploads the block and the data buffers, makes
+/// the RGBA32F image. False with *log (the compiler's log, a missing member, a GL error).
+bool createExportPass(ExportFolder& ex, ExportPass& p, std::string* log);
+
+/// Uploads ex.params whole (after the host edited members, e.g. the camera).
+void uploadParams(const ExportFolder& ex, const ExportPass& p);
+
+/// One frame's march: the work buffers zeroed, then for each of @p accumulate passes (key
+/// accumulationKey(exported key, a); needs the frameKey member when > 1) each pixel-sample pass
+/// dispatched into the same sums. @p passMarker, when given, is called before each
+/// accumulation pass's dispatches and once after the last (accumulate + 1 calls, for timers).
+template <class Marker>
+void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate, Marker&& passMarker);
+void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate);
+
+/// Resolves the output buffer (RGBA = sums / sum w) into p.image (binds p.framebuffer and sets
+/// the viewport to the export's size).
+void resolveFrame(const ExportFolder& ex, const ExportPass& p);
+
+/// The resolved image, RGBA floats, rows bottom to top.
+std::vector<float> readImage(const ExportFolder& ex, const ExportPass& p);
+
+/// A PFM (linear RGB, little-endian, rows bottom to top) of @p rgbaBottomUp.
+bool writePfm(const std::string& path, int w, int h, const std::vector<float>& rgbaBottomUp);
+
+// --- template body ------------------------------------------------------------------------------
+
+void setSampleIndex(ExportFolder& ex, const ExportPass& p, int pass);
+void setFrameKey(ExportFolder& ex, const ExportPass& p, std::uint32_t key);
+void zeroWorkBuffers(const ExportFolder& ex, const ExportPass& p);
+
+template <class Marker>
+void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate, Marker&& passMarker) {
+    zeroWorkBuffers(ex, p);
+    glUseProgram(p.march);
+    for (int a = 0; a < accumulate; ++a) {
+        passMarker(a);
+        if (p.frameKey) setFrameKey(ex, p, accumulationKey(p.exportedKey, a));
+        for (int pass = 0; pass < ex.passes; ++pass) {
+            if (p.sampleIndex) setSampleIndex(ex, p, pass);
+            glDispatchCompute(ex.groups[0], ex.groups[1], ex.groups[2]);
+            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        }
+    }
+    passMarker(accumulate);
+}
+
+} // namespace viewer
