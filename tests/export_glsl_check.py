@@ -30,6 +30,8 @@ RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at b
 it that variant is skipped with a message.
 `nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
 `nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
+A variant with render.shadow = "volume" (RT_LIGHT_VOLUME) has light_tau.bin at binding 15 and the
+volume's lookup; the others have neither (the SDF cloud as it ships uses the volume too).
 Exit 0 when every check passes; each failure is printed.
 """
 import json
@@ -85,6 +87,10 @@ VARIANTS = {
     # render.skip_empty = false: no majorant grid, no RT_SKIP (its code and majorant.bin absent)
     "no_skip": ([NONE, "render.skip_empty=false"],
                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
+    # render.shadow = "volume": the sun's light-attenuation volume instead of shadow marches
+    "light_volume": ([NONE, 'render.shadow="volume"'],
+                     dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1,
+                          RT_LIGHT_VOLUME=1)),
 }
 # a VDB field (RT_VDB): smoke1 (examples/scenes/smoke1.toml) when the shared data folder beside
 # the repository holds its file; skipped, with a message, when it does not
@@ -97,21 +103,23 @@ if os.path.isfile(SMOKE1_VDB):
     SCENES["vdb_smoke1"] = SMOKE1
 else:
     print(f"SKIP: the vdb_smoke1 variant: {SMOKE1_VDB} is absent (the shared data folder)")
-# an SDF cloud (RT_SDF): examples/scenes/sdf_cloud.toml with the sun's shadow marched (its light
-# volume is not on the GPU)
-VARIANTS["sdf_cloud"] = ([NONE, 'render.shadow="march"'],
-                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1, RT_SKIP=1))
+# an SDF cloud (RT_SDF): examples/scenes/sdf_cloud.toml as it ships (the sun through its light
+# volume)
+VARIANTS["sdf_cloud"] = ([NONE],
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1, RT_SKIP=1,
+                              RT_LIGHT_VOLUME=1))
 SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
-                "RT_SKIP", "RT_SDF", "RT_RESUMABLE"]
+                "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_RESUMABLE"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
         "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
         "RT_VDB": [("vdb_grid.bin", 9)],
         "RT_BAKED_NOISE": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
         "RT_SKIP": [("majorant.bin", 13)],
-        "RT_SDF": [("sdf_nodes.bin", 12)]}
+        "RT_SDF": [("sdf_nodes.bin", 12)],
+        "RT_LIGHT_VOLUME": [("light_tau.bin", 15)]}
 SDF_NODE_BYTES = 144  # struct SdfTreeNode (core/kernels/sdf_tree.glsl), std430
 
 # code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
@@ -136,6 +144,7 @@ MARKERS = {
                 "n = rtSkipTo(s, n, tExit, tOut);"],
     "RT_SDF": ["buffer RtSdfNodes", "rtSdfDensity(", "NB_FN void sdfTreeStep(",
                "NB_FN float sdfTreePrimitive("],
+    "RT_LIGHT_VOLUME": ["buffer RtLightGrid", "rtLightTau[", "rtLightVolumeSample(p)"],
     "RT_RESUMABLE": ["buffer RtSlices", "rtLoopBudgetHeld(", "atomicAdd(unfinished"],
 }
 # code only a frame with neither RT_VDB nor RT_SDF has (the procedural cumulus, direct or baked)
@@ -308,12 +317,12 @@ rc, log = run(["export-glsl", SCENE, "-o", blocker] + BASE)
 check(rc == 3 and "cannot create the folder" in log, f"-o names a file: exit {rc}: {log}")
 refused = os.path.join(SCRATCH, "refused")
 rc, log = run(["export-glsl", SCENE, "-o", refused, "--set", "camera.width=32",
-               "--set", 'render.shadow="volume"'])
-check(rc == 2 and "render.shadow" in log and "not supported by the GPU path" in log,
+               "--set", NONE, "--set", 'render.sky_occlusion="column"'])
+check(rc == 2 and "render.sky_occlusion" in log and "not supported by the GPU path" in log,
       f"refused scene: exit {rc}: {log}")
 check(not os.path.exists(refused), "a refused export wrote its folder")
 rc2, log2 = run(["rt", SCENE, "--frames", "1", "--explain", "--set", "camera.width=32",
-                 "--set", 'render.shadow="volume"'])
+                 "--set", NONE, "--set", 'render.sky_occlusion="column"'])
 check(rc2 == 2 and log2.strip() == log.strip(),
       f"nimbus rt refuses with another message: exit {rc2}: {log2} vs {log}")
 

@@ -333,6 +333,9 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(skinVoxel),
         NB_MEMBER(majorantLo),
         NB_MEMBER(majorantCell),
+        NB_MEMBER(lightLo),
+        NB_MEMBER(lightHi),
+        NB_MEMBER(lightVoxel),
         NB_MEMBER(layerBottom),
         NB_MEMBER(layerTop),
         NB_MEMBER(heightA),
@@ -405,6 +408,9 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(majorantResX),
         NB_MEMBER(majorantResY),
         NB_MEMBER(majorantResZ),
+        NB_MEMBER(lightResX),
+        NB_MEMBER(lightResY),
+        NB_MEMBER(lightResZ),
         NB_MEMBER(sdfScale),
         NB_MEMBER(sdfFalloff),
         NB_MEMBER(sdfNodeCount),
@@ -634,7 +640,7 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
     rt::MarchPass pass;
     const FramePlan plan = session.plan(frame);
     MarchGrids grids;
-    if (plan.diffusion || plan.photons) {
+    if (rt::readsMarchGrids(plan)) {
         RenderStats gridStats;
         grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     }
@@ -805,6 +811,53 @@ TEST(ExportGlslGpu, SameImageAsRtWithAnSdfCloud) {
     EXPECT_EQ(std::memcmp(e.data[0].second.data(), nodes.data(), e.data[0].second.size()), 0);
     EXPECT_TRUE(contains(e.json, "\"sdf_nodes.bin\""));
     EXPECT_TRUE(contains(e.json, "132 uint seed"));
+}
+
+// render.shadow = "volume": the CPU's light-attenuation volume goes out as light_tau.bin (the
+// floats `nimbus rt` uploads, binding 15), the shader reads the sun's density integral from it
+// (RT_LIGHT_VOLUME) and the image from the files alone is nimbus rt's; without the setting
+// neither the file nor the lookup is there.
+TEST(ExportGlslGpu, SameImageAsRtWithTheLightVolume) {
+    std::vector<std::string> files;
+    std::string shader;
+    std::vector<std::string> sets = {"camera.width=64", "camera.height=36",
+                                     "render.multiple_scattering=\"none\"",
+                                     "field.evaluation=\"direct\"", "render.shadow=\"volume\""};
+    EXPECT_GE(exportAgainstRt(sets, "light_volume", files, kScene, 3, &shader), 45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"light_tau.bin", "majorant.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_LIGHT_VOLUME 1"));
+    EXPECT_TRUE(contains(shader, "buffer RtLightGrid { float rtLightTau[]; };"));
+    EXPECT_TRUE(contains(shader, "rtLightVolumeSample(p)"));
+    // the file is the volume's floats
+    host::Session session;
+    ASSERT_TRUE(session.load(kScene, sets).ok());
+    const FramePlan plan = session.plan(3);
+    RenderStats stats;
+    const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), stats);
+    ASSERT_NE(grids.towardVolume(), nullptr);
+    rt::GlslExport e;
+    std::string error;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, &grids, &session.bindings(), nullptr,
+                               e, &error))
+        << error;
+    ASSERT_EQ(e.data.size(), 1u);
+    EXPECT_EQ(e.data[0].first, "light_tau.bin");
+    const std::vector<float>& tau = grids.towardVolume()->tau;
+    ASSERT_EQ(e.data[0].second.size(), tau.size() * sizeof(float));
+    EXPECT_EQ(std::memcmp(e.data[0].second.data(), tau.data(), e.data[0].second.size()), 0);
+    EXPECT_TRUE(contains(e.json, "\"lightResX\""));
+    // without the grids the export refuses the frame
+    rt::GlslExport none;
+    EXPECT_FALSE(rt::exportGlsl(session.scene(), plan, kScene, none, &error));
+    EXPECT_TRUE(contains(error, "light-attenuation volume")) << error;
+    // render.shadow = "march": no file, no lookup
+    sets.back() = "render.shadow=\"march\"";
+    files.clear();
+    EXPECT_GE(exportAgainstRt(sets, "light_volume_off", files, kScene, 3, &shader), 45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"majorant.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_LIGHT_VOLUME 0"));
+    EXPECT_FALSE(contains(shader, "RtLightGrid"));
+    EXPECT_FALSE(contains(shader, "rtLightVolumeSample"));
 }
 
 TEST(ExportGlslGpu, SameImageAsRtWithBakedNoise) {

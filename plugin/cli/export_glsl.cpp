@@ -70,7 +70,7 @@ int runExportGlsl(const ExportGlslOptions& o) {
     // the multiple-scattering grids (when the plan names them), computed on the CPU as
     // `nimbus rt` does, go out as data files
     MarchGrids grids;
-    if (plan.diffusion || plan.photons) {
+    if (rt::readsMarchGrids(plan)) {
         RenderStats gridStats;
         grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
     }

@@ -130,16 +130,20 @@ int runRt(const RtOptions& o) {
         if (refused(plan)) return kExitBadInput;
         Framebuffer fb;
         rt::MarchStats stats;
-        // the multiple-scattering grids (when the plan names them) are computed on the CPU, as
-        // `nimbus render` computes them, and read by the shader
+        // the multiple-scattering grids and the light volume (when the plan names them) are
+        // computed on the CPU, as `nimbus render` computes them, and read by the shader
         MarchGrids grids;
-        if (plan.diffusion || plan.photons) {
+        if (rt::readsMarchGrids(plan)) {
             const auto gridStart = std::chrono::steady_clock::now();
             RenderStats gridStats;
             grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
             if (!o.quiet)
-                std::printf("frame %d: multiple-scattering grid computed on the CPU in %.3f s\n",
-                            frame, secondsSince(gridStart));
+                std::printf("frame %d: %s computed on the CPU in %.3f s\n", frame,
+                            plan.diffusion || plan.photons
+                                ? (plan.lightVolume ? "light volume and multiple-scattering grid"
+                                                    : "multiple-scattering grid")
+                                : "light-attenuation volume",
+                            secondsSince(gridStart));
         }
         // the cumulus noise tiles when the plan bakes them: the CPU's (baked once, as for
         // `nimbus render`), read by the shader

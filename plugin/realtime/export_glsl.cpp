@@ -34,6 +34,7 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_BAKED_NOISE", f.bakedNoise},
             {"RT_SKIP", f.skip},
             {"RT_SDF", f.sdf},
+            {"RT_LIGHT_VOLUME", f.lightVolume},
             {"RT_RESUMABLE", f.resumable}};
 }
 
@@ -636,6 +637,20 @@ ParamDoc paramDoc(std::string_view n) {
          {"RT_BAKED_NOISE: nodes per axis of the detail noise tile (noise_detail.bin; "
           "field.detail_bake_resolution; 0 without)",
           "nodes"}},
+        {"lightLo",
+         {"RT_LIGHT_VOLUME: lower corner of the sun's light-attenuation volume (light_tau.bin; "
+          "w 0)",
+          "world units"}},
+        {"lightHi",
+         {"RT_LIGHT_VOLUME: upper corner of that volume: inside the box (faces included) the "
+          "sun's density integral is read from it, outside a shadow march is taken (w 0)",
+          "world units"}},
+        {"lightVoxel", {"RT_LIGHT_VOLUME: that volume's voxel size (xyz; w 0)", "world units"}},
+        {"lightResX",
+         {"RT_LIGHT_VOLUME: light volume voxels along x (light_tau.bin: x fastest; 0 without)",
+          "voxels"}},
+        {"lightResY", {"RT_LIGHT_VOLUME: light volume voxels along y", "voxels"}},
+        {"lightResZ", {"RT_LIGHT_VOLUME: light volume voxels along z", "voxels"}},
         {"majorantLo",
          {"RT_SKIP: lower corner of the majorant grid's box (majorant.bin; w 0)", "world units"}},
         {"majorantCell", {"RT_SKIP: the majorant grid's cell size (xyz; w 0)", "world units"}},
@@ -879,6 +894,13 @@ std::string bufferMeaning(std::string_view name) {
     if (name == "RtSkinGrid")
         return "the density integral toward the sun at the photon grid's voxel centres (1 float "
                "per voxel, same order), for the photons' skin profile";
+    if (name == "RtLightGrid")
+        return "the sun's light-attenuation volume for this frame (LightVolume, "
+               "core/lighting/light_volume.h, render.shadow = \"volume\"): the density integral "
+               "from each voxel centre toward the sun (1 float per voxel, x fastest, then y, then "
+               "z; lightResX/Y/Z voxels of lightVoxel from lightLo), read trilinearly between the "
+               "centres (clamped to the outermost) and multiplied by the extinction per unit "
+               "density (sigmaT) for the sun's transmittance";
     if (name == "RtVdbGrid")
         return "the field's NanoVDB grid: the bytes of one nanovdb::FloatGrid (NanoVDB's in-memory "
                "layout, not an .nvdb file: no file header, no compression), from its GridData at "
@@ -926,6 +948,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtPhotonGrid") return "photons.bin";
     if (name == "RtSkinGrid") return "skin_tau.bin";
     if (name == "RtVdbGrid") return "vdb_grid.bin";
+    if (name == "RtLightGrid") return "light_tau.bin";
     if (name == "RtBaseNoise") return "noise_base.bin";
     if (name == "RtDetailNoise") return "noise_detail.bin";
     if (name == "RtMajorant") return "majorant.bin";
@@ -968,6 +991,8 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
         if (f.photonSkin)
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
+        if (f.lightVolume)
+            out.data.emplace_back(bufferFile("RtLightGrid"), bytesOf(grids->towardVolume()->tau));
         if (f.sdf) out.data.emplace_back(bufferFile("RtSdfNodes"), bytesOf(sdfTreeNodes(s)));
         if (f.vdb) {
             const VdbGridBytes g = vdbGridBytes(bindings, error);

@@ -30,6 +30,12 @@ layout(std430, binding = 5) readonly buffer RtPhotonGrid { float rtPhoton[]; };
 layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
 #endif
 #endif
+#if RT_LIGHT_VOLUME
+// the sun's light-attenuation volume (LightVolume, core/lighting/light_volume.h; the one
+// MarchContext reads with render.shadow = "volume"): the density integral toward the sun at the
+// voxel centres, x fastest (P.lightResX/Y/Z voxels of P.lightVoxel from P.lightLo)
+layout(std430, binding = 15) readonly buffer RtLightGrid { float rtLightTau[]; };
+#endif
 #if RT_VDB
 // the field's NanoVDB grid (a nanovdb::FloatGrid, the bytes the CPU samples), read through
 // PNanoVDB; its name is the one PNanoVDB's GLSL buffer functions read
@@ -273,6 +279,44 @@ void rtVoxelFootprint(vec3 p, vec3 lo, vec3 voxel, ivec3 res, out ivec3 i0, out 
     f = u - vec3(i0);
 }
 
+// sampleVoxelCentres' interpolation of a scalar (glm::mix along x, then y, then z) from the
+// corner values c<x><y><z> and the weights f of rtVoxelFootprint.
+float rtTrilinear(float c000, float c100, float c010, float c110, float c001, float c101,
+                  float c011, float c111, vec3 f) {
+    float c00 = c000 * (1.0f - f.x) + c100 * f.x;
+    float c10 = c010 * (1.0f - f.x) + c110 * f.x;
+    float c01 = c001 * (1.0f - f.x) + c101 * f.x;
+    float c11 = c011 * (1.0f - f.x) + c111 * f.x;
+    float c0 = c00 * (1.0f - f.y) + c10 * f.y;
+    float c1 = c01 * (1.0f - f.y) + c11 * f.y;
+    return c0 * (1.0f - f.z) + c1 * f.z;
+}
+
+#if RT_LIGHT_VOLUME
+float rtLightTauAt(int x, int y, int z) {
+    return rtLightTau[(z * P.lightResY + y) * P.lightResX + x];
+}
+
+// Whether the light volume holds p (Box::contains of its bounds: the faces included).
+bool rtInLightVolume(vec3 p) {
+    vec3 lo = rtXyz(P.lightLo);
+    vec3 hi = rtXyz(P.lightHi);
+    return p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z;
+}
+
+// LightVolume::sample(p): the density integral toward the sun, sampleVoxelCentres of a scalar.
+float rtLightVolumeSample(vec3 p) {
+    ivec3 res = ivec3(P.lightResX, P.lightResY, P.lightResZ);
+    ivec3 i0, i1;
+    vec3 f;
+    rtVoxelFootprint(p, rtXyz(P.lightLo), rtXyz(P.lightVoxel), res, i0, i1, f);
+    return rtTrilinear(rtLightTauAt(i0.x, i0.y, i0.z), rtLightTauAt(i1.x, i0.y, i0.z),
+                       rtLightTauAt(i0.x, i1.y, i0.z), rtLightTauAt(i1.x, i1.y, i0.z),
+                       rtLightTauAt(i0.x, i0.y, i1.z), rtLightTauAt(i1.x, i0.y, i1.z),
+                       rtLightTauAt(i0.x, i1.y, i1.z), rtLightTauAt(i1.x, i1.y, i1.z), f);
+}
+#endif
+
 #if RT_MS_DIFFUSION
 vec3 rtDiffusionAt(int x, int y, int z) {
     int j = 3 * ((z * P.diffusionResY + y) * P.diffusionResX + x);
@@ -332,13 +376,10 @@ float rtPhotonSkin(vec3 p) {
     ivec3 i0, i1;
     vec3 f;
     rtVoxelFootprint(p, rtXyz(P.skinLo), rtXyz(P.skinVoxel), res, i0, i1, f);
-    float c00 = rtSkinTauAt(i0.x, i0.y, i0.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i0.y, i0.z) * f.x;
-    float c10 = rtSkinTauAt(i0.x, i1.y, i0.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i1.y, i0.z) * f.x;
-    float c01 = rtSkinTauAt(i0.x, i0.y, i1.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i0.y, i1.z) * f.x;
-    float c11 = rtSkinTauAt(i0.x, i1.y, i1.z) * (1.0f - f.x) + rtSkinTauAt(i1.x, i1.y, i1.z) * f.x;
-    float c0 = c00 * (1.0f - f.y) + c10 * f.y;
-    float c1 = c01 * (1.0f - f.y) + c11 * f.y;
-    float tau = c0 * (1.0f - f.z) + c1 * f.z;
+    float tau = rtTrilinear(rtSkinTauAt(i0.x, i0.y, i0.z), rtSkinTauAt(i1.x, i0.y, i0.z),
+                            rtSkinTauAt(i0.x, i1.y, i0.z), rtSkinTauAt(i1.x, i1.y, i0.z),
+                            rtSkinTauAt(i0.x, i0.y, i1.z), rtSkinTauAt(i1.x, i0.y, i1.z),
+                            rtSkinTauAt(i0.x, i1.y, i1.z), rtSkinTauAt(i1.x, i1.y, i1.z), f);
     return max(exp(-P.skinK * tau), P.skinFloor);
 }
 #endif

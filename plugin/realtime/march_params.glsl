@@ -34,6 +34,9 @@ struct RtMarchParams {
     vec4 skinVoxel;     // (the light volume of core/lighting/light_volume.h), lo and voxel
     vec4 majorantLo;    // the majorant grid (RT_SKIP): its bounds' lower corner
     vec4 majorantCell;  // ... and its cell size
+    vec4 lightLo;       // the sun's light-attenuation volume (RT_LIGHT_VOLUME, render.shadow =
+    vec4 lightHi;       // "volume", core/lighting/light_volume.h): its bounds, in which it
+    vec4 lightVoxel;    // replaces the shadow march, and its voxel size
 
     // the cumulus layer (CloudLayer, core/kernels/cloud.glsl)
     float layerBottom;
@@ -123,6 +126,10 @@ struct RtMarchParams {
     int majorantResX;
     int majorantResY;
     int majorantResZ;
+    // the light-attenuation volume (RT_LIGHT_VOLUME): voxels per axis (x fastest in its buffer)
+    int lightResX;
+    int lightResY;
+    int lightResZ;
     // the SDF cloud (RT_SDF): density = sdfScale * sdfDensityFromDistance(d(p), sdfFalloff), d the
     // tree of sdfNodeCount nodes in its buffer (binding 12, SdfTreeNode); the box is boundsLo/Hi
     float sdfScale;

@@ -1,7 +1,7 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SDF, RT_SKIP: only the features the scene uses are
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SDF, RT_SKIP, RT_LIGHT_VOLUME: only the features the scene uses are
 // compiled in; RT_RESUMABLE: `nimbus rt`'s march in slices, below), the embedded kernels
 // (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie table,
 // the multiple-scattering grids, the majorant grid, and their lookups), then this file.
@@ -13,7 +13,8 @@
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
 // cumulusDensity evaluated per sample (RT_BAKED_NOISE: its noises read from the tiles the CPU
 // baked; RT_VDB: the field's NanoVDB grid through PNanoVDB; RT_SDF: the SDF cloud's tree through
-// the kernel sdfTreeStep), the sun's transmittance by a shadow march per sample, phaseEval (or
+// the kernel sdfTreeStep), the sun's transmittance by a shadow march per sample (RT_LIGHT_VOLUME:
+// read from the CPU's light-attenuation volume where it holds the sample), phaseEval (or
 // the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the
 // multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added
 // as MarchContext::traceRay adds them, the height-occluded sky ambient, marchStep (Hillaire's
@@ -23,7 +24,7 @@
 // from that cell, or from the cube of empty blocks around it; the samples visited stay on the
 // schedule's lattice, so only samples of density 0 are dropped and the image is the same bit
 // for bit (camera and shadow rays).
-// What it does not do: light volumes, the column and single-scattered sky, surfaces.
+// What it does not do: the column and single-scattered sky, surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -289,7 +290,7 @@ RtRay rtRayStart() {
     return r;
 }
 
-// One camera ray (MarchContext::traceRay without surfaces, light volumes or the column and
+// One camera ray (MarchContext::traceRay without surfaces or the column and
 // single-scattered sky), marched from r for at most maxSteps steps (RT_MAX_STEPS: to its end);
 // r.marching is false once the ray is done.
 void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, float jitter,
@@ -341,8 +342,16 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                 if (rho > 0.0f) {
                     vec3 S = vec3(0.0f);
 #if RT_SUN
+#if RT_LIGHT_VOLUME
+                    // MarchContext::sunOpticalDepth: the light volume where it holds p
+                    float tau = rtInLightVolume(p)
+                                    ? rtLightVolumeSample(p)
+                                    : rtDensityIntegral(F, p, sunDir,
+                                                        pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
+#else
                     float tau = rtDensityIntegral(F, p, sunDir,
                                                   pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
+#endif
                     vec3 sun = vec3(0.0f);
                     float weight = 1.0f;
                     float extinction = 1.0f;

@@ -83,9 +83,6 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     if (s.ground.enabled) no("ground.enabled", "ground.enabled = true: no surfaces on the GPU yet");
     if (!s.meshes.empty()) no("mesh", "[[mesh]] entries: no surfaces on the GPU yet");
     if (!s.solids.empty()) no("solid", "[[solid]] entries: no SDF solids on the GPU yet");
-    if (p.lightVolume)
-        no("render.shadow", "render.shadow = \"volume\": the light-attenuation volume is not "
-                            "uploaded to the GPU yet; use \"march\"");
     if (p.skySingle)
         no("render.sky_scattering", "render.sky_scattering = \"single\": not on the GPU yet; use "
                                     "\"ambient\"");
@@ -139,6 +136,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.bakedNoise = s.field.kind == FieldKind::Cumulus && p.bakeNoise;
     f.skip = skipsWith(p, majorant);
     f.sdf = s.field.kind == FieldKind::Sdf;
+    f.lightVolume = f.sun && p.lightVolume;
     return f;
 }
 
@@ -156,6 +154,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
     d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
     d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
+    d += std::string("#define RT_LIGHT_VOLUME ") + (lightVolume ? "1" : "0") + "\n";
     d += std::string("#define RT_RESUMABLE ") + (resumable ? "1" : "0") + "\n";
     return d;
 }
@@ -353,6 +352,14 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
         P.majorantResY = majorant->res.y;
         P.majorantResZ = majorant->res.z;
     }
+    if (const LightVolume* lv = grids ? grids->towardVolume() : nullptr; lv && p.lightVolume) {
+        P.lightLo = v4(lv->bounds.lo);
+        P.lightHi = v4(lv->bounds.hi);
+        P.lightVoxel = v4(lv->voxel);
+        P.lightResX = lv->res.x;
+        P.lightResY = lv->res.y;
+        P.lightResZ = lv->res.z;
+    }
     if (grids && grids->hasDiffusion) {
         const DiffusionVolume& g = grids->diffusion;
         P.diffusionLo = v4(g.bounds.lo);
@@ -430,8 +437,13 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
         o << "no empty-space skipping (every step in the field's box: "
           << (p.skipEmpty ? "the majorant grid has no empty cell" : "render.skip_empty = false")
           << ")\n";
-    o << "  GPU lighting: " << (f.sun ? "sun by a shadow march per sample, " : "no sun, ")
-      << (f.photons ? 1 : s.render.octaves) << " octave(s), phase kind "
+    o << "  GPU lighting: "
+      << (f.lightVolume ? "sun through the light-attenuation volume (computed on the CPU at voxel "
+          : f.sun       ? "sun by a shadow march per sample, "
+                        : "no sun, ");
+    if (f.lightVolume)
+        o << p.lightVolumeCell << ", read from a buffer; a shadow march outside it), ";
+    o << (f.photons ? 1 : s.render.octaves) << " octave(s), phase kind "
       << phaseParams(s.medium).kind << (f.mieTable ? " (the Lorenz-Mie table, a buffer)" : "")
       << (f.ambient ? ", sky ambient (height occlusion)" : ", no sky ambient")
       << (f.backgroundSky ? ", sky background" : ", transparent background")
@@ -500,6 +512,10 @@ std::string frameDataError(const SceneDesc& s, const FramePlan& p, const MarchGr
         (f.photonSkin && !(grids && grids->photons.sunTau && grids->photons.skinK > 0.0f)))
         return "the frame's multiple-scattering grid was not given to " + consumer +
                " (build it with Renderer::marchGrids)";
+    if (f.lightVolume && !(grids && grids->towardVolume()))
+        return "the frame's light-attenuation volume (render.shadow = \"volume\") was not given "
+               "to " +
+               consumer + " (build it with Renderer::marchGrids)";
     return f.bakedNoise ? bakedNoiseError(s, noise) : "";
 }
 
@@ -560,7 +576,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     P.loopProbe = 2;
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
     std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
-        sdfNodes, bounds;
+        sdfNodes, bounds, light;
     // the majorant grid the CPU renders with: a density bound per cell, then the block distances
     // (RT_SKIP)
     if (f.skip) {
@@ -606,6 +622,12 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         const std::vector<vec3>& L = grids->photons.radiance;
         photons = std::make_unique<gl::StorageBuffer>(L.size() * sizeof(vec3), L.data());
         photons->bind(5);
+    }
+    // the sun's light-attenuation volume: the density integral toward the sun per voxel
+    if (f.lightVolume) {
+        const std::vector<float>& tau = grids->towardVolume()->tau;
+        light = std::make_unique<gl::StorageBuffer>(tau.size() * sizeof(float), tau.data());
+        light->bind(15);
     }
     if (f.photonSkin) {
         const std::vector<float>& tau = grids->photons.sunTau->tau;

@@ -76,6 +76,10 @@ struct MarchFeatures {
     /// RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
     bool skip = false;
     bool sdf = false; ///< RT_SDF: the field is an SDF cloud (its node array), not the cumulus
+    /// RT_LIGHT_VOLUME: render.shadow = "volume" (with the sun): the sun's density integral read
+    /// from the CPU's light-attenuation volume (binding 15) inside its bounds, as MarchContext
+    /// reads it; a shadow march outside
+    bool lightVolume = false;
     /// RT_RESUMABLE: the march in slices of camera steps with the loop-budget check
     /// (march_pass.glsl, "The loop budget"); MarchPass sets it, marchFeatures and the export
     /// leave it off
@@ -143,6 +147,12 @@ BakedNoise bakedNoise(Renderer& renderer, const FramePlan& plan, const FrameBind
 /// Why `noise` cannot serve a frame of `scene` whose plan bakes the noise: a tile missing, or
 /// not at field.base_bake_resolution / detail_bake_resolution; "" when it can.
 std::string bakedNoiseError(const SceneDesc& scene, const BakedNoise* noise);
+/// Whether frame `plan` reads grids the CPU builds (Renderer::marchGrids): the diffusion or
+/// photon grid (render.multiple_scattering) or the sun's light-attenuation volume
+/// (render.shadow = "volume"). `nimbus rt` and the export build them only then.
+inline bool readsMarchGrids(const FramePlan& plan) {
+    return plan.diffusion || plan.photons || plan.lightVolume;
+}
 /// Why frame `plan` of `scene` cannot be rendered or exported from `grids` and `noise`: a
 /// multiple-scattering grid its features read is missing (named for `consumer`, e.g. "the GLSL
 /// pass"), or its baked noise tiles (bakedNoiseError); "" when everything it reads is there.
