@@ -1160,6 +1160,55 @@ TEST(RtSkip, OnlyWithAnEmptyCell) {
 // `nimbus rt` writes the frame through the output code of `nimbus render` (colour conversion to
 // output.color_space, metadata, AOVs): both EXRs of the same frame agree at PSNR >= 45 dB; with
 // multiple_scattering = "grid" (the default scene's) the CLI computes the grid on the CPU first.
+namespace {
+
+/// `nimbus rt` and `nimbus render` of `frame` (`--frames frame`) with their own arguments, each
+/// writing <dir>/gpu.####.exr and <dir>/cpu.####.exr: both must exit 0 and the GPU EXR's values
+/// be finite; psnr is that of its RGBA against the CPU EXR's (recorded as psnr_db_<tag>,
+/// printed), 0 when a run failed.
+struct CliParity {
+    double psnr = 0.0;
+    CliRun gpu;
+    io::ExrImage g, c;
+};
+CliParity rtAgainstRenderCli(const std::string& scene, int frame, const std::string& dir,
+                             const std::string& gpuArgs, const std::string& cpuArgs,
+                             const std::string& tag) {
+    CliParity r;
+    const std::string frames = " --frames " + std::to_string(frame);
+    r.gpu = runNimbus("rt " + scene + frames + " -o " + dir + "/gpu.####.exr" + gpuArgs);
+    EXPECT_EQ(r.gpu.exitCode, 0) << r.gpu.output;
+    const CliRun cpu = runNimbus("render " + scene + frames + " --progress none -o " + dir +
+                                 "/cpu.####.exr" + cpuArgs);
+    EXPECT_EQ(cpu.exitCode, 0) << cpu.output;
+    if (r.gpu.exitCode != 0 || cpu.exitCode != 0) return r;
+    char number[16];
+    std::snprintf(number, sizeof number, "%04d", frame);
+    r.g = io::readExr(dir + "/gpu." + number + ".exr");
+    r.c = io::readExr(dir + "/cpu." + number + ".exr");
+    EXPECT_EQ(r.g.width, r.c.width);
+    EXPECT_EQ(r.g.height, r.c.height);
+    if (r.g.width != r.c.width || r.g.height != r.c.height) return r;
+    std::vector<float> gr, cr;
+    std::size_t nonFinite = 0;
+    for (int y = 0; y < r.g.height; ++y)
+        for (int x = 0; x < r.g.width; ++x)
+            for (const char* ch : {"R", "G", "B", "A"}) {
+                const float gv = r.g.at(x, y, r.g.channelIndex(ch));
+                nonFinite += !std::isfinite(gv);
+                gr.push_back(gv);
+                cr.push_back(r.c.at(x, y, r.c.channelIndex(ch)));
+            }
+    EXPECT_EQ(nonFinite, 0u) << tag;
+    double maxAbs = 0.0;
+    r.psnr = psnrRgb(cr, gr, &maxAbs);
+    ::testing::Test::RecordProperty("psnr_db_" + tag, std::to_string(r.psnr));
+    std::printf("[ rt parity ] %s: PSNR %.2f dB\n", tag.c_str(), r.psnr);
+    return r;
+}
+
+} // namespace
+
 TEST(RtCli, WritesTheSameExrAsRender) {
     // "baked": no multiple-scattering grid, the noise from the tiles the CPU bakes
     for (const std::string ms : {"none", "grid", "baked"}) {
@@ -1172,40 +1221,20 @@ TEST(RtCli, WritesTheSameExrAsRender) {
         auto preview = [&](const std::string& name) {
             return " --set 'output.preview=\"" + dir.string() + "/" + name + ".####.png\"'";
         };
-        const CliRun gpu = runNimbus("rt " + kDefaultScene + " --frames 3 -o " + dir.string() +
-                                     "/gpu.####.exr" + sets + preview("gpu"));
-        ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
-        EXPECT_TRUE(contains(gpu.output, "frame 3: 64x36,"));
-        EXPECT_EQ(contains(gpu.output, "multiple-scattering grid computed on the CPU"),
+        const CliParity r =
+            rtAgainstRenderCli(kDefaultScene, 3, dir.string(), sets + preview("gpu"),
+                               sets + preview("cpu"), "cli_64x36_" + ms);
+        EXPECT_TRUE(contains(r.gpu.output, "frame 3: 64x36,"));
+        EXPECT_EQ(contains(r.gpu.output, "multiple-scattering grid computed on the CPU"),
                   ms == "grid")
-            << gpu.output;
-        const CliRun cpu = runNimbus("render " + kDefaultScene + " --frames 3 --progress none -o " +
-                                     dir.string() + "/cpu.####.exr" + sets + preview("cpu"));
-        ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
-        const io::ExrImage g = io::readExr(dir.string() + "/gpu.0003.exr");
-        const io::ExrImage c = io::readExr(dir.string() + "/cpu.0003.exr");
-        ASSERT_EQ(g.width, 64);
-        ASSERT_EQ(g.height, 36);
-        EXPECT_EQ(g.channels, c.channels);
-        EXPECT_EQ(g.attributes.at("nimbus/colorSpace"), c.attributes.at("nimbus/colorSpace"));
-        EXPECT_TRUE(contains(g.attributes.at("nimbus/settings/renderer"), "GLSL march pass"));
-        const int ia = g.channelIndex("A");
-        ASSERT_GE(ia, 0);
-        std::vector<float> gr, cr;
-        for (int y = 0; y < g.height; ++y)
-            for (int x = 0; x < g.width; ++x)
-                for (const char* ch : {"R", "G", "B", "A"}) {
-                    const float gv = g.at(x, y, g.channelIndex(ch));
-                    ASSERT_TRUE(std::isfinite(gv));
-                    gr.push_back(gv);
-                    cr.push_back(c.at(x, y, c.channelIndex(ch)));
-                }
-        double maxAbs = 0.0;
-        const double psnr = psnrRgb(cr, gr, &maxAbs);
-        RecordProperty("psnr_db_cli_64x36_" + ms, std::to_string(psnr));
-        std::printf("[ rt parity ] cli 64x36 multiple_scattering %s: PSNR %.2f dB\n", ms.c_str(),
-                    psnr);
-        EXPECT_GE(psnr, 45.0) << ms;
+            << r.gpu.output;
+        ASSERT_EQ(r.g.width, 64);
+        ASSERT_EQ(r.g.height, 36);
+        EXPECT_EQ(r.g.channels, r.c.channels);
+        EXPECT_EQ(r.g.attributes.at("nimbus/colorSpace"), r.c.attributes.at("nimbus/colorSpace"));
+        EXPECT_TRUE(contains(r.g.attributes.at("nimbus/settings/renderer"), "GLSL march pass"));
+        EXPECT_GE(r.g.channelIndex("A"), 0);
+        EXPECT_GE(r.psnr, 45.0) << ms;
     }
 }
 
@@ -1253,27 +1282,9 @@ TEST(RtCli, VdbWritesTheSameExrAsRender) {
     TempDir dir("rt_cli_vdb");
     const std::string scene = writeRtVdbScene(dir.string());
     const std::string sets = " --set camera.width=64 --set camera.height=36";
-    const CliRun gpu =
-        runNimbus("rt " + scene + " --frames 1 -o " + dir.string() + "/gpu.####.exr" + sets);
-    ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
-    const CliRun cpu = runNimbus("render " + scene + " --frames 1 --progress none -o " +
-                                 dir.string() + "/cpu.####.exr" + sets);
-    ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
-    const io::ExrImage g = io::readExr(dir.string() + "/gpu.0001.exr");
-    const io::ExrImage c = io::readExr(dir.string() + "/cpu.0001.exr");
-    ASSERT_EQ(g.width, 64);
-    std::vector<float> gr, cr;
-    for (int y = 0; y < g.height; ++y)
-        for (int x = 0; x < g.width; ++x)
-            for (const char* ch : {"R", "G", "B", "A"}) {
-                gr.push_back(g.at(x, y, g.channelIndex(ch)));
-                cr.push_back(c.at(x, y, c.channelIndex(ch)));
-            }
-    double maxAbs = 0.0;
-    const double psnr = psnrRgb(cr, gr, &maxAbs);
-    RecordProperty("psnr_db_cli_vdb_64x36", std::to_string(psnr));
-    std::printf("[ rt parity ] cli vdb 64x36: PSNR %.2f dB\n", psnr);
-    EXPECT_GE(psnr, 45.0);
+    const CliParity r = rtAgainstRenderCli(scene, 1, dir.string(), sets, sets, "cli_vdb_64x36");
+    EXPECT_EQ(r.g.width, 64);
+    EXPECT_GE(r.psnr, 45.0);
     const CliRun e = runNimbus("rt " + scene + " --frames 1 --explain" + sets);
     EXPECT_EQ(e.exitCode, 0) << e.output;
     EXPECT_TRUE(contains(e.output, "#define RT_VDB 1")) << e.output;
@@ -1285,8 +1296,8 @@ TEST(RtCli, VdbWritesTheSameExrAsRender) {
 namespace {
 
 const std::string kSdfCloud = std::string(NIMBUS_SOURCE_DIR) + "/examples/scenes/sdf_cloud.toml";
-/// sdf_cloud.toml as the GPU path renders it: the sun's transmittance marched per sample (the
-/// scene's light-attenuation volume is not on the GPU).
+/// sdf_cloud.toml with the sun's transmittance marched per sample (the scene ships with the
+/// light-attenuation volume): the case that needs the march in slices on llvmpipe.
 const std::string kSdfShadowMarch = "render.shadow=\"march\"";
 
 /// A tree with every primitive and operator kind, smooth and hard blends, rotated, translated and
@@ -1473,8 +1484,8 @@ TEST(RtSdfShader, HasTheTreeOnlyForSdf) {
     const rt::MarchFeatures g = rt::marchFeatures(cumulus.scene(), cumulus.plan(1));
     EXPECT_FALSE(g.sdf);
     EXPECT_TRUE(contains(g.defines(), "#define RT_SDF 0\n"));
-    // nimbus rt renders SDF clouds; the light-attenuation volume the scene ships with is refused
-    // by its own key
+    // nimbus rt renders SDF clouds, with shadow marches and with the light-attenuation volume
+    // the scene ships with (RT_LIGHT_VOLUME)
     auto keysOf = [](const SceneDesc& sc) {
         std::string keys;
         for (const rt::Unsupported& u : rt::unsupported(sc, planFrame(sc, 1))) keys += u.key + ";";
@@ -1483,7 +1494,8 @@ TEST(RtSdfShader, HasTheTreeOnlyForSdf) {
     EXPECT_EQ(keysOf(session.scene()), "");
     host::Session shipped;
     ASSERT_TRUE(shipped.load(kSdfCloud, {}).ok());
-    EXPECT_EQ(keysOf(shipped.scene()), "render.shadow;");
+    EXPECT_EQ(keysOf(shipped.scene()), "");
+    EXPECT_TRUE(rt::marchFeatures(shipped.scene(), shipped.plan(1)).lightVolume);
 }
 
 // sdf_cloud.toml at 160x90 with the sun's shadow marched: as it ships otherwise (the diffusion
@@ -1519,28 +1531,9 @@ TEST(RtCli, SdfWritesTheSameExrAsRender) {
     TempDir dir("rt_cli_sdf");
     const std::string sets = " --set camera.width=64 --set camera.height=36 --set "
                              "'render.shadow=\"march\"' --set 'output.preview=\"\"'";
-    const CliRun gpu =
-        runNimbus("rt " + kSdfCloud + " --frames 1 -o " + dir.string() + "/gpu.####.exr" + sets);
-    ASSERT_EQ(gpu.exitCode, 0) << gpu.output;
-    const CliRun cpu = runNimbus("render " + kSdfCloud + " --frames 1 --progress none -o " +
-                                 dir.string() + "/cpu.####.exr" + sets);
-    ASSERT_EQ(cpu.exitCode, 0) << cpu.output;
-    const io::ExrImage g = io::readExr(dir.string() + "/gpu.0001.exr");
-    const io::ExrImage c = io::readExr(dir.string() + "/cpu.0001.exr");
-    ASSERT_EQ(g.width, 64);
-    ASSERT_EQ(c.width, 64);
-    std::vector<float> gr, cr;
-    for (int y = 0; y < g.height; ++y)
-        for (int x = 0; x < g.width; ++x)
-            for (const char* ch : {"R", "G", "B", "A"}) {
-                gr.push_back(g.at(x, y, g.channelIndex(ch)));
-                cr.push_back(c.at(x, y, c.channelIndex(ch)));
-            }
-    double maxAbs = 0.0;
-    const double psnr = psnrRgb(cr, gr, &maxAbs);
-    RecordProperty("psnr_db_cli_sdf_64x36", std::to_string(psnr));
-    std::printf("[ rt parity ] cli sdf_cloud 64x36: PSNR %.2f dB\n", psnr);
-    EXPECT_GE(psnr, 45.0);
+    const CliParity r = rtAgainstRenderCli(kSdfCloud, 1, dir.string(), sets, sets, "cli_sdf_64x36");
+    EXPECT_EQ(r.g.width, 64);
+    EXPECT_GE(r.psnr, 45.0);
     const CliRun e = runNimbus("rt " + kSdfCloud + " --frames 1 --explain" + sets);
     EXPECT_EQ(e.exitCode, 0) << e.output;
     EXPECT_TRUE(contains(e.output, "#define RT_SDF 1")) << e.output;

@@ -8,9 +8,10 @@
 # The set: the default scene as shipped (diffusion grid) and with multiple scattering off, at
 # 1280x720 and 1920x1080; at 1920x1080 also the noise evaluated directly, empty-space skipping
 # off, and the step schedule x2 and x4 (what temporal accumulation renders per frame); smoke1 as
-# shipped at both sizes; at 480x270 the accuracy set (direct noise, one sample per pixel, step
-# x1, x2, x4; the default scene as shipped) compared with the CPU by rt_gpu_accuracy.sh; the
-# same with render.shadow = "volume" (the light-attenuation volume, below).
+# shipped at both sizes; the same with render.shadow = "volume" (the light-attenuation volume)
+# and its step multiples; the SDF cloud and the dragon; at 480x270 the accuracy set (one sample
+# per pixel, step x1 to x4, shadow marches and the light volume) that rt_gpu_accuracy.py
+# compares with the CPU. The dragon needs the shared data folder beside the repository.
 set -euo pipefail
 nimbus=${1:?usage: rt_gpu_exports.sh path/to/nimbus OUT_DIR}
 out=${2:?usage: rt_gpu_exports.sh path/to/nimbus OUT_DIR}
@@ -71,6 +72,17 @@ for m in 1 1.5 2 4; do
 done
 export_one cumulus_volume_480x270 "$cumulus" 480x270 "${volume[@]}"
 export_one smoke1_volume_480x270 "$smoke1" 480x270 "${volume[@]}"
+# the SDF cloud (as it ships: the light volume; and with shadow marches) and the dragon (a
+# production VDB, the shared data folder; as it ships: shadow marches, no multiple scattering;
+# and with the light volume)
+sdf="$here/examples/scenes/sdf_cloud.toml"
+dragon="$here/examples/scenes/dragon.toml"
+for size in 1280x720 1920x1080; do
+    export_one "sdf_cloud_${size}" "$sdf" "$size"
+    export_one "dragon_${size}" "$dragon" "$size"
+    export_one "dragon_volume_${size}" "$dragon" "$size" "${volume[@]}"
+done
+export_one sdf_cloud_march_1920x1080 "$sdf" 1920x1080 --set 'render.shadow="march"'
 # data files stored once: store/<sha256>, links.txt lines "<export>/<file> <sha256>"
 : >"$out/links.txt"
 for f in "$out"/*/*.bin; do

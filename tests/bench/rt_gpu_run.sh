@@ -67,6 +67,13 @@ for m in 1.5 2 4; do
     run "cumulus_volume_m${m}_1920x1080" 1
     run "cumulus_volume_m${m}_1920x1080" 8
 done
+# the SDF cloud and the dragon
+for size in 1280x720 1920x1080; do
+    run "sdf_cloud_${size}" 1
+    run "dragon_${size}" 1
+    run "dragon_volume_${size}" 1
+done
+run sdf_cloud_march_1920x1080 1
 # the accuracy set: few frames, the last frame's image kept
 for m in 1 2 4; do
     for n in 1 4 16; do
