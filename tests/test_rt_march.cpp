@@ -244,6 +244,20 @@ std::vector<float> runLookups(const rt::MarchFeatures& f, const rt::RtMarchParam
     return out;
 }
 
+/// @p n points (w 0) spread over box @p b grown by 10% of its size per side, from a pcg sequence
+/// seeded with @p seed.
+std::vector<glm::vec4> pointsAround(const Box& b, int n, std::uint32_t seed) {
+    const vec3 margin = 0.1f * (b.hi - b.lo);
+    std::vector<glm::vec4> in;
+    auto u = [&] { return kern::hashToUnit(seed = kern::pcg(seed)); };
+    for (int k = 0; k < n; ++k) {
+        const vec3 t(u(), u(), u());
+        const vec3 p = b.lo - margin + t * (b.hi - b.lo + 2.0f * margin);
+        in.emplace_back(p.x, p.y, p.z, 0.0f);
+    }
+    return in;
+}
+
 } // namespace
 
 // The Lorenz-Mie table as the shader reads it (march_data.glsl: rtMieEval) equals
@@ -327,16 +341,7 @@ TEST(RtMarchLookups, GridsAsTheCpu) {
     phi.bind(4);
     photons.bind(5);
     tau.bind(6);
-    const Box b = grids.diffusion.bounds;
-    const vec3 margin = 0.1f * (b.hi - b.lo);
-    std::vector<glm::vec4> in;
-    std::uint32_t h = 12345u;
-    auto u = [&] { return kern::hashToUnit(h = kern::pcg(h)); };
-    for (int k = 0; k < 4096; ++k) {
-        const vec3 t(u(), u(), u());
-        const vec3 p = b.lo - margin + t * (b.hi - b.lo + 2.0f * margin);
-        in.emplace_back(p.x, p.y, p.z, 0.0f);
-    }
+    std::vector<glm::vec4> in = pointsAround(grids.diffusion.bounds, 4096, 12345u);
     const std::vector<float> out =
         runLookups(f, P, in, 15,
                    "vec3 p = vec3(testIn[i].x, testIn[i].y, testIn[i].z);\n"
@@ -404,15 +409,7 @@ TEST(RtMarchLookups, LightVolumeAsTheCpu) {
     const gl::StorageBuffer tau(lv->tau.size() * sizeof(float), lv->tau.data());
     tau.bind(15);
     const Box b = lv->bounds;
-    const vec3 margin = 0.1f * (b.hi - b.lo);
-    std::vector<glm::vec4> in;
-    std::uint32_t h = 777u;
-    auto u = [&] { return kern::hashToUnit(h = kern::pcg(h)); };
-    for (int k = 0; k < 4096; ++k) {
-        const vec3 t(u(), u(), u());
-        const vec3 p = b.lo - margin + t * (b.hi - b.lo + 2.0f * margin);
-        in.emplace_back(p.x, p.y, p.z, 0.0f);
-    }
+    std::vector<glm::vec4> in = pointsAround(b, 4096, 777u);
     const vec3 c = 0.5f * (b.lo + b.hi);
     for (int k = 0; k < 8; ++k)
         in.emplace_back(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z,
