@@ -13,7 +13,9 @@ usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR 
    `--turn 20,5` (degrees) against `nimbus rt` with camera.position / camera.look_at set to the
    same view: >= 45 dB each; and the moved view against the unmoved reference must be far below
    (< 30 dB), so the comparison can tell views apart. Then a 4-pass export (4 pixel samples, no
-   sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB.
+   sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB. Temporal accumulation:
+   6 frames with --accumulate 4 against `nimbus rt --accumulate 4` (>= 45 dB) and far from one
+   pass (< 60 dB); --accumulate 0 exits 2.
 4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
    and a message naming the file and the problem; a march.comp that does not compile: exit 3 and
    the compiler's log.
@@ -148,6 +150,25 @@ for tag, viewer_args, sets in cases:
         print(f"PSNR moved view against the unmoved reference: {q:.2f} dB")
         check(q < 30.0, f"the moved view differs from the unmoved one ({q:.2f} dB < 30)")
 
+# 3a. temporal accumulation over displayed frames: 6 frames of a still camera with
+# --accumulate 4 hold the sums of 4 passes keyed as `nimbus rt --accumulate 4` keys them
+acc_reference = rt_reference("rt_acc4", [], ["--accumulate", "4"])
+shot = os.path.join(SCRATCH, "accumulated.pfm")
+rc, out = xvfb([export, "--frames", "6", "--accumulate", "4", "--screenshot", shot])
+print(out.rstrip())
+check(rc == 0 and "4/4 passes accumulated" in out,
+      f"accumulated: the viewer exits 0 and reports 4/4 passes (exit {rc})")
+if rc == 0:
+    image = pixels(shot)
+    p = psnr(image, acc_reference)
+    q = psnr(image, reference)
+    print(f"PSNR 6 frames accumulating 4 passes against nimbus rt --accumulate 4: {p:.2f} dB; "
+          f"against one pass: {q:.2f} dB")
+    check(p >= 45.0, f"accumulated: PSNR {p:.2f} dB >= 45")
+    check(q < 60.0, f"accumulated: differs from one pass ({q:.2f} dB < 60)")
+rc, out = xvfb([export, "--frames", "1", "--accumulate", "0"])
+check(rc == 2 and "--accumulate wants a count" in out, f"viewer --accumulate 0: exit {rc}")
+
 # 3b. a multi-pass export (4 pixel samples: one dispatch per sample, sampleIndex at its offset),
 # no sun, transparent background, 64x36
 ms_sets = ["camera.width=64", "camera.height=36", "sun.enabled=false", "render.pixel_samples=4",
@@ -245,7 +266,7 @@ if HEADLESS:
         check(re.search(r"^frame GPU ms: median [0-9.]+", out, re.M) is not None and
               "(0 non-finite values)" in out, f"headless, accumulate {n}: frame times, no NaN")
         shots[n] = pixels(shot)
-        ref = reference if n == 1 else rt_reference("rt_acc4", [], ["--accumulate", "4"])
+        ref = reference if n == 1 else acc_reference
         p = psnr(shots[n], ref)
         print(f"PSNR headless, accumulate {n}, against nimbus rt: {p:.2f} dB")
         check(p >= 45.0, f"headless, accumulate {n}: PSNR {p:.2f} dB >= 45")

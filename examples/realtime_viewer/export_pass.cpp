@@ -176,15 +176,6 @@ void putMember(ExportFolder& ex, const ExportPass& p, const Member& m, const voi
 }
 } // namespace
 
-void setSampleIndex(ExportFolder& ex, const ExportPass& p, int pass) {
-    const std::int32_t k = pass;
-    putMember(ex, p, *p.sampleIndex, &k);
-}
-
-void setFrameKey(ExportFolder& ex, const ExportPass& p, std::uint32_t key) {
-    putMember(ex, p, *p.frameKey, &key);
-}
-
 void zeroWorkBuffers(const ExportFolder& ex, const ExportPass& p) {
     for (std::size_t k = 0; k < p.work.size(); ++k) {
         if (!ex.buffers[k].data.empty()) continue; // data the pass reads
@@ -193,6 +184,22 @@ void zeroWorkBuffers(const ExportFolder& ex, const ExportPass& p) {
                           nullptr);
     }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+}
+
+void dispatchPass(ExportFolder& ex, const ExportPass& p, int a) {
+    glUseProgram(p.march);
+    if (p.frameKey) {
+        const std::uint32_t key = accumulationKey(p.exportedKey, a);
+        putMember(ex, p, *p.frameKey, &key);
+    }
+    for (int pass = 0; pass < ex.passes; ++pass) {
+        if (p.sampleIndex) {
+            const std::int32_t k = pass;
+            putMember(ex, p, *p.sampleIndex, &k);
+        }
+        glDispatchCompute(ex.groups[0], ex.groups[1], ex.groups[2]);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    }
 }
 
 void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate) {

@@ -51,12 +51,28 @@ bool createExportPass(ExportFolder& ex, ExportPass& p, std::string* log);
 /// Uploads ex.params whole (after the host edited members, e.g. the camera).
 void uploadParams(const ExportFolder& ex, const ExportPass& p);
 
-/// One frame's march: the work buffers zeroed, then for each of @p accumulate passes (key
-/// accumulationKey(exported key, a); needs the frameKey member when > 1) each pixel-sample pass
-/// dispatched into the same sums. @p passMarker, when given, is called before each
-/// accumulation pass's dispatches and once after the last (accumulate + 1 calls, for timers).
+/// Zeroes the buffers the pass writes (the output sums, the counters): the start of a frame or
+/// of an accumulation.
+void zeroWorkBuffers(const ExportFolder& ex, const ExportPass& p);
+
+/// Accumulation pass @p a of a frame into the current sums: the frame key
+/// accumulationKey(exported key, a) (when the block has frameKey; pass 0 keeps the exported
+/// key), then every pixel-sample pass dispatched.
+void dispatchPass(ExportFolder& ex, const ExportPass& p, int a);
+
+/// One frame's march: the work buffers zeroed, then @p accumulate passes (dispatchPass 0 ..
+/// accumulate - 1; needs the frameKey member when > 1) into the same sums. @p passMarker, when
+/// given, is called before each pass and once after the last (accumulate + 1 calls, for
+/// timers).
 template <class Marker>
-void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate, Marker&& passMarker);
+void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate, Marker&& passMarker) {
+    zeroWorkBuffers(ex, p);
+    for (int a = 0; a < accumulate; ++a) {
+        passMarker(a);
+        dispatchPass(ex, p, a);
+    }
+    passMarker(accumulate);
+}
 void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate);
 
 /// Resolves the output buffer (RGBA = sums / sum w) into p.image (binds p.framebuffer and sets
@@ -68,27 +84,5 @@ std::vector<float> readImage(const ExportFolder& ex, const ExportPass& p);
 
 /// A PFM (linear RGB, little-endian, rows bottom to top) of @p rgbaBottomUp.
 bool writePfm(const std::string& path, int w, int h, const std::vector<float>& rgbaBottomUp);
-
-// --- template body ------------------------------------------------------------------------------
-
-void setSampleIndex(ExportFolder& ex, const ExportPass& p, int pass);
-void setFrameKey(ExportFolder& ex, const ExportPass& p, std::uint32_t key);
-void zeroWorkBuffers(const ExportFolder& ex, const ExportPass& p);
-
-template <class Marker>
-void dispatchFrame(ExportFolder& ex, const ExportPass& p, int accumulate, Marker&& passMarker) {
-    zeroWorkBuffers(ex, p);
-    glUseProgram(p.march);
-    for (int a = 0; a < accumulate; ++a) {
-        passMarker(a);
-        if (p.frameKey) setFrameKey(ex, p, accumulationKey(p.exportedKey, a));
-        for (int pass = 0; pass < ex.passes; ++pass) {
-            if (p.sampleIndex) setSampleIndex(ex, p, pass);
-            glDispatchCompute(ex.groups[0], ex.groups[1], ex.groups[2]);
-            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        }
-    }
-    passMarker(accumulate);
-}
 
 } // namespace viewer

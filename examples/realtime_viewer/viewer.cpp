@@ -32,6 +32,7 @@ constexpr int kExitGl = 3;    // no window / GL 4.3 core context, a shader that 
 const char* const kUsage =
     "usage: nimbus_viewer EXPORT_DIR [--frames N] [--screenshot FILE.pfm|FILE.ppm]...\n"
     "                     [--window WxH] [--move RIGHT,UP,FORWARD] [--turn YAW,PITCH]\n"
+    "                     [--accumulate N]\n"
     "  EXPORT_DIR     a folder written by `nimbus export-glsl scene.toml -o EXPORT_DIR`\n"
     "  --frames N     render N frames, write the screenshots of the last one, exit\n"
     "  --screenshot   .pfm: the resolved linear RGB at the export's size (working space);\n"
@@ -40,6 +41,10 @@ const char* const kUsage =
     "  --move R,U,F   move the camera before the first frame (world units: along its right,\n"
     "                 the world's up, its forward), as the keys do\n"
     "  --turn Y,P     turn the camera before the first frame (degrees: yaw left, pitch up)\n"
+    "  --accumulate N temporal accumulation: while the camera stands still each frame adds one\n"
+    "                 pass with its own jitter (the keys of `nimbus rt --accumulate`) until N\n"
+    "                 are summed, then the march rests; a move starts again (default 1: every\n"
+    "                 frame one pass, nothing kept)\n"
     "controls: mouse drag (left button) look; W/S forward/back; A/D left/right; Q/E down/up;\n"
     "  Shift x5 speed, Ctrl x0.2; +/- (or wheel) double/halve the speed; [/] exposure;\n"
     "  R reset the camera; P screenshots; Esc quit\n";
@@ -177,6 +182,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> screenshots;
     int windowW = 0, windowH = 0;
     float move[3] = {0.0f, 0.0f, 0.0f}, turn[2] = {0.0f, 0.0f};
+    int accumulate = 1;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         const bool hasValue = i + 1 < argc;
@@ -199,6 +205,12 @@ int main(int argc, char** argv) {
             if (std::sscanf(argv[++i], "%dx%d", &windowW, &windowH) != 2 || windowW < 1 ||
                 windowH < 1) {
                 std::fprintf(stderr, "nimbus_viewer: --window wants WxH, e.g. 1280x720\n");
+                return kExitUsage;
+            }
+        } else if (a == "--accumulate" && hasValue) {
+            accumulate = std::atoi(argv[++i]);
+            if (accumulate < 1 || accumulate > 4096) {
+                std::fprintf(stderr, "nimbus_viewer: --accumulate wants a count in 1..4096\n");
                 return kExitUsage;
             }
         } else if (a == "--move" && hasValue) {
@@ -237,7 +249,10 @@ int main(int argc, char** argv) {
                      viewer::findMember(ex, "camUp", "vec4", &error)};
     const viewer::Member* sampleIndex =
         ex.passes > 1 ? viewer::findMember(ex, "sampleIndex", "int", &error) : nullptr;
-    if (!cm.origin || !cm.forward || !cm.right || !cm.up || (ex.passes > 1 && !sampleIndex)) {
+    const viewer::Member* frameKey =
+        accumulate > 1 ? viewer::findMember(ex, "frameKey", "uint", &error) : nullptr;
+    if (!cm.origin || !cm.forward || !cm.right || !cm.up || (ex.passes > 1 && !sampleIndex) ||
+        (accumulate > 1 && !frameKey)) {
         std::fprintf(stderr, "nimbus_viewer: %s/%s\n", dir.c_str(), error.c_str());
         return kExitUsage;
     }
@@ -312,6 +327,7 @@ int main(int argc, char** argv) {
 
     float exposure = 1.0f;
     bool timerPending = false;
+    int accumulated = 0; // passes in the sums since the camera last moved
     double lastTime = glfwGetTime(), reportStart = lastTime, marchSeconds = 0.0;
     int reportFrames = 0, marchFrames = 0;
     std::vector<double> frameMs;
@@ -372,19 +388,27 @@ int main(int argc, char** argv) {
             writeCamera(ex.params, cm, camera);
             viewer::uploadParams(ex, pass);
             cameraChanged = false;
+            accumulated = 0; // the sums restart at the new view
         }
 
-        // --- the march: work buffers zeroed, one dispatch per pass ---
+        // --- the march: one pass per frame (one dispatch per pixel sample); without
+        // accumulation into zeroed sums every frame, with it into the sums of the frames since
+        // the camera stopped, until `accumulate` passes are in ---
         if (timerPending) {
             GLuint64 ns = 0;
             glGetQueryObjectui64v(timer, GL_QUERY_RESULT, &ns);
             marchSeconds += double(ns) * 1e-9;
             ++marchFrames;
+            timerPending = false;
         }
-        glBeginQuery(GL_TIME_ELAPSED, timer);
-        viewer::dispatchFrame(ex, pass, 1);
-        glEndQuery(GL_TIME_ELAPSED);
-        timerPending = true;
+        if (accumulate == 1 || accumulated < accumulate) {
+            glBeginQuery(GL_TIME_ELAPSED, timer);
+            if (accumulate == 1 || accumulated == 0) viewer::zeroWorkBuffers(ex, pass);
+            viewer::dispatchPass(ex, pass, accumulate == 1 ? 0 : accumulated);
+            glEndQuery(GL_TIME_ELAPSED);
+            timerPending = true;
+            accumulated = std::min(accumulated + 1, accumulate);
+        }
 
         // --- resolve into the float image, then show it letterboxed ---
         viewer::resolveFrame(ex, pass);
@@ -437,10 +461,17 @@ int main(int argc, char** argv) {
         ++reportFrames;
         if (end - reportStart >= 1.0 || (frames > 0 && frame == frames - 1)) {
             const double ms = (end - reportStart) * 1e3 / reportFrames;
-            char march[64] = "march: no timer result yet";
+            char march[96] = "march: no timer result yet";
             if (marchFrames > 0) // (the timer is read one frame late)
                 std::snprintf(march, sizeof march, "march %.1f ms on the GPU",
                               marchSeconds * 1e3 / marchFrames);
+            else if (accumulate > 1 && accumulated == accumulate)
+                std::snprintf(march, sizeof march, "march at rest");
+            if (accumulate > 1) {
+                const std::size_t used = std::strlen(march);
+                std::snprintf(march + used, sizeof march - used, ", %d/%d passes accumulated",
+                              accumulated, accumulate);
+            }
             char text[256];
             std::snprintf(text, sizeof text,
                           "%.1f ms per frame (%.2f fps), %s, %dx%d, %d pass(es), speed %.3g/s", ms,
