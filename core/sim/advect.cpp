@@ -501,6 +501,26 @@ struct Vec8 {
     i1 = _mm256_min_epi32(_mm256_add_epi32(i0, _mm256_set1_epi32(1)), _mm256_set1_epi32(n - 1));
 }
 
+/// Whether every lane of @p v holds the same value.
+[[gnu::always_inline]] inline bool sameLanes(__m256i v) {
+    const __m256i first = _mm256_permutevar8x32_epi32(v, _mm256_setzero_si256());
+    return _mm256_movemask_epi8(_mm256_cmpeq_epi32(v, first)) == -1;
+}
+
+/// Whether lane k of @p i0 is lane 0's value + k and @p i1 is @p i0 + 1 in every lane (8
+/// consecutive corners along x, their upper neighbours unclamped); *first = lane 0's value.
+[[gnu::always_inline]] inline bool consecutiveLanes(__m256i i0, __m256i i1, int* first) {
+    *first = _mm_cvtsi128_si32(_mm256_castsi256_si128(i0));
+    const __m256i want0 =
+        _mm256_add_epi32(_mm256_set1_epi32(*first), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    const __m256i want1 = _mm256_add_epi32(want0, _mm256_set1_epi32(1));
+    return _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(i0, want0),
+                                                 _mm256_cmpeq_epi32(i1, want1))) == -1;
+}
+
+/// Component a of the 8 consecutive vec3 entries from p (an AoS to SoA shuffle).
+[[gnu::always_inline]] inline __m256 channel8(const vec3* p, int a);
+
 /// gridComponent() in 8 lanes: component c of the grid at grid position q.
 [[gnu::always_inline]] inline __m256 gridComponent8(const VelocityGrid& g, int c, __m256 qx,
                                                     __m256 qy, __m256 qz) {
@@ -518,6 +538,23 @@ struct Vec8 {
                 _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx), three),
             cc);
     };
+    // 8 consecutive corners in one row per (y, z) corner (a smooth velocity near the block):
+    // plain loads and a shuffle instead of gathers, the same values
+    int first = 0;
+    if (sameLanes(y0) && sameLanes(y1) && sameLanes(z0) && sameLanes(z1) &&
+        consecutiveLanes(x0, x1, &first)) {
+        const int ya = _mm_cvtsi128_si32(_mm256_castsi256_si128(y0));
+        const int yb = _mm_cvtsi128_si32(_mm256_castsi256_si128(y1));
+        const int za = _mm_cvtsi128_si32(_mm256_castsi256_si128(z0));
+        const int zb = _mm_cvtsi128_si32(_mm256_castsi256_si128(z1));
+        auto row = [&](int y, int z) { return g.v.data() + g.index(first, y, z); };
+        const vec3 *r00 = row(ya, za), *r10 = row(yb, za), *r01 = row(ya, zb), *r11 = row(yb, zb);
+        const __m256 c00 = lerp8(channel8(r00, c), channel8(r00 + 1, c), fx);
+        const __m256 c10 = lerp8(channel8(r10, c), channel8(r10 + 1, c), fx);
+        const __m256 c01 = lerp8(channel8(r01, c), channel8(r01 + 1, c), fx);
+        const __m256 c11 = lerp8(channel8(r11, c), channel8(r11 + 1, c), fx);
+        return lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz);
+    }
     const float* base = &g.v.data()->x;
     const __m256i x03 = _mm256_mullo_epi32(x0, three), x13 = _mm256_mullo_epi32(x1, three);
     auto at = [&](__m256i row, __m256i x3) {
@@ -551,7 +588,6 @@ template <VelocityKind K>
                 _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, qz), ih)};
 }
 
-/// Component a of the 8 consecutive vec3 entries from p (an AoS to SoA shuffle).
 [[gnu::always_inline]] inline __m256 channel8(const vec3* p, int a) {
     const float* f = &p->x;
     const __m256 m0 = _mm256_loadu_ps(f), m1 = _mm256_loadu_ps(f + 8), m2 = _mm256_loadu_ps(f + 16);
@@ -636,7 +672,18 @@ template <VelocityKind K>
         return _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx);
     };
     const float* base = d.v.data();
+    // every corner inside and 8 consecutive along x in one row per (y, z) corner: plain loads
+    // instead of masked gathers, the same values
+    const __m256i all =
+        _mm256_and_si256(_mm256_and_si256(_mm256_and_si256(ix0, ix1), _mm256_and_si256(iy0, iy1)),
+                         _mm256_and_si256(iz0, iz1));
+    int first = 0;
+    const bool rows = _mm256_movemask_epi8(all) == -1 && sameLanes(y0) && sameLanes(z0) &&
+                      consecutiveLanes(x0, x1, &first);
     auto at = [&](__m256i row, __m256i x, __m256i in) {
+        if (rows) // (y1 = y0 + 1 and z1 = z0 + 1 in every lane, so their rows are uniform too)
+            return _mm256_loadu_ps(base + _mm_cvtsi128_si32(_mm256_castsi256_si128(row)) +
+                                   _mm_cvtsi128_si32(_mm256_castsi256_si128(x)));
         return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, _mm256_add_epi32(row, x),
                                         _mm256_castsi256_ps(in), 4);
     };
