@@ -99,6 +99,7 @@ bool createExportPass(ExportFolder& ex, ExportPass& p, std::string* log) {
     if (ex.passes > 1 && !p.sampleIndex) return false;
     p.frameKey = findMember(ex, "frameKey", "uint", &unused);
     if (p.frameKey) std::memcpy(&p.exportedKey, ex.params.data() + p.frameKey->offset, 4);
+    p.glFailure = true; // from here on every failure is GL's
 
     p.march = linkProgram({compileShader(GL_COMPUTE_SHADER, ex.shader, "march.comp", log)},
                           "march.comp", log);

@@ -42,6 +42,9 @@ struct ExportPass {
     const Member* sampleIndex = nullptr; ///< when the export has more than one pass
     const Member* frameKey = nullptr;    ///< when present: accumulation passes re-key it
     std::uint32_t exportedKey = 0;       ///< the frame key params.bin was written with
+    /// after a failed createExportPass: true when GL failed (a shader that does not compile or
+    /// link, a GL error, an incomplete framebuffer), false when the export lacks a member
+    bool glFailure = false;
 };
 
 /// Compiles march.comp and the resolve program, uploads the block and the data buffers, makes

@@ -192,11 +192,7 @@ int main(int argc, char** argv) {
     const auto compileStart = std::chrono::steady_clock::now();
     if (!viewer::createExportPass(ex, pass, &error)) {
         std::fprintf(stderr, "nimbus_headless: %s/%s\n", dir.c_str(), error.c_str());
-        return error.find("compile") != std::string::npos ||
-                       error.find("link") != std::string::npos ||
-                       error.find("GL error") != std::string::npos
-                   ? kExitGl
-                   : kExitUsage;
+        return pass.glFailure ? kExitGl : kExitUsage;
     }
     if (accumulate > 1 && !pass.frameKey) {
         std::fprintf(stderr,
