@@ -518,17 +518,76 @@ struct Vec8 {
                                                  _mm256_cmpeq_epi32(i1, want1))) == -1;
 }
 
-/// Component a of the 8 consecutive vec3 entries from p (an AoS to SoA shuffle).
-[[gnu::always_inline]] inline __m256 channel8(const vec3* p, int a);
+/// Component a of a Vec8.
+[[gnu::always_inline]] inline __m256 comp(const Vec8& v, int a) {
+    return a == 0 ? v.x : a == 1 ? v.y : v.z;
+}
 
-/// gridComponent() in 8 lanes: component c of the grid at grid position q.
-[[gnu::always_inline]] inline __m256 gridComponent8(const VelocityGrid& g, int c, __m256 qx,
-                                                    __m256 qy, __m256 qz) {
+/// The 8 consecutive vec3 entries from p as three channels (an AoS to SoA shuffle).
+[[gnu::always_inline]] inline Vec8 channels8(const vec3* p) {
+    const float* f = &p->x;
+    const __m256 m0 = _mm256_loadu_ps(f), m1 = _mm256_loadu_ps(f + 8), m2 = _mm256_loadu_ps(f + 16);
+    // x_i = f[3 i]: lanes f0 f9 f18 f3 f12 f21 f6 f15
+    const __m256 x =
+        _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x92), m2, 0x24),
+                                 _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+    // y_i = f[3 i + 1]: lanes f16 f1 f10 f19 f4 f13 f22 f7
+    const __m256 y =
+        _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x24), m2, 0x49),
+                                 _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+    // z_i = f[3 i + 2]: lanes f8 f17 f2 f11 f20 f5 f14 f23
+    const __m256 z =
+        _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x49), m2, 0x92),
+                                 _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+    return {x, y, z};
+}
+
+/// The corners and weights of a trilinear grid lookup at grid positions q (gridCorner() per
+/// axis) and, where they are 8 consecutive entries of one row per (y, z) corner (a smooth
+/// velocity near the block), those four rows at lane 0's x0; else row[0] is null.
+struct GridCorners8 {
     __m256i x0, x1, y0, y1, z0, z1;
     __m256 fx, fy, fz;
-    gridCorner8(qx, g.res.x, x0, x1, fx);
-    gridCorner8(qy, g.res.y, y0, y1, fy);
-    gridCorner8(qz, g.res.z, z0, z1, fz);
+    const vec3* row[4]; ///< (y0, z0), (y1, z0), (y0, z1), (y1, z1)
+};
+
+[[gnu::always_inline]] inline GridCorners8 gridCorners8(const VelocityGrid& g, __m256 qx, __m256 qy,
+                                                        __m256 qz) {
+    GridCorners8 k;
+    gridCorner8(qx, g.res.x, k.x0, k.x1, k.fx);
+    gridCorner8(qy, g.res.y, k.y0, k.y1, k.fy);
+    gridCorner8(qz, g.res.z, k.z0, k.z1, k.fz);
+    int first = 0;
+    k.row[0] = nullptr;
+    if (sameLanes(k.y0) && sameLanes(k.y1) && sameLanes(k.z0) && sameLanes(k.z1) &&
+        consecutiveLanes(k.x0, k.x1, &first)) {
+        const int ya = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.y0));
+        const int yb = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.y1));
+        const int za = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.z0));
+        const int zb = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.z1));
+        auto row = [&](int y, int z) { return g.v.data() + g.index(first, y, z); };
+        k.row[0] = row(ya, za);
+        k.row[1] = row(yb, za);
+        k.row[2] = row(ya, zb);
+        k.row[3] = row(yb, zb);
+    }
+    return k;
+}
+
+/// The trilinear blend of component c from the corners' values: lo[r] / hi[r] the values at x0
+/// / x1 of row r (as GridCorners8::row), in gridComponent()'s order (x, then y, then z).
+[[gnu::always_inline]] inline __m256 trilerp8(const GridCorners8& k, const Vec8 lo[4],
+                                              const Vec8 hi[4], int c) {
+    const __m256 c00 = lerp8(comp(lo[0], c), comp(hi[0], c), k.fx);
+    const __m256 c10 = lerp8(comp(lo[1], c), comp(hi[1], c), k.fx);
+    const __m256 c01 = lerp8(comp(lo[2], c), comp(hi[2], c), k.fx);
+    const __m256 c11 = lerp8(comp(lo[3], c), comp(hi[3], c), k.fx);
+    return lerp8(lerp8(c00, c10, k.fy), lerp8(c01, c11, k.fy), k.fz);
+}
+
+/// gridComponent() in 8 lanes from corners whose rows are not consecutive: gathers.
+[[gnu::always_inline]] inline __m256 gatherComponent8(const VelocityGrid& g, const GridCorners8& k,
+                                                      int c) {
     const __m256i rx = _mm256_set1_epi32(g.res.x), ry = _mm256_set1_epi32(g.res.y);
     const __m256i three = _mm256_set1_epi32(3), cc = _mm256_set1_epi32(c);
     // float offset of (0, y, z), component c: 3 ((z ny + y) nx) + c
@@ -538,35 +597,48 @@ struct Vec8 {
                 _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx), three),
             cc);
     };
-    // 8 consecutive corners in one row per (y, z) corner (a smooth velocity near the block):
-    // plain loads and a shuffle instead of gathers, the same values
-    int first = 0;
-    if (sameLanes(y0) && sameLanes(y1) && sameLanes(z0) && sameLanes(z1) &&
-        consecutiveLanes(x0, x1, &first)) {
-        const int ya = _mm_cvtsi128_si32(_mm256_castsi256_si128(y0));
-        const int yb = _mm_cvtsi128_si32(_mm256_castsi256_si128(y1));
-        const int za = _mm_cvtsi128_si32(_mm256_castsi256_si128(z0));
-        const int zb = _mm_cvtsi128_si32(_mm256_castsi256_si128(z1));
-        auto row = [&](int y, int z) { return g.v.data() + g.index(first, y, z); };
-        const vec3 *r00 = row(ya, za), *r10 = row(yb, za), *r01 = row(ya, zb), *r11 = row(yb, zb);
-        const __m256 c00 = lerp8(channel8(r00, c), channel8(r00 + 1, c), fx);
-        const __m256 c10 = lerp8(channel8(r10, c), channel8(r10 + 1, c), fx);
-        const __m256 c01 = lerp8(channel8(r01, c), channel8(r01 + 1, c), fx);
-        const __m256 c11 = lerp8(channel8(r11, c), channel8(r11 + 1, c), fx);
-        return lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz);
-    }
     const float* base = &g.v.data()->x;
-    const __m256i x03 = _mm256_mullo_epi32(x0, three), x13 = _mm256_mullo_epi32(x1, three);
+    const __m256i x03 = _mm256_mullo_epi32(k.x0, three), x13 = _mm256_mullo_epi32(k.x1, three);
     auto at = [&](__m256i row, __m256i x3) {
         return _mm256_i32gather_ps(base, _mm256_add_epi32(row, x3), 4);
     };
-    const __m256i r00 = rowOf(y0, z0), r10 = rowOf(y1, z0), r01 = rowOf(y0, z1),
-                  r11 = rowOf(y1, z1);
-    const __m256 c00 = lerp8(at(r00, x03), at(r00, x13), fx);
-    const __m256 c10 = lerp8(at(r10, x03), at(r10, x13), fx);
-    const __m256 c01 = lerp8(at(r01, x03), at(r01, x13), fx);
-    const __m256 c11 = lerp8(at(r11, x03), at(r11, x13), fx);
-    return lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz);
+    const __m256i r00 = rowOf(k.y0, k.z0), r10 = rowOf(k.y1, k.z0), r01 = rowOf(k.y0, k.z1),
+                  r11 = rowOf(k.y1, k.z1);
+    const __m256 c00 = lerp8(at(r00, x03), at(r00, x13), k.fx);
+    const __m256 c10 = lerp8(at(r10, x03), at(r10, x13), k.fx);
+    const __m256 c01 = lerp8(at(r01, x03), at(r01, x13), k.fx);
+    const __m256 c11 = lerp8(at(r11, x03), at(r11, x13), k.fx);
+    return lerp8(lerp8(c00, c10, k.fy), lerp8(c01, c11, k.fy), k.fz);
+}
+
+/// The corners' values of consecutive rows: lo[r] at x0, hi[r] at x1 = x0 + 1.
+[[gnu::always_inline]] inline void rowValues8(const GridCorners8& k, Vec8 lo[4], Vec8 hi[4]) {
+    for (int r = 0; r < 4; ++r) {
+        lo[r] = channels8(k.row[r]);
+        hi[r] = channels8(k.row[r] + 1);
+    }
+}
+
+/// gridComponent() in 8 lanes: component c of the grid at grid positions q.
+[[gnu::always_inline]] inline __m256 gridComponent8(const VelocityGrid& g, int c, __m256 qx,
+                                                    __m256 qy, __m256 qz) {
+    const GridCorners8 k = gridCorners8(g, qx, qy, qz);
+    if (!k.row[0]) return gatherComponent8(g, k, c);
+    Vec8 lo[4], hi[4];
+    rowValues8(k, lo, hi); // (the two unused channels' shuffles are dead code)
+    return trilerp8(k, lo, hi, c);
+}
+
+/// gridVector() in 8 lanes: the three components at the same grid positions q, their corners
+/// and loads shared.
+[[gnu::always_inline]] inline Vec8 gridVector8(const VelocityGrid& g, __m256 qx, __m256 qy,
+                                               __m256 qz) {
+    const GridCorners8 k = gridCorners8(g, qx, qy, qz);
+    if (!k.row[0])
+        return {gatherComponent8(g, k, 0), gatherComponent8(g, k, 1), gatherComponent8(g, k, 2)};
+    Vec8 lo[4], hi[4];
+    rowValues8(k, lo, hi);
+    return {trilerp8(k, lo, hi, 0), trilerp8(k, lo, hi, 1), trilerp8(k, lo, hi, 2)};
 }
 
 /// GridSampler<K>() in 8 lanes (cells / s at density-grid index positions p).
@@ -578,30 +650,13 @@ template <VelocityKind K>
     const __m256 qy = _mm256_add_ps(_mm256_mul_ps(p.y, sc), _mm256_set1_ps(s.gOff.y));
     const __m256 qz = _mm256_add_ps(_mm256_mul_ps(p.z, sc), _mm256_set1_ps(s.gOff.z));
     const __m256 mx = _mm256_sub_ps(qx, h), my = _mm256_sub_ps(qy, h), mz = _mm256_sub_ps(qz, h);
-    if constexpr (K == VelocityKind::Centred)
-        return {_mm256_mul_ps(gridComponent8(s.g, 0, mx, my, mz), ih),
-                _mm256_mul_ps(gridComponent8(s.g, 1, mx, my, mz), ih),
-                _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, mz), ih)};
-    else
+    if constexpr (K == VelocityKind::Centred) {
+        const Vec8 u = gridVector8(s.g, mx, my, mz);
+        return {_mm256_mul_ps(u.x, ih), _mm256_mul_ps(u.y, ih), _mm256_mul_ps(u.z, ih)};
+    } else
         return {_mm256_mul_ps(gridComponent8(s.g, 0, qx, my, mz), ih),
                 _mm256_mul_ps(gridComponent8(s.g, 1, mx, qy, mz), ih),
                 _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, qz), ih)};
-}
-
-[[gnu::always_inline]] inline __m256 channel8(const vec3* p, int a) {
-    const float* f = &p->x;
-    const __m256 m0 = _mm256_loadu_ps(f), m1 = _mm256_loadu_ps(f + 8), m2 = _mm256_loadu_ps(f + 16);
-    switch (a) {
-    case 0: // x_i = f[3 i]: lanes f0 f9 f18 f3 f12 f21 f6 f15
-        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x92), m2, 0x24),
-                                        _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
-    case 1: // y_i = f[3 i + 1]: lanes f16 f1 f10 f19 f4 f13 f22 f7
-        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x24), m2, 0x49),
-                                        _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
-    default: // z_i = f[3 i + 2]: lanes f8 f17 f2 f11 f20 f5 f14 f23
-        return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x49), m2, 0x92),
-                                        _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
-    }
 }
 
 /// GridRowVelocity<K>(x) for the 8 cells x0 .. x0 + 7.
@@ -610,37 +665,56 @@ template <VelocityKind K>
     const __m256 qx =
         _mm256_add_ps(_mm256_mul_ps(px, _mm256_set1_ps(r.s.gScale)), _mm256_set1_ps(r.s.gOff.x));
     const __m256 ih = _mm256_set1_ps(r.s.invH);
-    const __m256i three = _mm256_set1_epi32(3);
-    __m256 u[3];
-    for (int a = 0; a < 3; ++a) {
+    // component a's corners along x (Centred: all three alike); its rows where the 8 entries are
+    // consecutive (a grid aligned with the density's, away from its x edges): plain loads
+    // instead of gathers, the same values
+    auto corners = [&](int a) {
         const auto& k = r.c[K == VelocityKind::Centred ? 0 : a];
         const bool shifted = K == VelocityKind::Centred || a != 0;
-        __m256i x0, x1;
-        __m256 fx;
-        gridCorner8(shifted ? _mm256_sub_ps(qx, _mm256_set1_ps(0.5f)) : qx, r.nx, x0, x1, fx);
-        const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(x0, three), _mm256_set1_epi32(a));
-        const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(x1, three), _mm256_set1_epi32(a));
-        // consecutive corners (a grid aligned with the density's, away from its x edges): the
-        // 8 entries are contiguous, read with plain loads instead of gathers (the same values)
-        const int first = _mm_cvtsi128_si32(_mm256_castsi256_si128(x0));
-        const __m256i want0 =
-            _mm256_add_epi32(_mm256_set1_epi32(first), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-        const __m256i want1 = _mm256_add_epi32(want0, _mm256_set1_epi32(1));
-        const bool contiguous =
-            _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(x0, want0),
-                                                  _mm256_cmpeq_epi32(x1, want1))) == -1;
-        auto at = [&](int row, __m256i o, int dx) {
-            return contiguous ? channel8(k.r[row] + first + dx, a)
-                              : _mm256_i32gather_ps(&k.r[row]->x, o, 4);
-        };
-        const __m256 c00 = lerp8(at(0, o0, 0), at(0, o1, 1), fx);
-        const __m256 c10 = lerp8(at(1, o0, 0), at(1, o1, 1), fx);
-        const __m256 c01 = lerp8(at(2, o0, 0), at(2, o1, 1), fx);
-        const __m256 c11 = lerp8(at(3, o0, 0), at(3, o1, 1), fx);
-        const __m256 fy = _mm256_set1_ps(k.fy), fz = _mm256_set1_ps(k.fz);
-        u[a] = _mm256_mul_ps(lerp8(lerp8(c00, c10, fy), lerp8(c01, c11, fy), fz), ih);
+        GridCorners8 g;
+        gridCorner8(shifted ? _mm256_sub_ps(qx, _mm256_set1_ps(0.5f)) : qx, r.nx, g.x0, g.x1, g.fx);
+        g.fy = _mm256_set1_ps(k.fy);
+        g.fz = _mm256_set1_ps(k.fz);
+        int first = 0;
+        const bool contiguous = consecutiveLanes(g.x0, g.x1, &first);
+        for (int row = 0; row < 4; ++row) g.row[row] = contiguous ? k.r[row] + first : nullptr;
+        return g;
+    };
+    auto gather = [&](int a, const GridCorners8& g) {
+        const auto& k = r.c[K == VelocityKind::Centred ? 0 : a];
+        const __m256i three = _mm256_set1_epi32(3), ca = _mm256_set1_epi32(a);
+        const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(g.x0, three), ca);
+        const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(g.x1, three), ca);
+        auto at = [&](int row, __m256i o) { return _mm256_i32gather_ps(&k.r[row]->x, o, 4); };
+        const __m256 c00 = lerp8(at(0, o0), at(0, o1), g.fx);
+        const __m256 c10 = lerp8(at(1, o0), at(1, o1), g.fx);
+        const __m256 c01 = lerp8(at(2, o0), at(2, o1), g.fx);
+        const __m256 c11 = lerp8(at(3, o0), at(3, o1), g.fx);
+        return lerp8(lerp8(c00, c10, g.fy), lerp8(c01, c11, g.fy), g.fz);
+    };
+    __m256 u[3];
+    if constexpr (K == VelocityKind::Centred) { // one set of corners and loads for all three
+        const GridCorners8 g = corners(0);
+        if (g.row[0]) {
+            Vec8 lo[4], hi[4];
+            rowValues8(g, lo, hi);
+            for (int a = 0; a < 3; ++a) u[a] = trilerp8(g, lo, hi, a);
+        } else {
+            for (int a = 0; a < 3; ++a) u[a] = gather(a, g);
+        }
+    } else {
+        for (int a = 0; a < 3; ++a) {
+            const GridCorners8 g = corners(a);
+            if (g.row[0]) {
+                Vec8 lo[4], hi[4];
+                rowValues8(g, lo, hi); // (the two unused channels' shuffles are dead code)
+                u[a] = trilerp8(g, lo, hi, a);
+            } else {
+                u[a] = gather(a, g);
+            }
+        }
     }
-    return {u[0], u[1], u[2]};
+    return {_mm256_mul_ps(u[0], ih), _mm256_mul_ps(u[1], ih), _mm256_mul_ps(u[2], ih)};
 }
 
 /// axis() with the zero boundary, in 8 lanes: corners, weight, and whether each is inside.
@@ -667,10 +741,6 @@ template <VelocityKind K>
     zeroAxis8(_mm256_sub_ps(p.x, h), d.res.x, x0, x1, fx, ix0, ix1);
     zeroAxis8(_mm256_sub_ps(p.y, h), d.res.y, y0, y1, fy, iy0, iy1);
     zeroAxis8(_mm256_sub_ps(p.z, h), d.res.z, z0, z1, fz, iz0, iz1);
-    const __m256i rx = _mm256_set1_epi32(d.res.x), ry = _mm256_set1_epi32(d.res.y);
-    auto rowOf = [&](__m256i y, __m256i z) {
-        return _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx);
-    };
     const float* base = d.v.data();
     // every corner inside and 8 consecutive along x in one row per (y, z) corner: plain loads
     // instead of masked gathers, the same values
@@ -678,27 +748,45 @@ template <VelocityKind K>
         _mm256_and_si256(_mm256_and_si256(_mm256_and_si256(ix0, ix1), _mm256_and_si256(iy0, iy1)),
                          _mm256_and_si256(iz0, iz1));
     int first = 0;
-    const bool rows = _mm256_movemask_epi8(all) == -1 && sameLanes(y0) && sameLanes(z0) &&
-                      consecutiveLanes(x0, x1, &first);
-    auto at = [&](__m256i row, __m256i x, __m256i in) {
-        if (rows) // (y1 = y0 + 1 and z1 = z0 + 1 in every lane, so their rows are uniform too)
-            return _mm256_loadu_ps(base + _mm_cvtsi128_si32(_mm256_castsi256_si128(row)) +
-                                   _mm_cvtsi128_si32(_mm256_castsi256_si128(x)));
-        return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, _mm256_add_epi32(row, x),
-                                        _mm256_castsi256_ps(in), 4);
-    };
-    const __m256i r00 = rowOf(y0, z0), r10 = rowOf(y1, z0), r01 = rowOf(y0, z1),
-                  r11 = rowOf(y1, z1);
-    const __m256i i00 = _mm256_and_si256(iy0, iz0), i10 = _mm256_and_si256(iy1, iz0),
-                  i01 = _mm256_and_si256(iy0, iz1), i11 = _mm256_and_si256(iy1, iz1);
-    const __m256 v000 = at(r00, x0, _mm256_and_si256(ix0, i00));
-    const __m256 v100 = at(r00, x1, _mm256_and_si256(ix1, i00));
-    const __m256 v010 = at(r10, x0, _mm256_and_si256(ix0, i10));
-    const __m256 v110 = at(r10, x1, _mm256_and_si256(ix1, i10));
-    const __m256 v001 = at(r01, x0, _mm256_and_si256(ix0, i01));
-    const __m256 v101 = at(r01, x1, _mm256_and_si256(ix1, i01));
-    const __m256 v011 = at(r11, x0, _mm256_and_si256(ix0, i11));
-    const __m256 v111 = at(r11, x1, _mm256_and_si256(ix1, i11));
+    __m256 v000, v100, v010, v110, v001, v101, v011, v111;
+    if (_mm256_movemask_epi8(all) == -1 && sameLanes(y0) && sameLanes(z0) &&
+        consecutiveLanes(x0, x1, &first)) {
+        // (y1 = y0 + 1 and z1 = z0 + 1 in every lane, so their rows are uniform too)
+        const int ya = _mm_cvtsi128_si32(_mm256_castsi256_si128(y0));
+        const int za = _mm_cvtsi128_si32(_mm256_castsi256_si128(z0));
+        const size_t nx = size_t(d.res.x), sz = nx * size_t(d.res.y);
+        const float* r00 = base + (size_t(za) * size_t(d.res.y) + size_t(ya)) * nx + first;
+        const float *r10 = r00 + nx, *r01 = r00 + sz, *r11 = r01 + nx;
+        v000 = _mm256_loadu_ps(r00);
+        v100 = _mm256_loadu_ps(r00 + 1);
+        v010 = _mm256_loadu_ps(r10);
+        v110 = _mm256_loadu_ps(r10 + 1);
+        v001 = _mm256_loadu_ps(r01);
+        v101 = _mm256_loadu_ps(r01 + 1);
+        v011 = _mm256_loadu_ps(r11);
+        v111 = _mm256_loadu_ps(r11 + 1);
+    } else {
+        const __m256i rx = _mm256_set1_epi32(d.res.x), ry = _mm256_set1_epi32(d.res.y);
+        auto rowOf = [&](__m256i y, __m256i z) {
+            return _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, ry), y), rx);
+        };
+        auto at = [&](__m256i row, __m256i x, __m256i in) {
+            return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, _mm256_add_epi32(row, x),
+                                            _mm256_castsi256_ps(in), 4);
+        };
+        const __m256i r00 = rowOf(y0, z0), r10 = rowOf(y1, z0), r01 = rowOf(y0, z1),
+                      r11 = rowOf(y1, z1);
+        const __m256i i00 = _mm256_and_si256(iy0, iz0), i10 = _mm256_and_si256(iy1, iz0),
+                      i01 = _mm256_and_si256(iy0, iz1), i11 = _mm256_and_si256(iy1, iz1);
+        v000 = at(r00, x0, _mm256_and_si256(ix0, i00));
+        v100 = at(r00, x1, _mm256_and_si256(ix1, i00));
+        v010 = at(r10, x0, _mm256_and_si256(ix0, i10));
+        v110 = at(r10, x1, _mm256_and_si256(ix1, i10));
+        v001 = at(r01, x0, _mm256_and_si256(ix0, i01));
+        v101 = at(r01, x1, _mm256_and_si256(ix1, i01));
+        v011 = at(r11, x0, _mm256_and_si256(ix0, i11));
+        v111 = at(r11, x1, _mm256_and_si256(ix1, i11));
+    }
     // std::min(a, b) is min_ps(b, a); std::max(a, b) is max_ps(b, a)
     auto mn = [&](__m256 a, __m256 b) { return _mm256_min_ps(b, a); };
     auto mx = [&](__m256 a, __m256 b) { return _mm256_max_ps(b, a); };
@@ -749,6 +837,38 @@ bool gridBlock8(const GridSampler<K>& gs, const GridRowVelocity<K>& rowU, const 
     if (hi) _mm256_storeu_ps(hi, h);
     _mm256_storeu_ps(cfl, c);
     return true;
+}
+
+/// MacCormack's correction and limiter (advect()'s correct()) for 8 cells: out = fwd + (in - back)
+/// / 2, clamped to [lo, hi] when @p limiter; the clamped cells counted and what the clamp moved
+/// and the cells' mass accumulated in cell order, in double, as the scalar loop does (the same
+/// bits).
+void correct8(const float* fwd, const float* in, const float* back, const float* lo,
+              const float* hi, bool limiter, float* out, double& massOut, double& clampMass,
+              std::uint32_t& clamped) {
+    const __m256 c =
+        _mm256_add_ps(_mm256_loadu_ps(fwd),
+                      _mm256_mul_ps(_mm256_set1_ps(0.5f),
+                                    _mm256_sub_ps(_mm256_loadu_ps(in), _mm256_loadu_ps(back))));
+    __m256 v = c;
+    if (limiter) {
+        const __m256 l = _mm256_loadu_ps(lo), h = _mm256_loadu_ps(hi);
+        v = _mm256_blendv_ps(l, v, _mm256_cmp_ps(v, l, _CMP_GE_OQ)); // !(v >= lo): lo (NaN too)
+        v = _mm256_blendv_ps(v, h, _mm256_cmp_ps(v, h, _CMP_GT_OQ)); // v > hi: hi
+    }
+    _mm256_storeu_ps(out, v);
+    alignas(32) float vs[8], cs[8];
+    _mm256_store_ps(vs, v);
+    unsigned moved = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(v, c, _CMP_NEQ_UQ))); // !(v == c)
+    if (moved) {
+        _mm256_store_ps(cs, c);
+        clamped += std::uint32_t(__builtin_popcount(moved));
+        for (; moved; moved &= moved - 1) {
+            const int k = __builtin_ctz(moved);
+            clampMass += std::fabs(double(vs[k]) - double(cs[k]));
+        }
+    }
+    for (int k = 0; k < 8; ++k) massOut += double(vs[k]);
 }
 
 #if defined(__clang__)
@@ -992,9 +1112,9 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                                         for (int k = 0; k < 8; ++k) cell(x + k);
                                         continue;
                                     }
-                                    for (int k = 0; k < 8; ++k)
-                                        correct(x + k, back[k], ws.lo[base + x + k],
-                                                ws.hi[base + x + k]);
+                                    const size_t i = base + x;
+                                    correct8(&fwd.v[i], &in.v[i], back, &ws.lo[i], &ws.hi[i],
+                                             ap.limiter, &dst.v[i], massOut, clampMass, clamped);
                                 }
                             for (; x < nx; ++x) cell(x);
                         });
