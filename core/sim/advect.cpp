@@ -501,21 +501,24 @@ struct Vec8 {
     i1 = _mm256_min_epi32(_mm256_add_epi32(i0, _mm256_set1_epi32(1)), _mm256_set1_epi32(n - 1));
 }
 
-/// Whether every lane of @p v holds the same value.
-[[gnu::always_inline]] inline bool sameLanes(__m256i v) {
-    const __m256i first = _mm256_permutevar8x32_epi32(v, _mm256_setzero_si256());
-    return _mm256_movemask_epi8(_mm256_cmpeq_epi32(v, first)) == -1;
+/// All ones in the lanes of @p v that hold lane 0's value.
+[[gnu::always_inline]] inline __m256i sameLanes(__m256i v) {
+    return _mm256_cmpeq_epi32(v, _mm256_permutevar8x32_epi32(v, _mm256_setzero_si256()));
 }
 
-/// Whether lane k of @p i0 is lane 0's value + k and @p i1 is @p i0 + 1 in every lane (8
-/// consecutive corners along x, their upper neighbours unclamped); *first = lane 0's value.
-[[gnu::always_inline]] inline bool consecutiveLanes(__m256i i0, __m256i i1, int* first) {
+/// All ones in lane k where @p i0 is lane 0's value + k and @p i1 is @p i0 + 1 (8 consecutive
+/// corners along x, their upper neighbours unclamped); *first = lane 0's value.
+[[gnu::always_inline]] inline __m256i consecutiveLanes(__m256i i0, __m256i i1, int* first) {
     *first = _mm_cvtsi128_si32(_mm256_castsi256_si128(i0));
     const __m256i want0 =
         _mm256_add_epi32(_mm256_set1_epi32(*first), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
     const __m256i want1 = _mm256_add_epi32(want0, _mm256_set1_epi32(1));
-    return _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(i0, want0),
-                                                 _mm256_cmpeq_epi32(i1, want1))) == -1;
+    return _mm256_and_si256(_mm256_cmpeq_epi32(i0, want0), _mm256_cmpeq_epi32(i1, want1));
+}
+
+/// Whether every lane of @p m is all ones.
+[[gnu::always_inline]] inline bool allLanes(__m256i m) {
+    return _mm256_movemask_epi8(m) == -1;
 }
 
 /// Component a of a Vec8.
@@ -559,17 +562,18 @@ struct GridCorners8 {
     gridCorner8(qz, g.res.z, k.z0, k.z1, k.fz);
     int first = 0;
     k.row[0] = nullptr;
-    if (sameLanes(k.y0) && sameLanes(k.y1) && sameLanes(k.z0) && sameLanes(k.z1) &&
-        consecutiveLanes(k.x0, k.x1, &first)) {
+    // (y1 = min(y0 + 1, n - 1) is the same in every lane where y0 is, z1 likewise)
+    if (allLanes(_mm256_and_si256(_mm256_and_si256(sameLanes(k.y0), sameLanes(k.z0)),
+                                  consecutiveLanes(k.x0, k.x1, &first)))) {
         const int ya = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.y0));
         const int yb = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.y1));
         const int za = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.z0));
         const int zb = _mm_cvtsi128_si32(_mm256_castsi256_si128(k.z1));
-        auto row = [&](int y, int z) { return g.v.data() + g.index(first, y, z); };
-        k.row[0] = row(ya, za);
-        k.row[1] = row(yb, za);
-        k.row[2] = row(ya, zb);
-        k.row[3] = row(yb, zb);
+        const vec3* v = g.v.data();
+        k.row[0] = v + g.index(first, ya, za);
+        k.row[1] = v + g.index(first, yb, za);
+        k.row[2] = v + g.index(first, ya, zb);
+        k.row[3] = v + g.index(first, yb, zb);
     }
     return k;
 }
@@ -611,11 +615,17 @@ struct GridCorners8 {
     return lerp8(lerp8(c00, c10, k.fy), lerp8(c01, c11, k.fy), k.fz);
 }
 
-/// The corners' values of consecutive rows: lo[r] at x0, hi[r] at x1 = x0 + 1.
+/// The corners' values of consecutive rows: lo[r] at x0, hi[r] at x1 = x0 + 1 (lo's lanes 1-7
+/// and the 9th entry: the same values as 8 entries loaded from x0 + 1).
 [[gnu::always_inline]] inline void rowValues8(const GridCorners8& k, Vec8 lo[4], Vec8 hi[4]) {
+    const __m256i next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 0);
+    auto shift = [&](__m256 v, const float* ninth) {
+        return _mm256_blend_ps(_mm256_permutevar8x32_ps(v, next), _mm256_broadcast_ss(ninth), 0x80);
+    };
     for (int r = 0; r < 4; ++r) {
         lo[r] = channels8(k.row[r]);
-        hi[r] = channels8(k.row[r] + 1);
+        const vec3& e = k.row[r][8];
+        hi[r] = {shift(lo[r].x, &e.x), shift(lo[r].y, &e.y), shift(lo[r].z, &e.z)};
     }
 }
 
@@ -676,7 +686,7 @@ template <VelocityKind K>
         g.fy = _mm256_set1_ps(k.fy);
         g.fz = _mm256_set1_ps(k.fz);
         int first = 0;
-        const bool contiguous = consecutiveLanes(g.x0, g.x1, &first);
+        const bool contiguous = allLanes(consecutiveLanes(g.x0, g.x1, &first));
         for (int row = 0; row < 4; ++row) g.row[row] = contiguous ? k.r[row] + first : nullptr;
         return g;
     };
@@ -749,8 +759,9 @@ template <VelocityKind K>
                          _mm256_and_si256(iz0, iz1));
     int first = 0;
     __m256 v000, v100, v010, v110, v001, v101, v011, v111;
-    if (_mm256_movemask_epi8(all) == -1 && sameLanes(y0) && sameLanes(z0) &&
-        consecutiveLanes(x0, x1, &first)) {
+    if (allLanes(
+            _mm256_and_si256(_mm256_and_si256(all, sameLanes(y0)),
+                             _mm256_and_si256(sameLanes(z0), consecutiveLanes(x0, x1, &first))))) {
         // (y1 = y0 + 1 and z1 = z0 + 1 in every lane, so their rows are uniform too)
         const int ya = _mm_cvtsi128_si32(_mm256_castsi256_si128(y0));
         const int za = _mm_cvtsi128_si32(_mm256_castsi256_si128(z0));
@@ -799,12 +810,14 @@ template <VelocityKind K>
 
 /// Cells x0 .. x0 + 7 of row (y, z): the velocity at the centre (GridRowVelocity), its CFL
 /// number |u0| adt, one RK2 substep of length dt from the centre, and the density d there (zero
-/// boundary; lo / hi: the limiter's range). False, and nothing written, where a cell needs more
-/// than one substep (substeps() > 1).
+/// boundary; lo / hi: the limiter's range). With @p back (MacCormack), also the end of the
+/// substep of length -dt from the centre, the backward trace's, sharing the velocity at the
+/// centre: x, y, z in back[0..2]. False, and nothing written, where a cell needs more than one
+/// substep (substeps() > 1).
 template <VelocityKind K>
 bool gridBlock8(const GridSampler<K>& gs, const GridRowVelocity<K>& rowU, const DensityGrid& d,
                 int x0, int y, int z, float dt, float adt, float traceCfl, float* v, float* lo,
-                float* hi, float* cfl) {
+                float* hi, float* cfl, float* const* back) {
     const __m256 px =
         _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(
                           _mm256_set1_epi32(x0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))),
@@ -822,21 +835,37 @@ bool gridBlock8(const GridSampler<K>& gs, const GridRowVelocity<K>& rowU, const 
                                          _mm256_set1_ps(1.0f), _CMP_GT_OQ)))
         return false;
     // trace(): s = dt / 1; k2 = u(p + (0.5 s) k1); p + s k2
-    const __m256 hs = _mm256_set1_ps(0.5f * dt), sv = _mm256_set1_ps(dt);
-    const Vec8 mid{_mm256_add_ps(p.x, _mm256_mul_ps(hs, u0.x)),
-                   _mm256_add_ps(p.y, _mm256_mul_ps(hs, u0.y)),
-                   _mm256_add_ps(p.z, _mm256_mul_ps(hs, u0.z))};
-    const Vec8 k2 = gridVelocity8(gs, mid);
-    const Vec8 end{_mm256_add_ps(p.x, _mm256_mul_ps(sv, k2.x)),
-                   _mm256_add_ps(p.y, _mm256_mul_ps(sv, k2.y)),
-                   _mm256_add_ps(p.z, _mm256_mul_ps(sv, k2.z))};
+    auto rk2 = [&](float s) __attribute__((always_inline)) {
+        const __m256 hs = _mm256_set1_ps(0.5f * s), sv = _mm256_set1_ps(s);
+        const Vec8 mid{_mm256_add_ps(p.x, _mm256_mul_ps(hs, u0.x)),
+                       _mm256_add_ps(p.y, _mm256_mul_ps(hs, u0.y)),
+                       _mm256_add_ps(p.z, _mm256_mul_ps(hs, u0.z))};
+        const Vec8 k2 = gridVelocity8(gs, mid);
+        return Vec8{_mm256_add_ps(p.x, _mm256_mul_ps(sv, k2.x)),
+                    _mm256_add_ps(p.y, _mm256_mul_ps(sv, k2.y)),
+                    _mm256_add_ps(p.z, _mm256_mul_ps(sv, k2.z))};
+    };
+    const Vec8 end = rk2(dt);
     __m256 l, h;
     const __m256 r = sampleZero8(d, end, lo ? &l : nullptr, hi ? &h : nullptr);
     _mm256_storeu_ps(v, r);
     if (lo) _mm256_storeu_ps(lo, l);
     if (hi) _mm256_storeu_ps(hi, h);
     _mm256_storeu_ps(cfl, c);
+    if (back) {
+        const Vec8 b = rk2(-dt);
+        _mm256_storeu_ps(back[0], b.x);
+        _mm256_storeu_ps(back[1], b.y);
+        _mm256_storeu_ps(back[2], b.z);
+    }
     return true;
+}
+
+/// sampleDensityImpl() with the zero boundary at the 8 positions (px[k], py[k], pz[k]).
+void sampleZeroAt8(const DensityGrid& d, const float* px, const float* py, const float* pz,
+                   float* out) {
+    const Vec8 p{_mm256_loadu_ps(px), _mm256_loadu_ps(py), _mm256_loadu_ps(pz)};
+    _mm256_storeu_ps(out, sampleZero8(d, p, nullptr, nullptr));
 }
 
 /// MacCormack's correction and limiter (advect()'s correct()) for 8 cells: out = fwd + (in - back)
@@ -948,16 +977,22 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     const bool gridKernel =
         ap.rowKernel && (vel.kind == VelocityKind::Centred || vel.kind == VelocityKind::Staggered);
     const bool mac = ap.scheme == AdvectScheme::MacCormack;
-    // the grid kernel's 8-cell blocks (AVX2): one RK2 substep, the zero boundary
-    const bool blocks = gridKernel && ap.backtrace == Backtrace::RK2 &&
-                        ap.boundary == Boundary::Zero && gridBlocksUsable(*vel.grid, in);
+    // the grid kernel's 8-cell blocks (AVX2, the zero boundary): pass 1 needs one RK2 substep too
+    const bool zeroBlocks =
+        gridKernel && ap.boundary == Boundary::Zero && gridBlocksUsable(*vel.grid, in);
+    const bool blocks = zeroBlocks && ap.backtrace == Backtrace::RK2;
     DensityGrid& dst = &in == &out ? ws.tmp : out;
     dst.res = res;
     dst.v.resize(cells);
     DensityGrid& fwd = mac ? ws.fwd : dst;
     fwd.res = res;
     fwd.v.resize(cells);
-    if (mac && !rowKernel) { // the row kernel recomputes the limiter's range in pass 2
+    // MacCormack with a velocity grid: both traces of a cell in pass 1 (they share the velocity
+    // at the centre); the backward trace's end and the limiter's range wait for pass 2 in a ring
+    // of z slabs, and pass 2 follows pass 1 slab by slab as soon as the slabs of the forward
+    // step its lookups read are done (a wavefront: what pass 2 reads is still in cache)
+    const bool fused = mac && gridKernel;
+    if (mac && !rowKernel && !fused) { // the row kernel recomputes the limiter's range in pass 2
         ws.lo.resize(cells);
         ws.hi.resize(cells);
     }
@@ -968,179 +1003,245 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     ws.rowCfl.assign(nrows, 0.0f);
     ws.rowClamped.assign(nrows, 0);
     ws.rowSubsteps.assign(nrows, 0);
+    if (fused) ws.rowReach.assign(nrows, 0);
     const float adt = std::fabs(dt);
+    const size_t slabCells = size_t(nx) * size_t(ny);
+    // the ring's planes for one row: lo, hi, and the backward trace's end x, y, z
+    struct RingRow {
+        float *lo, *hi, *bx, *by, *bz;
+    };
+    auto ringRow = [&](int row) {
+        float* r = ws.ring.data() + size_t((row / ny) % ws.ringSlabs) * 5 * slabCells +
+                   size_t(row % ny) * nx;
+        return RingRow{r, r + slabCells, r + 2 * slabCells, r + 3 * slabCells, r + 4 * slabCells};
+    };
 
     // pass 1: the forward semi-Lagrangian step (backtrace from every cell centre, trilinear)
-    tbb::parallel_for(tbb::blocked_range<int>(0, rows, 4), [&](const tbb::blocked_range<int>& r) {
-        for (int row = r.begin(); row < r.end(); ++row) {
-            const int y = row % ny, z = row / ny;
-            const size_t base = size_t(row) * nx;
-            double massIn = 0.0, massOut = 0.0;
-            float cflMax = 0.0f;
-            int subMax = 0;
-            if (rowKernel) {
-                const vec3 u0 = u(vec3(0.5f, float(y) + 0.5f, float(z) + 0.5f));
-                cflMax = glm::length(u0) * adt;
-                subMax = 1;
-                const RowLookup look(in, y, z, u0, -dt, ap.boundary);
-                for (int x = 0; x < nx; ++x) {
-                    const float v = look(x);
-                    fwd.v[base + x] = v;
-                    if (!mac) massOut += double(v);
-                    massIn += double(in.v[base + x]);
-                }
-            }
-            if (gridKernel)
-                dispatchGrid(vel.kind, ap.boundary, [&]<VelocityKind K, Boundary B>() {
-                    const GridSampler<K> gs(u);
-                    const GridRowVelocity<K> rowU(gs, y, z);
-                    auto cell = [&](int x) {
-                        const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
-                        const vec3 u0 = rowU(x);
-                        const float cfl = glm::length(u0) * adt;
-                        cflMax = std::max(cflMax, cfl);
-                        const int n = substeps(false, ap, cfl);
-                        subMax = std::max(subMax, n);
-                        const vec3 src = trace(gs, p, u0, -dt, n, ap.backtrace);
-                        float lo, hi;
-                        const float v = sampleDensityImpl(in, src, B, &lo, &hi);
-                        fwd.v[base + x] = v;
-                        if (mac) {
-                            ws.lo[base + x] = lo;
-                            ws.hi[base + x] = hi;
-                        } else {
-                            massOut += double(v);
-                        }
-                        massIn += double(in.v[base + x]);
-                    };
-                    int x = 0;
-                    if (B == Boundary::Zero && blocks)
-                        for (; x + 8 <= nx; x += 8) {
-                            float cfl[8];
-                            float* v = &fwd.v[base + x];
-                            if (!gridBlock8(gs, rowU, in, x, y, z, -dt, adt, ap.traceCfl, v,
-                                            mac ? &ws.lo[base + x] : nullptr,
-                                            mac ? &ws.hi[base + x] : nullptr, cfl)) {
-                                for (int k = 0; k < 8; ++k) cell(x + k);
-                                continue;
-                            }
-                            subMax = std::max(subMax, 1);
-                            for (int k = 0; k < 8; ++k) {
-                                cflMax = std::max(cflMax, cfl[k]);
-                                if (!mac) massOut += double(v[k]);
-                                massIn += double(in.v[base + x + k]);
-                            }
-                        }
-                    for (; x < nx; ++x) cell(x);
-                });
-            for (int x = 0; x < (rowKernel || gridKernel ? 0 : nx); ++x) {
-                const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
-                const vec3 u0 = u(p);
-                const float cfl = glm::length(u0) * adt;
-                cflMax = std::max(cflMax, cfl);
-                const int n = substeps(exact, ap, cfl);
-                subMax = std::max(subMax, n);
-                const vec3 src = trace(u, p, u0, -dt, n, ap.backtrace);
-                float lo, hi;
-                const float v = sampleDensityImpl(in, src, ap.boundary, &lo, &hi);
+    auto pass1Row = [&](int row) {
+        const int y = row % ny, z = row / ny;
+        const size_t base = size_t(row) * nx;
+        double massIn = 0.0, massOut = 0.0;
+        float cflMax = 0.0f;
+        int subMax = 0;
+        if (rowKernel) {
+            const vec3 u0 = u(vec3(0.5f, float(y) + 0.5f, float(z) + 0.5f));
+            cflMax = glm::length(u0) * adt;
+            subMax = 1;
+            const RowLookup look(in, y, z, u0, -dt, ap.boundary);
+            for (int x = 0; x < nx; ++x) {
+                const float v = look(x);
                 fwd.v[base + x] = v;
-                if (mac) {
-                    ws.lo[base + x] = lo;
-                    ws.hi[base + x] = hi;
-                } else {
-                    massOut += double(v);
-                }
+                if (!mac) massOut += double(v);
                 massIn += double(in.v[base + x]);
             }
-            ws.rowMassIn[row] = massIn;
-            ws.rowMassOut[row] = massOut;
-            ws.rowCfl[row] = cflMax;
-            ws.rowSubsteps[row] = std::uint32_t(subMax);
         }
-    });
+        if (gridKernel) {
+            const RingRow ring = fused ? ringRow(row) : RingRow{};
+            float* lo = fused ? ring.lo : nullptr;
+            float* hi = fused ? ring.hi : nullptr;
+            dispatchGrid(vel.kind, ap.boundary, [&]<VelocityKind K, Boundary B>() {
+                const GridSampler<K> gs(u);
+                const GridRowVelocity<K> rowU(gs, y, z);
+                auto cell = [&](int x) {
+                    const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+                    const vec3 u0 = rowU(x);
+                    const float cfl = glm::length(u0) * adt;
+                    cflMax = std::max(cflMax, cfl);
+                    const int n = substeps(false, ap, cfl);
+                    subMax = std::max(subMax, n);
+                    const vec3 src = trace(gs, p, u0, -dt, n, ap.backtrace);
+                    const float v =
+                        sampleDensityImpl(in, src, B, lo ? lo + x : nullptr, hi ? hi + x : nullptr);
+                    fwd.v[base + x] = v;
+                    if (fused) {
+                        const vec3 back = trace(gs, p, u0, dt, n, ap.backtrace);
+                        ring.bx[x] = back.x;
+                        ring.by[x] = back.y;
+                        ring.bz[x] = back.z;
+                    } else {
+                        massOut += double(v);
+                    }
+                    massIn += double(in.v[base + x]);
+                };
+                int x = 0;
+                if (B == Boundary::Zero && blocks)
+                    for (; x + 8 <= nx; x += 8) {
+                        float cfl[8];
+                        float* v = &fwd.v[base + x];
+                        float* back[3] = {nullptr, nullptr, nullptr};
+                        if (fused) {
+                            back[0] = ring.bx + x;
+                            back[1] = ring.by + x;
+                            back[2] = ring.bz + x;
+                        }
+                        if (!gridBlock8(gs, rowU, in, x, y, z, -dt, adt, ap.traceCfl, v,
+                                        lo ? lo + x : nullptr, hi ? hi + x : nullptr, cfl,
+                                        fused ? back : nullptr)) {
+                            for (int k = 0; k < 8; ++k) cell(x + k);
+                            continue;
+                        }
+                        subMax = std::max(subMax, 1);
+                        for (int k = 0; k < 8; ++k) {
+                            cflMax = std::max(cflMax, cfl[k]);
+                            if (!mac) massOut += double(v[k]);
+                            massIn += double(in.v[base + x + k]);
+                        }
+                    }
+                for (; x < nx; ++x) cell(x);
+            });
+            if (fused) { // the last slab of the forward step pass 2's lookups of this row read
+                float zMax = -std::numeric_limits<float>::infinity(); // (NaN ends read nothing)
+                for (int x = 0; x < nx; ++x)
+                    if (ring.bz[x] > zMax) zMax = ring.bz[x];
+                // the upper z corner of axis(z - 1/2): zero and clamp boundaries read no slab
+                // above it; a periodic one may wrap to the last slab
+                const float upper = std::floor(std::min(zMax - 0.5f, float(res.z))) + 1.0f;
+                ws.rowReach[row] = ap.boundary == Boundary::Periodic
+                                       ? res.z - 1
+                                       : int(std::clamp(upper, 0.0f, float(res.z - 1)));
+            }
+        }
+        for (int x = 0; x < (rowKernel || gridKernel ? 0 : nx); ++x) {
+            const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+            const vec3 u0 = u(p);
+            const float cfl = glm::length(u0) * adt;
+            cflMax = std::max(cflMax, cfl);
+            const int n = substeps(exact, ap, cfl);
+            subMax = std::max(subMax, n);
+            const vec3 src = trace(u, p, u0, -dt, n, ap.backtrace);
+            float lo, hi;
+            const float v = sampleDensityImpl(in, src, ap.boundary, &lo, &hi);
+            fwd.v[base + x] = v;
+            if (mac) {
+                ws.lo[base + x] = lo;
+                ws.hi[base + x] = hi;
+            } else {
+                massOut += double(v);
+            }
+            massIn += double(in.v[base + x]);
+        }
+        ws.rowMassIn[row] = massIn;
+        ws.rowMassOut[row] = massOut;
+        ws.rowCfl[row] = cflMax;
+        ws.rowSubsteps[row] = std::uint32_t(subMax);
+    };
 
     // pass 2 (MacCormack): the backward step from phi_hat^{n+1}, the correction, the limiter
-    if (mac)
-        tbb::parallel_for(
-            tbb::blocked_range<int>(0, rows, 4), [&](const tbb::blocked_range<int>& r) {
-                for (int row = r.begin(); row < r.end(); ++row) {
-                    const int y = row % ny, z = row / ny;
-                    const size_t base = size_t(row) * nx;
-                    double massOut = 0.0, clampMass = 0.0;
-                    std::uint32_t clamped = 0;
-                    const vec3 uRow =
-                        rowKernel ? u(vec3(0.5f, float(y) + 0.5f, float(z) + 0.5f)) : vec3(0.0f);
-                    const RowLookup look(fwd, y, z, uRow, dt, ap.boundary);
-                    // the forward step's stencil again, for the limiter's range: reading `in`
-                    // (cached rows) costs less than storing and reloading two grids
-                    const RowLookup fwdLook(in, y, z, uRow, -dt, ap.boundary);
-                    // the correction and the limiter of cell x, from the backward lookup
-                    auto correct = [&](int x, float back, float lo, float hi) {
-                        const size_t i = base + x;
-                        const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
-                        float v = c;
-                        if (ap.limiter) {
-                            if (!(v >= lo)) v = lo; // a NaN c becomes lo
-                            if (v > hi) v = hi;
-                        }
-                        if (!(v == c)) {
-                            ++clamped;
-                            clampMass += std::fabs(double(v) - double(c));
-                        }
-                        dst.v[i] = v;
-                        massOut += double(v);
-                    };
-                    if (gridKernel)
-                        dispatchGrid(vel.kind, ap.boundary, [&]<VelocityKind K, Boundary B>() {
-                            const GridSampler<K> gs(u);
-                            const GridRowVelocity<K> rowU(gs, y, z);
-                            auto cell = [&](int x) {
-                                const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
-                                const vec3 u0 = rowU(x);
-                                const int n = substeps(false, ap, glm::length(u0) * adt);
-                                const vec3 dstPos = trace(gs, p, u0, dt, n, ap.backtrace);
-                                const float back =
-                                    sampleDensityImpl(fwd, dstPos, B, nullptr, nullptr);
-                                correct(x, back, ws.lo[base + x], ws.hi[base + x]);
-                            };
-                            int x = 0;
-                            if (B == Boundary::Zero && blocks)
-                                for (; x + 8 <= nx; x += 8) {
-                                    float back[8], cfl[8];
-                                    if (!gridBlock8(gs, rowU, fwd, x, y, z, dt, adt, ap.traceCfl,
-                                                    back, nullptr, nullptr, cfl)) {
-                                        for (int k = 0; k < 8; ++k) cell(x + k);
-                                        continue;
-                                    }
-                                    const size_t i = base + x;
-                                    correct8(&fwd.v[i], &in.v[i], back, &ws.lo[i], &ws.hi[i],
-                                             ap.limiter, &dst.v[i], massOut, clampMass, clamped);
-                                }
-                            for (; x < nx; ++x) cell(x);
-                        });
-                    for (int x = 0; x < (gridKernel ? 0 : nx); ++x) {
-                        float back, lo = 0.0f, hi = 0.0f;
-                        if (rowKernel) {
-                            back = look(x);
-                            if (ap.limiter) fwdLook.range(x, lo, hi);
-                        } else {
-                            const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
-                            const vec3 u0 = u(p);
-                            const int n = substeps(exact, ap, glm::length(u0) * adt);
-                            const vec3 dstPos = trace(u, p, u0, dt, n, ap.backtrace);
-                            back = sampleDensityImpl(fwd, dstPos, ap.boundary, nullptr, nullptr);
-                            if (ap.limiter) {
-                                lo = ws.lo[base + x];
-                                hi = ws.hi[base + x];
-                            }
-                        }
-                        correct(x, back, lo, hi);
-                    }
-                    ws.rowMassOut[row] = massOut;
-                    ws.rowClampMass[row] = clampMass;
-                    ws.rowClamped[row] = clamped;
+    auto pass2Row = [&](int row) {
+        const int y = row % ny, z = row / ny;
+        const size_t base = size_t(row) * nx;
+        double massOut = 0.0, clampMass = 0.0;
+        std::uint32_t clamped = 0;
+        // the correction and the limiter of cell x, from the backward lookup
+        auto correct = [&](int x, float back, float lo, float hi) {
+            const size_t i = base + x;
+            const float c = fwd.v[i] + 0.5f * (in.v[i] - back);
+            float v = c;
+            if (ap.limiter) {
+                if (!(v >= lo)) v = lo; // a NaN c becomes lo
+                if (v > hi) v = hi;
+            }
+            if (!(v == c)) {
+                ++clamped;
+                clampMass += std::fabs(double(v) - double(c));
+            }
+            dst.v[i] = v;
+            massOut += double(v);
+        };
+        if (fused) {
+            const RingRow ring = ringRow(row);
+            int x = 0;
+            if (zeroBlocks)
+                for (; x + 8 <= nx; x += 8) {
+                    float back[8];
+                    sampleZeroAt8(fwd, ring.bx + x, ring.by + x, ring.bz + x, back);
+                    const size_t i = base + x;
+                    correct8(&fwd.v[i], &in.v[i], back, ring.lo + x, ring.hi + x, ap.limiter,
+                             &dst.v[i], massOut, clampMass, clamped);
                 }
-            });
+            for (; x < nx; ++x)
+                correct(x,
+                        sampleDensityImpl(fwd, vec3(ring.bx[x], ring.by[x], ring.bz[x]),
+                                          ap.boundary, nullptr, nullptr),
+                        ring.lo[x], ring.hi[x]);
+        } else {
+            const vec3 uRow =
+                rowKernel ? u(vec3(0.5f, float(y) + 0.5f, float(z) + 0.5f)) : vec3(0.0f);
+            const RowLookup look(fwd, y, z, uRow, dt, ap.boundary);
+            // the forward step's stencil again, for the limiter's range: reading `in` (cached
+            // rows) costs less than storing and reloading two grids
+            const RowLookup fwdLook(in, y, z, uRow, -dt, ap.boundary);
+            for (int x = 0; x < nx; ++x) {
+                float back, lo = 0.0f, hi = 0.0f;
+                if (rowKernel) {
+                    back = look(x);
+                    if (ap.limiter) fwdLook.range(x, lo, hi);
+                } else {
+                    const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+                    const vec3 u0 = u(p);
+                    const int n = substeps(exact, ap, glm::length(u0) * adt);
+                    const vec3 dstPos = trace(u, p, u0, dt, n, ap.backtrace);
+                    back = sampleDensityImpl(fwd, dstPos, ap.boundary, nullptr, nullptr);
+                    if (ap.limiter) {
+                        lo = ws.lo[base + x];
+                        hi = ws.hi[base + x];
+                    }
+                }
+                correct(x, back, lo, hi);
+            }
+        }
+        ws.rowMassOut[row] = massOut;
+        ws.rowClampMass[row] = clampMass;
+        ws.rowClamped[row] = clamped;
+    };
+
+    auto runRows = [&](int r0, int r1, const auto& body) {
+        tbb::parallel_for(tbb::blocked_range<int>(r0, r1, 4),
+                          [&](const tbb::blocked_range<int>& r) {
+                              for (int row = r.begin(); row < r.end(); ++row) body(row);
+                          });
+    };
+    if (!fused) {
+        runRows(0, rows, pass1Row);
+        if (mac) runRows(0, rows, pass2Row);
+    } else if (rows > 0) {
+        const int nz = res.z;
+        // slabs per chunk: enough rows and cells per parallel loop to keep both cores busy
+        const int chunk = std::clamp(
+            int(std::max<size_t>(size_t(128) / size_t(ny), size_t(32768) / slabCells)), 1, nz);
+        // the ring holds the slabs pass 1 did and pass 2 did not yet: [z, next1)
+        auto hold = [&](int z, int next1, int upTo) {
+            const int want = upTo - z;
+            if (ws.ringSlabs >= want && !ws.ring.empty()) return;
+            const int slabs = std::min(nz, std::max({want, 2 * ws.ringSlabs, 2 * chunk + 2}));
+            std::vector<float> grown(size_t(slabs) * 5 * slabCells);
+            for (int s = z; s < next1; ++s) // move the live slabs to their new slots
+                std::copy_n(ws.ring.data() + size_t(s % ws.ringSlabs) * 5 * slabCells,
+                            5 * slabCells, grown.data() + size_t(s % slabs) * 5 * slabCells);
+            ws.ring.swap(grown);
+            ws.ringSlabs = slabs;
+        };
+        if (ws.ring.size() != size_t(ws.ringSlabs) * 5 * slabCells) { // another grid size
+            ws.ring.clear();
+            ws.ringSlabs = 0;
+        }
+        int next1 = 0; // slabs [0, next1) have been through pass 1
+        for (int z = 0; z < nz; z += chunk) {
+            const int zEnd = std::min(nz, z + chunk);
+            auto pass1To = [&](int upTo) {
+                if (next1 >= upTo) return;
+                hold(z, next1, upTo);
+                runRows(next1 * ny, upTo * ny, pass1Row);
+                next1 = upTo;
+            };
+            pass1To(zEnd);
+            int reach = 0;
+            for (int row = z * ny; row < zEnd * ny; ++row)
+                reach = std::max(reach, ws.rowReach[row]);
+            pass1To(reach + 1);
+            runRows(z * ny, zEnd * ny, pass2Row);
+        }
+    }
 
     AdvectStats st;
     const double h = frame.voxelSize, h3 = h * h * h;
