@@ -578,17 +578,6 @@ struct GridCorners8 {
     return k;
 }
 
-/// The trilinear blend of component c from the corners' values: lo[r] / hi[r] the values at x0
-/// / x1 of row r (as GridCorners8::row), in gridComponent()'s order (x, then y, then z).
-[[gnu::always_inline]] inline __m256 trilerp8(const GridCorners8& k, const Vec8 lo[4],
-                                              const Vec8 hi[4], int c) {
-    const __m256 c00 = lerp8(comp(lo[0], c), comp(hi[0], c), k.fx);
-    const __m256 c10 = lerp8(comp(lo[1], c), comp(hi[1], c), k.fx);
-    const __m256 c01 = lerp8(comp(lo[2], c), comp(hi[2], c), k.fx);
-    const __m256 c11 = lerp8(comp(lo[3], c), comp(hi[3], c), k.fx);
-    return lerp8(lerp8(c00, c10, k.fy), lerp8(c01, c11, k.fy), k.fz);
-}
-
 /// gridComponent() in 8 lanes from corners whose rows are not consecutive: gathers.
 [[gnu::always_inline]] inline __m256 gatherComponent8(const VelocityGrid& g, const GridCorners8& k,
                                                       int c) {
@@ -615,28 +604,37 @@ struct GridCorners8 {
     return lerp8(lerp8(c00, c10, k.fy), lerp8(c01, c11, k.fy), k.fz);
 }
 
-/// The corners' values of consecutive rows: lo[r] at x0, hi[r] at x1 = x0 + 1 (lo's lanes 1-7
-/// and the 9th entry: the same values as 8 entries loaded from x0 + 1).
-[[gnu::always_inline]] inline void rowValues8(const GridCorners8& k, Vec8 lo[4], Vec8 hi[4]) {
+/// The trilinear blend of components c0 .. c1 - 1 at corners in consecutive rows
+/// (GridCorners8::row), in gridComponent()'s order (x, then y, then z); the other components 0.
+/// The values at x1 = x0 + 1 are those at x0 moved by one lane and the row's 9th entry (the same
+/// values as 8 entries loaded from x0 + 1); the rows are blended as they are read, so that few
+/// registers stay live.
+[[gnu::always_inline]] inline Vec8 rowsTrilerp8(const GridCorners8& k, int c0, int c1) {
     const __m256i next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 0);
-    auto shift = [&](__m256 v, const float* ninth) {
-        return _mm256_blend_ps(_mm256_permutevar8x32_ps(v, next), _mm256_broadcast_ss(ninth), 0x80);
-    };
-    for (int r = 0; r < 4; ++r) {
-        lo[r] = channels8(k.row[r]);
-        const vec3& e = k.row[r][8];
-        hi[r] = {shift(lo[r].x, &e.x), shift(lo[r].y, &e.y), shift(lo[r].z, &e.z)};
+    __m256 zr[2][3]; // the y blends of the z0 rows (0, 1) and the z1 rows (2, 3)
+    for (int z = 0; z < 2; ++z) {
+        __m256 xr[2][3]; // the x blends of rows (y0, z) and (y1, z)
+        for (int y = 0; y < 2; ++y) {
+            const vec3* row = k.row[2 * z + y];
+            const Vec8 lo = channels8(row);
+            for (int c = c0; c < c1; ++c) {
+                const __m256 hi = _mm256_blend_ps(_mm256_permutevar8x32_ps(comp(lo, c), next),
+                                                  _mm256_broadcast_ss(&row[8][c]), 0x80);
+                xr[y][c] = lerp8(comp(lo, c), hi, k.fx);
+            }
+        }
+        for (int c = c0; c < c1; ++c) zr[z][c] = lerp8(xr[0][c], xr[1][c], k.fy);
     }
+    __m256 out[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+    for (int c = c0; c < c1; ++c) out[c] = lerp8(zr[0][c], zr[1][c], k.fz);
+    return {out[0], out[1], out[2]};
 }
 
 /// gridComponent() in 8 lanes: component c of the grid at grid positions q.
 [[gnu::always_inline]] inline __m256 gridComponent8(const VelocityGrid& g, int c, __m256 qx,
                                                     __m256 qy, __m256 qz) {
     const GridCorners8 k = gridCorners8(g, qx, qy, qz);
-    if (!k.row[0]) return gatherComponent8(g, k, c);
-    Vec8 lo[4], hi[4];
-    rowValues8(k, lo, hi); // (the two unused channels' shuffles are dead code)
-    return trilerp8(k, lo, hi, c);
+    return k.row[0] ? comp(rowsTrilerp8(k, c, c + 1), c) : gatherComponent8(g, k, c);
 }
 
 /// gridVector() in 8 lanes: the three components at the same grid positions q, their corners
@@ -646,9 +644,7 @@ struct GridCorners8 {
     const GridCorners8 k = gridCorners8(g, qx, qy, qz);
     if (!k.row[0])
         return {gatherComponent8(g, k, 0), gatherComponent8(g, k, 1), gatherComponent8(g, k, 2)};
-    Vec8 lo[4], hi[4];
-    rowValues8(k, lo, hi);
-    return {trilerp8(k, lo, hi, 0), trilerp8(k, lo, hi, 1), trilerp8(k, lo, hi, 2)};
+    return rowsTrilerp8(k, 0, 3);
 }
 
 /// GridSampler<K>() in 8 lanes (cells / s at density-grid index positions p).
@@ -706,9 +702,10 @@ template <VelocityKind K>
     if constexpr (K == VelocityKind::Centred) { // one set of corners and loads for all three
         const GridCorners8 g = corners(0);
         if (g.row[0]) {
-            Vec8 lo[4], hi[4];
-            rowValues8(g, lo, hi);
-            for (int a = 0; a < 3; ++a) u[a] = trilerp8(g, lo, hi, a);
+            const Vec8 v = rowsTrilerp8(g, 0, 3);
+            u[0] = v.x;
+            u[1] = v.y;
+            u[2] = v.z;
         } else {
             for (int a = 0; a < 3; ++a) u[a] = gather(a, g);
         }
@@ -716,9 +713,7 @@ template <VelocityKind K>
         for (int a = 0; a < 3; ++a) {
             const GridCorners8 g = corners(a);
             if (g.row[0]) {
-                Vec8 lo[4], hi[4];
-                rowValues8(g, lo, hi); // (the two unused channels' shuffles are dead code)
-                u[a] = trilerp8(g, lo, hi, a);
+                u[a] = comp(rowsTrilerp8(g, a, a + 1), a);
             } else {
                 u[a] = gather(a, g);
             }
