@@ -125,6 +125,16 @@ AdvectParams scheme(AdvectScheme s, Boundary b = Boundary::Zero) {
     return p;
 }
 
+/// Two steps' stats, field by field: the same bits.
+void expectSameStats(const AdvectStats& a, const AdvectStats& b) {
+    EXPECT_EQ(a.massBefore, b.massBefore);
+    EXPECT_EQ(a.massAfter, b.massAfter);
+    EXPECT_EQ(a.clampedCells, b.clampedCells);
+    EXPECT_EQ(a.clampedMass, b.clampedMass);
+    EXPECT_EQ(a.maxCfl, b.maxCfl);
+    EXPECT_EQ(a.maxSubsteps, b.maxSubsteps);
+}
+
 const char* name(AdvectScheme s) {
     return s == AdvectScheme::MacCormack ? "MacCormack" : "semi-Lagrangian";
 }
@@ -559,11 +569,7 @@ TEST(AdvectRowKernel, SameBitsAsThePerCellPathForUniformAndHorizontalLayeredWind
                         const AdvectStats sa = advect(a, f, w, 0.37f, fast, a, wa);
                         const AdvectStats sc2 = advect(c, f, w, 0.37f, slow, c, wc);
                         ASSERT_EQ(a.v, c.v) << name(sc) << " boundary " << int(b);
-                        EXPECT_EQ(sa.massAfter, sc2.massAfter);
-                        EXPECT_EQ(sa.clampedCells, sc2.clampedCells);
-                        EXPECT_EQ(sa.clampedMass, sc2.clampedMass);
-                        EXPECT_EQ(sa.maxCfl, sc2.maxCfl);
-                        EXPECT_EQ(sa.maxSubsteps, sc2.maxSubsteps);
+                        expectSameStats(sa, sc2);
                     }
                     ++compared;
                 }
@@ -625,12 +631,7 @@ TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnRandomVelocityGrids) {
                             ASSERT_EQ(a.v, c.v)
                                 << name(sc) << " boundary " << int(b) << " backtrace " << int(bt)
                                 << " cfl " << cfl << " kind " << int(v.kind);
-                            EXPECT_EQ(sa.massBefore, sc2.massBefore);
-                            EXPECT_EQ(sa.massAfter, sc2.massAfter);
-                            EXPECT_EQ(sa.clampedCells, sc2.clampedCells);
-                            EXPECT_EQ(sa.clampedMass, sc2.clampedMass);
-                            EXPECT_EQ(sa.maxCfl, sc2.maxCfl);
-                            EXPECT_EQ(sa.maxSubsteps, sc2.maxSubsteps);
+                            expectSameStats(sa, sc2);
                             if (sa.maxSubsteps > 1) ++substepped;
                         }
                         EXPECT_NE(a.v, start.v); // something moved
@@ -690,9 +691,7 @@ TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnSmoothVelocityGrids) {
                     const AdvectStats sc2 = advect(c, f, v, dt, slow, c, wc);
                     ASSERT_EQ(a.v, c.v) << name(sc) << " cfl " << cfl << " kind " << int(v.kind)
                                         << " limiter " << fast.limiter;
-                    EXPECT_EQ(sa.massAfter, sc2.massAfter);
-                    EXPECT_EQ(sa.clampedCells, sc2.clampedCells);
-                    EXPECT_EQ(sa.clampedMass, sc2.clampedMass);
+                    expectSameStats(sa, sc2);
                 }
                 EXPECT_NE(a.v, start.v);
                 ++compared;
@@ -741,11 +740,7 @@ TEST(AdvectGridKernel, MacCormackWavefrontEqualsThePerCellPath) {
                 const AdvectStats sa = advect(a, f, v, dt, fast, a, wa);
                 const AdvectStats sc = advect(c, f, v, dt, slow, c, wc);
                 ASSERT_EQ(a.v, c.v) << "boundary " << int(b) << " cfl " << cfl << " step " << k;
-                EXPECT_EQ(sa.massAfter, sc.massAfter);
-                EXPECT_EQ(sa.clampedCells, sc.clampedCells);
-                EXPECT_EQ(sa.clampedMass, sc.clampedMass);
-                EXPECT_EQ(sa.maxCfl, sc.maxCfl);
-                EXPECT_EQ(sa.maxSubsteps, sc.maxSubsteps);
+                expectSameStats(sa, sc);
             }
             EXPECT_NE(a.v, start.v);
             // a wavefront, not both passes over the whole grid one after the other: at CFL 0.5
