@@ -88,34 +88,30 @@ vec3 rotation(vec3 p, vec3 c, float omega, vec3 drift = vec3(0.0f), float strain
     return vec3(omega * r.z + strain * r.x, 0.0f, -omega * r.x - strain * r.z) + drift;
 }
 
+/// A velocity grid of res entries on frame f, entry (x, y, z) at(x, y, z), x fastest.
+template <class F> VelocityGrid gridOf(ivec3 res, GridFrame f, F&& at) {
+    VelocityGrid g;
+    g.res = res;
+    g.frame = f;
+    g.v.resize(size_t(res.x) * res.y * res.z);
+    for (int z = 0; z < res.z; ++z)
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x) g.v[g.index(x, y, z)] = at(x, y, z);
+    return g;
+}
+
 /// The rotation sampled at cell centres (centred) or at the faces (staggered, res + 1).
 VelocityGrid rotationGrid(ivec3 res, GridFrame f, vec3 c, float omega, bool staggered,
                           vec3 drift = vec3(0.0f), float strain = 0.0f) {
-    VelocityGrid g;
-    g.res = staggered ? res + 1 : res;
-    g.frame = f;
-    g.v.resize(size_t(g.res.x) * g.res.y * g.res.z);
-    const float h = f.voxelSize;
-    for (int z = 0; z < g.res.z; ++z)
-        for (int y = 0; y < g.res.y; ++y)
-            for (int x = 0; x < g.res.x; ++x) {
-                const vec3 i{float(x), float(y), float(z)};
-                vec3& v = g.v[g.index(x, y, z)];
-                if (!staggered) {
-                    v = rotation(f.origin + (i + 0.5f) * h, c, omega, drift, strain);
-                } else {
-                    v.x = rotation(f.origin + (i + vec3(0.0f, 0.5f, 0.5f)) * h, c, omega, drift,
-                                   strain)
-                              .x;
-                    v.y = rotation(f.origin + (i + vec3(0.5f, 0.0f, 0.5f)) * h, c, omega, drift,
-                                   strain)
-                              .y;
-                    v.z = rotation(f.origin + (i + vec3(0.5f, 0.5f, 0.0f)) * h, c, omega, drift,
-                                   strain)
-                              .z;
-                }
-            }
-    return g;
+    auto at = [&](vec3 cell) {
+        return rotation(f.origin + cell * f.voxelSize, c, omega, drift, strain);
+    };
+    return gridOf(staggered ? res + 1 : res, f, [&](int x, int y, int z) {
+        const vec3 i{float(x), float(y), float(z)};
+        if (!staggered) return at(i + 0.5f);
+        return vec3(at(i + vec3(0.0f, 0.5f, 0.5f)).x, at(i + vec3(0.5f, 0.0f, 0.5f)).y,
+                    at(i + vec3(0.5f, 0.5f, 0.0f)).z);
+    });
 }
 
 AdvectParams scheme(AdvectScheme s, Boundary b = Boundary::Zero) {
@@ -655,17 +651,10 @@ TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnSmoothVelocityGrids) {
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
     for (float& v : start.v) v = u(rng) < 0.3f ? 0.0f : u(rng);
     auto smoothGrid = [&](ivec3 r) {
-        VelocityGrid g;
-        g.res = r;
-        g.frame = f;
-        g.v.resize(size_t(r.x) * r.y * r.z);
-        for (int z = 0; z < r.z; ++z)
-            for (int y = 0; y < r.y; ++y)
-                for (int x = 0; x < r.x; ++x)
-                    g.v[g.index(x, y, z)] =
-                        vec3(0.9f + 0.05f * std::sin(0.05f * float(z)), 0.02f * float(y) / 10.0f,
-                             -0.4f + 0.05f * std::cos(0.05f * float(x)));
-        return g;
+        return gridOf(r, f, [](int x, int y, int z) {
+            return vec3(0.9f + 0.05f * std::sin(0.05f * float(z)), 0.02f * float(y) / 10.0f,
+                        -0.4f + 0.05f * std::cos(0.05f * float(x)));
+        });
     };
     const VelocityGrid centred = smoothGrid(res), staggered = smoothGrid(res + 1);
     int compared = 0;
@@ -712,15 +701,11 @@ TEST(AdvectGridKernel, MacCormackWavefrontEqualsThePerCellPath) {
     std::mt19937 rng(31);
     std::uniform_real_distribution<float> u(0.0f, 1.0f), w(-0.3f, 0.3f);
     for (float& v : start.v) v = u(rng) < 0.4f ? 0.0f : u(rng);
-    VelocityGrid g;
-    g.res = res;
-    g.frame = f;
-    g.v.resize(size_t(res.x) * res.y * res.z);
-    for (int z = 0; z < res.z; ++z)
-        for (int y = 0; y < res.y; ++y)
-            for (int x = 0; x < res.x; ++x) // mostly vertical, up and down, some noise
-                g.v[g.index(x, y, z)] =
-                    vec3(0.3f + w(rng), w(rng), std::sin(0.09f * float(x + y)) + 0.2f * w(rng));
+    const VelocityGrid g = gridOf(res, f, [&](int x, int y, int) {
+        // mostly vertical, up and down, some noise
+        const float nx = w(rng), ny = w(rng), nz = w(rng);
+        return vec3(0.3f + nx, ny, std::sin(0.09f * float(x + y)) + 0.2f * nz);
+    });
     const VelocityField v = centredGrid(g);
     AdvectWorkspace probe;
     DensityGrid scratch;

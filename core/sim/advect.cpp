@@ -1030,6 +1030,23 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                 massIn += double(in.v[base + x]);
             }
         }
+        // cell x: the forward trace from its centre velocity u0 through sampler smp (ex: exact
+        // in one substep), the density there (lo / hi, if not null: the limiter's range), the
+        // row's stats; returns the trace's substeps
+        auto forward = [&](const auto& smp, int x, vec3 u0, bool ex, Boundary b, float* lo,
+                           float* hi) {
+            const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+            const float cfl = glm::length(u0) * adt;
+            cflMax = std::max(cflMax, cfl);
+            const int n = substeps(ex, ap, cfl);
+            subMax = std::max(subMax, n);
+            const float v =
+                sampleDensityImpl(in, trace(smp, p, u0, -dt, n, ap.backtrace), b, lo, hi);
+            fwd.v[base + x] = v;
+            if (!mac) massOut += double(v);
+            massIn += double(in.v[base + x]);
+            return n;
+        };
         if (gridKernel) {
             const RingRow ring = fused ? ringRow(row) : RingRow{};
             float* lo = fused ? ring.lo : nullptr;
@@ -1038,25 +1055,16 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                 const GridSampler<K> gs(u);
                 const GridRowVelocity<K> rowU(gs, y, z);
                 auto cell = [&](int x) {
-                    const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
                     const vec3 u0 = rowU(x);
-                    const float cfl = glm::length(u0) * adt;
-                    cflMax = std::max(cflMax, cfl);
-                    const int n = substeps(false, ap, cfl);
-                    subMax = std::max(subMax, n);
-                    const vec3 src = trace(gs, p, u0, -dt, n, ap.backtrace);
-                    const float v =
-                        sampleDensityImpl(in, src, B, lo ? lo + x : nullptr, hi ? hi + x : nullptr);
-                    fwd.v[base + x] = v;
+                    const int n =
+                        forward(gs, x, u0, false, B, lo ? lo + x : nullptr, hi ? hi + x : nullptr);
                     if (fused) {
+                        const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
                         const vec3 back = trace(gs, p, u0, dt, n, ap.backtrace);
                         ring.bx[x] = back.x;
                         ring.by[x] = back.y;
                         ring.bz[x] = back.z;
-                    } else {
-                        massOut += double(v);
                     }
-                    massIn += double(in.v[base + x]);
                 };
                 int x = 0;
                 if (B == Boundary::Zero && blocks)
@@ -1096,25 +1104,10 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
                                        : int(std::clamp(upper, 0.0f, float(res.z - 1)));
             }
         }
-        for (int x = 0; x < (rowKernel || gridKernel ? 0 : nx); ++x) {
-            const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
-            const vec3 u0 = u(p);
-            const float cfl = glm::length(u0) * adt;
-            cflMax = std::max(cflMax, cfl);
-            const int n = substeps(exact, ap, cfl);
-            subMax = std::max(subMax, n);
-            const vec3 src = trace(u, p, u0, -dt, n, ap.backtrace);
-            float lo, hi;
-            const float v = sampleDensityImpl(in, src, ap.boundary, &lo, &hi);
-            fwd.v[base + x] = v;
-            if (mac) {
-                ws.lo[base + x] = lo;
-                ws.hi[base + x] = hi;
-            } else {
-                massOut += double(v);
-            }
-            massIn += double(in.v[base + x]);
-        }
+        for (int x = 0; x < (rowKernel || gridKernel ? 0 : nx); ++x)
+            forward(u, x, u(vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f)), exact,
+                    ap.boundary, mac ? &ws.lo[base + x] : nullptr,
+                    mac ? &ws.hi[base + x] : nullptr);
         ws.rowMassIn[row] = massIn;
         ws.rowMassOut[row] = massOut;
         ws.rowCfl[row] = cflMax;
