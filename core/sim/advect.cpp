@@ -491,6 +491,14 @@ struct Vec8 {
     return _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
 }
 
+/// The trilinear blend of the scalar lookups: in x (v000 with v100, ...), then y, then z.
+[[gnu::always_inline]] inline __m256 trilerp8(__m256 v000, __m256 v100, __m256 v010, __m256 v110,
+                                              __m256 v001, __m256 v101, __m256 v011, __m256 v111,
+                                              __m256 fx, __m256 fy, __m256 fz) {
+    return lerp8(lerp8(lerp8(v000, v100, fx), lerp8(v010, v110, fx), fy),
+                 lerp8(lerp8(v001, v101, fx), lerp8(v011, v111, fx), fy), fz);
+}
+
 /// gridCorner() in 8 lanes.
 [[gnu::always_inline]] inline void gridCorner8(__m256 x, int n, __m256i& i0, __m256i& i1,
                                                __m256& f) {
@@ -597,11 +605,8 @@ struct GridCorners8 {
     };
     const __m256i r00 = rowOf(k.y0, k.z0), r10 = rowOf(k.y1, k.z0), r01 = rowOf(k.y0, k.z1),
                   r11 = rowOf(k.y1, k.z1);
-    const __m256 c00 = lerp8(at(r00, x03), at(r00, x13), k.fx);
-    const __m256 c10 = lerp8(at(r10, x03), at(r10, x13), k.fx);
-    const __m256 c01 = lerp8(at(r01, x03), at(r01, x13), k.fx);
-    const __m256 c11 = lerp8(at(r11, x03), at(r11, x13), k.fx);
-    return lerp8(lerp8(c00, c10, k.fy), lerp8(c01, c11, k.fy), k.fz);
+    return trilerp8(at(r00, x03), at(r00, x13), at(r10, x03), at(r10, x13), at(r01, x03),
+                    at(r01, x13), at(r11, x03), at(r11, x13), k.fx, k.fy, k.fz);
 }
 
 /// The trilinear blend of components c0 .. c1 - 1 at corners in consecutive rows
@@ -692,11 +697,8 @@ template <VelocityKind K>
         const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(g.x0, three), ca);
         const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(g.x1, three), ca);
         auto at = [&](int row, __m256i o) { return _mm256_i32gather_ps(&k.r[row]->x, o, 4); };
-        const __m256 c00 = lerp8(at(0, o0), at(0, o1), g.fx);
-        const __m256 c10 = lerp8(at(1, o0), at(1, o1), g.fx);
-        const __m256 c01 = lerp8(at(2, o0), at(2, o1), g.fx);
-        const __m256 c11 = lerp8(at(3, o0), at(3, o1), g.fx);
-        return lerp8(lerp8(c00, c10, g.fy), lerp8(c01, c11, g.fy), g.fz);
+        return trilerp8(at(0, o0), at(0, o1), at(1, o0), at(1, o1), at(2, o0), at(2, o1), at(3, o0),
+                        at(3, o1), g.fx, g.fy, g.fz);
     };
     __m256 u[3];
     if constexpr (K == VelocityKind::Centred) { // one set of corners and loads for all three
@@ -798,9 +800,7 @@ template <VelocityKind K>
     auto mx = [&](__m256 a, __m256 b) { return _mm256_max_ps(b, a); };
     if (lo) *lo = mn(mn(mn(v000, v100), mn(v010, v110)), mn(mn(v001, v101), mn(v011, v111)));
     if (hi) *hi = mx(mx(mx(v000, v100), mx(v010, v110)), mx(mx(v001, v101), mx(v011, v111)));
-    const __m256 c0 = lerp8(lerp8(v000, v100, fx), lerp8(v010, v110, fx), fy);
-    const __m256 c1 = lerp8(lerp8(v001, v101, fx), lerp8(v011, v111, fx), fy);
-    return lerp8(c0, c1, fz);
+    return trilerp8(v000, v100, v010, v110, v001, v101, v011, v111, fx, fy, fz);
 }
 
 /// Cells x0 .. x0 + 7 of row (y, z): the velocity at the centre (GridRowVelocity), its CFL
@@ -1005,9 +1005,11 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     struct RingRow {
         float *lo, *hi, *bx, *by, *bz;
     };
+    // the ring's slabs (5 planes of slabCells floats each)
+    int ringSlabs = slabCells > 0 ? int(ws.ring.size() / (5 * slabCells)) : 0;
     auto ringRow = [&](int row) {
-        float* r = ws.ring.data() + size_t((row / ny) % ws.ringSlabs) * 5 * slabCells +
-                   size_t(row % ny) * nx;
+        float* r =
+            ws.ring.data() + size_t((row / ny) % ringSlabs) * 5 * slabCells + size_t(row % ny) * nx;
         return RingRow{r, r + slabCells, r + 2 * slabCells, r + 3 * slabCells, r + 4 * slabCells};
     };
 
@@ -1200,19 +1202,15 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
         // the ring holds the slabs pass 1 did and pass 2 did not yet: [z, next1)
         auto hold = [&](int z, int next1, int upTo) {
             const int want = upTo - z;
-            if (ws.ringSlabs >= want && !ws.ring.empty()) return;
-            const int slabs = std::min(nz, std::max({want, 2 * ws.ringSlabs, 2 * chunk + 2}));
+            if (ringSlabs >= want) return;
+            const int slabs = std::min(nz, std::max({want, 2 * ringSlabs, 2 * chunk + 2}));
             std::vector<float> grown(size_t(slabs) * 5 * slabCells);
             for (int s = z; s < next1; ++s) // move the live slabs to their new slots
-                std::copy_n(ws.ring.data() + size_t(s % ws.ringSlabs) * 5 * slabCells,
-                            5 * slabCells, grown.data() + size_t(s % slabs) * 5 * slabCells);
+                std::copy_n(ws.ring.data() + size_t(s % ringSlabs) * 5 * slabCells, 5 * slabCells,
+                            grown.data() + size_t(s % slabs) * 5 * slabCells);
             ws.ring.swap(grown);
-            ws.ringSlabs = slabs;
+            ringSlabs = slabs;
         };
-        if (ws.ring.size() != size_t(ws.ringSlabs) * 5 * slabCells) { // another grid size
-            ws.ring.clear();
-            ws.ringSlabs = 0;
-        }
         int next1 = 0; // slabs [0, next1) have been through pass 1
         for (int z = 0; z < nz; z += chunk) {
             const int zEnd = std::min(nz, z + chunk);

@@ -133,9 +133,9 @@ struct AdvectWorkspace {
     DensityGrid fwd, tmp;
     std::vector<float> lo, hi;
     /// MacCormack with a velocity grid: per z slab lo, hi and the backward trace's end (x, y,
-    /// z), a ring of ringSlabs slabs; per row the last slab its pass-2 lookups read
+    /// z), a ring of whole slabs (its size / (5 x slab cells)); per row the last slab its pass-2
+    /// lookups read
     std::vector<float> ring;
-    int ringSlabs = 0;
     std::vector<int> rowReach;
     std::vector<double> rowMassIn, rowMassOut, rowClampMass;
     std::vector<float> rowCfl;
