@@ -1,11 +1,14 @@
 #!/usr/bin/python3
 """Smoke test of examples/realtime_viewer (nimbus_viewer) under Xvfb.
 
-usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR [NIMBUS_HEADLESS]
+usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB SCENE SCRATCH_DIR [NIMBUS_HEADLESS]
+
+One Xvfb server (XVFB: the Xvfb binary) serves every viewer run of the script: it picks a free
+display number itself (-displayfd), so nothing races for one, and it is started and stopped once.
 
 1. `nimbus export-glsl` of the default scene at 160x90 (render.multiple_scattering = "none",
    frame 1; it skips empty space, RT_SKIP, so majorant.bin is among its data files), then
-   `nimbus_viewer --frames 3 --screenshot view.pfm` on it under xvfb-run (GLX on Mesa llvmpipe):
+   `nimbus_viewer --frames 3 --screenshot view.pfm` on it under Xvfb (GLX on Mesa llvmpipe):
    the resolved linear RGB of the displayed frame.
 2. The same view from `nimbus rt` (the headless EGL renderer, EXR in ACEScg = the working space):
    PSNR over RGB (peak: the reference's largest value) must be >= 45 dB.
@@ -26,16 +29,19 @@ usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB_RUN SCENE SCRATCH_DIR 
    with the file named, a shader that does not compile 3.
 Pixels are read from both files by oiiotool --dumpdata (OpenImageIO), not by this script.
 """
+import atexit
 import math
 import os
 import re
+import select
 import shutil
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
 
-NIMBUS, VIEWER, XVFB_RUN, SCENE, SCRATCH = sys.argv[1:6]
+NIMBUS, VIEWER, XVFB, SCENE, SCRATCH = sys.argv[1:6]
 HEADLESS = sys.argv[6] if len(sys.argv) > 6 else None
 SIZE = ["camera.width=160", "camera.height=90"]
 SETS = ['render.multiple_scattering="none"', 'output.preview=""'] + SIZE
@@ -72,8 +78,38 @@ def psnr(image, reference):
     return math.inf if mse == 0.0 else 10.0 * math.log10(peak * peak / mse)
 
 
+def start_xvfb():
+    """Start one Xvfb for the whole script; return the environment that reaches it."""
+    read_end, write_end = os.pipe()
+    log = tempfile.TemporaryFile(mode="w+")
+    server = subprocess.Popen([XVFB, "-displayfd", str(write_end), "-screen", "0", "1024x768x24",
+                               "-nolisten", "tcp"], pass_fds=(write_end,),
+                              stdout=log, stderr=subprocess.STDOUT)
+    os.close(write_end)
+    atexit.register(lambda: (server.terminate(), server.wait(timeout=30)))
+    number = b""
+    while not number.endswith(b"\n"):  # Xvfb writes the display number once it accepts clients
+        if not select.select([read_end], [], [], 60)[0]:
+            sys.exit("Xvfb gave no display number within 60 s")
+        chunk = os.read(read_end, 16)
+        if not chunk:
+            server.wait()
+            log.seek(0)
+            sys.exit(f"Xvfb exited ({server.returncode}) before it was ready:\n" + log.read())
+        number += chunk
+    os.close(read_end)
+    env = dict(ENV, DISPLAY=":" + number.decode().strip())
+    env.pop("XAUTHORITY", None)
+    print(f"Xvfb on display {env['DISPLAY']}", flush=True)
+    return env
+
+
+XENV = start_xvfb()
+
+
 def xvfb(args):
-    return run([XVFB_RUN, "-a", "-s", "-screen 0 1024x768x24", VIEWER] + args)
+    p = subprocess.run([VIEWER] + args, capture_output=True, text=True, env=XENV, timeout=280)
+    return p.returncode, p.stdout + p.stderr
 
 
 def rt_reference(name, sets, extra=()):
@@ -283,6 +319,8 @@ if HEADLESS:
     check(rc == 3 and "does not compile" in out, f"headless, bad shader: exit {rc}")
 
 if failures:
-    print(f"{len(failures)} check(s) failed")
+    print(f"{len(failures)} check(s) failed:")
+    for what in failures:
+        print("  " + what)
     sys.exit(1)
 print("all checks passed")
