@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 
 #include <tbb/global_control.h>
 
@@ -687,6 +688,45 @@ TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnSmoothVelocityGrids) {
             }
     }
     EXPECT_EQ(compared, 2 * 2 * 3);
+}
+
+// staggeredGrid() copies the components into planes that the 8-cell blocks read. A staggered
+// field made without them (kind set by hand) takes the per-cell grid kernel: the same bits. A
+// grid resized after its field was made no longer matches the planes: validate() says so.
+TEST(AdvectStaggered, PlanesAreACopyOfTheGridThatOnlyTheBlocksNeed) {
+    const ivec3 res(48, 10, 40);
+    const GridFrame f{vec3(2.0f, 50.0f, -4.0f), 0.5f};
+    DensityGrid start = blank(res);
+    std::mt19937 rng(29);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (float& v : start.v) v = u(rng) < 0.3f ? 0.0f : u(rng);
+    VelocityGrid g = gridOf(res + 1, f, [](int x, int y, int z) {
+        return vec3(0.9f + 0.05f * std::sin(0.05f * float(z)), 0.002f * float(y),
+                    -0.4f + 0.05f * std::cos(0.05f * float(x)));
+    });
+    const VelocityField withPlanes = staggeredGrid(g);
+    ASSERT_TRUE(withPlanes.planes);
+    ASSERT_EQ(withPlanes.planes->size(), 3 * g.v.size());
+    EXPECT_EQ((*withPlanes.planes)[g.v.size() + 5], g.v[5].y);
+    VelocityField without = centredGrid(g);
+    without.kind = VelocityKind::Staggered;
+    EXPECT_STREQ(validate(without), "");
+    AdvectParams p = scheme(AdvectScheme::MacCormack, Boundary::Zero);
+    p.backtrace = Backtrace::RK2;
+    DensityGrid a = start, b = start;
+    AdvectWorkspace wa, wb;
+    for (int k = 0; k < 2; ++k) {
+        const AdvectStats sa = advect(a, f, withPlanes, 0.3f, p, a, wa);
+        const AdvectStats sb = advect(b, f, without, 0.3f, p, b, wb);
+        ASSERT_EQ(a.v, b.v);
+        expectSameStats(sa, sb);
+    }
+    EXPECT_NE(a.v, start.v);
+    g.res.x += 1;
+    g.v.resize(size_t(g.res.x) * g.res.y * g.res.z, vec3(0.0f));
+    EXPECT_NE(std::string(validate(withPlanes)).find("planes"), std::string::npos)
+        << validate(withPlanes);
+    EXPECT_STREQ(validate(staggeredGrid(g)), "");
 }
 
 // MacCormack with a velocity grid runs its two passes as a wavefront over z slabs (pass 2 of a

@@ -128,9 +128,12 @@ template <VelocityKind K> struct GridSampler {
     const VelocityGrid& g;
     vec3 gOff;
     float gScale, invH;
+    /// Staggered: VelocityField::planes (component c at planes + c * g.v.size()), or null
+    const float* planes;
 
     explicit GridSampler(const Sampler& s)
-        : g(*s.f.grid), gOff(s.gOff), gScale(s.gScale), invH(s.invH) {}
+        : g(*s.f.grid), gOff(s.gOff), gScale(s.gScale), invH(s.invH),
+          planes(s.f.planes ? s.f.planes->data() : nullptr) {}
 
     [[gnu::always_inline]] vec3 operator()(vec3 p) const {
         if constexpr (K == VelocityKind::Centred)
@@ -153,6 +156,8 @@ template <VelocityKind K> struct GridRowVelocity {
         float fy, fz;
     };
     Comp c[3];
+    /// Staggered with planes: component k's four rows in its plane, as c[k].r
+    const float* pr[3][4] = {};
     const GridSampler<K>& s;
     int nx;
 
@@ -173,6 +178,9 @@ template <VelocityKind K> struct GridRowVelocity {
             c[k].r[1] = v + s.g.index(0, y1, z0);
             c[k].r[2] = v + s.g.index(0, y0, z1);
             c[k].r[3] = v + s.g.index(0, y1, z1);
+            if (s.planes)
+                for (int row = 0; row < 4; ++row)
+                    pr[k][row] = s.planes + k * s.g.v.size() + size_t(c[k].r[row] - v);
         }
     }
 
@@ -329,6 +337,18 @@ VelocityField centredGrid(const VelocityGrid& g) {
 VelocityField staggeredGrid(const VelocityGrid& g) {
     VelocityField f = centredGrid(g);
     f.kind = VelocityKind::Staggered;
+    const size_t n = g.v.size();
+    auto planes = std::make_shared<std::vector<float>>(3 * n);
+    float* px = planes->data();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 65536),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i < r.end(); ++i) {
+                              px[i] = g.v[i].x;
+                              px[n + i] = g.v[i].y;
+                              px[2 * n + i] = g.v[i].z;
+                          }
+                      });
+    f.planes = std::move(planes);
     return f;
 }
 
@@ -358,6 +378,9 @@ const char* validate(const VelocityField& v) {
             return "velocity grid: voxel size must be finite and > 0, origin finite";
         for (const vec3& w : g->v)
             if (!finite3(w)) return "velocity grid: non-finite velocity";
+        if (v.planes && v.planes->size() != 3 * g->v.size())
+            return "velocity grid: its planes do not hold 3 floats per entry (the grid was "
+                   "resized after staggeredGrid())";
         return "";
     }
     }
@@ -609,12 +632,11 @@ struct GridCorners8 {
                     at(r01, x13), at(r11, x03), at(r11, x13), k.fx, k.fy, k.fz);
 }
 
-/// The trilinear blend of components c0 .. c1 - 1 at corners in consecutive rows
-/// (GridCorners8::row), in gridComponent()'s order (x, then y, then z); the other components 0.
-/// The values at x1 = x0 + 1 are those at x0 moved by one lane and the row's 9th entry (the same
-/// values as 8 entries loaded from x0 + 1); the rows are blended as they are read, so that few
-/// registers stay live.
-[[gnu::always_inline]] inline Vec8 rowsTrilerp8(const GridCorners8& k, int c0, int c1) {
+/// The trilinear blend of the three components at corners in consecutive rows
+/// (GridCorners8::row), in gridVector()'s order (x, then y, then z). The values at x1 = x0 + 1
+/// are those at x0 moved by one lane and the row's 9th entry (the same values as 8 entries
+/// loaded from x0 + 1); the rows are blended as they are read, so that few registers stay live.
+[[gnu::always_inline]] inline Vec8 rowsTrilerp8(const GridCorners8& k) {
     const __m256i next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 0);
     __m256 zr[2][3]; // the y blends of the z0 rows (0, 1) and the z1 rows (2, 3)
     for (int z = 0; z < 2; ++z) {
@@ -622,24 +644,16 @@ struct GridCorners8 {
         for (int y = 0; y < 2; ++y) {
             const vec3* row = k.row[2 * z + y];
             const Vec8 lo = channels8(row);
-            for (int c = c0; c < c1; ++c) {
+            for (int c = 0; c < 3; ++c) {
                 const __m256 hi = _mm256_blend_ps(_mm256_permutevar8x32_ps(comp(lo, c), next),
                                                   _mm256_broadcast_ss(&row[8][c]), 0x80);
                 xr[y][c] = lerp8(comp(lo, c), hi, k.fx);
             }
         }
-        for (int c = c0; c < c1; ++c) zr[z][c] = lerp8(xr[0][c], xr[1][c], k.fy);
+        for (int c = 0; c < 3; ++c) zr[z][c] = lerp8(xr[0][c], xr[1][c], k.fy);
     }
-    __m256 out[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
-    for (int c = c0; c < c1; ++c) out[c] = lerp8(zr[0][c], zr[1][c], k.fz);
-    return {out[0], out[1], out[2]};
-}
-
-/// gridComponent() in 8 lanes: component c of the grid at grid positions q.
-[[gnu::always_inline]] inline __m256 gridComponent8(const VelocityGrid& g, int c, __m256 qx,
-                                                    __m256 qy, __m256 qz) {
-    const GridCorners8 k = gridCorners8(g, qx, qy, qz);
-    return k.row[0] ? comp(rowsTrilerp8(k, c, c + 1), c) : gatherComponent8(g, k, c);
+    return {lerp8(zr[0][0], zr[1][0], k.fz), lerp8(zr[0][1], zr[1][1], k.fz),
+            lerp8(zr[0][2], zr[1][2], k.fz)};
 }
 
 /// gridVector() in 8 lanes: the three components at the same grid positions q, their corners
@@ -649,10 +663,79 @@ struct GridCorners8 {
     const GridCorners8 k = gridCorners8(g, qx, qy, qz);
     if (!k.row[0])
         return {gatherComponent8(g, k, 0), gatherComponent8(g, k, 1), gatherComponent8(g, k, 2)};
-    return rowsTrilerp8(k, 0, 3);
+    return rowsTrilerp8(k);
 }
 
-/// GridSampler<K>() in 8 lanes (cells / s at density-grid index positions p).
+/// gridCorner() along one axis in 8 lanes, and whether the lanes' stencils allow plain loads:
+/// along x, 8 consecutive corners (first: lane 0's); along y or z, one corner for all lanes.
+struct Corner8 {
+    __m256i i0, i1;
+    __m256 f;
+    bool ok;
+    int first;
+};
+
+[[gnu::always_inline]] inline Corner8 xCorner8(__m256 q, int n) {
+    Corner8 c;
+    gridCorner8(q, n, c.i0, c.i1, c.f);
+    c.ok = allLanes(consecutiveLanes(c.i0, c.i1, &c.first));
+    return c;
+}
+
+[[gnu::always_inline]] inline Corner8 yzCorner8(__m256 q, int n) {
+    Corner8 c;
+    gridCorner8(q, n, c.i0, c.i1, c.f);
+    c.ok = allLanes(sameLanes(c.i0)); // (i1 = min(i0 + 1, n - 1) then agrees too)
+    c.first = _mm_cvtsi128_si32(_mm256_castsi256_si128(c.i0));
+    return c;
+}
+
+/// gridComponent() of one component stored as a plane (VelocityField::planes), in 8 lanes, its
+/// y and z corners the same in every lane: rows[] are the stencil's rows (y0, z0), (y1, z0),
+/// (y0, z1), (y1, z1) at x = 0, fy and fz their weights. Plain loads where the x corners are
+/// consecutive (x1 = x0 + 1, so the upper values are the 8 entries from x0 + 1), else gathers.
+[[gnu::always_inline]] inline __m256 planeRows8(const float* const rows[4], const Corner8& x,
+                                                __m256 fy, __m256 fz) {
+    if (x.ok) {
+        auto xl = [&](int r) {
+            const float* p = rows[r] + x.first;
+            return lerp8(_mm256_loadu_ps(p), _mm256_loadu_ps(p + 1), x.f);
+        };
+        return lerp8(lerp8(xl(0), xl(1), fy), lerp8(xl(2), xl(3), fy), fz);
+    }
+    auto at = [&](int r, __m256i i) { return _mm256_i32gather_ps(rows[r], i, 4); };
+    return trilerp8(at(0, x.i0), at(0, x.i1), at(1, x.i0), at(1, x.i1), at(2, x.i0), at(2, x.i1),
+                    at(3, x.i0), at(3, x.i1), x.f, fy, fz);
+}
+
+/// gridComponent() of the component in @p plane at the corners x, y, z, in 8 lanes.
+[[gnu::always_inline]] inline __m256 planeComponent8(const VelocityGrid& g, const float* plane,
+                                                     const Corner8& x, const Corner8& y,
+                                                     const Corner8& z) {
+    if (y.ok && z.ok) {
+        const int ya = y.first, za = z.first;
+        const int yb = _mm_cvtsi128_si32(_mm256_castsi256_si128(y.i1));
+        const int zb = _mm_cvtsi128_si32(_mm256_castsi256_si128(z.i1));
+        const float* const rows[4] = {plane + g.index(0, ya, za), plane + g.index(0, yb, za),
+                                      plane + g.index(0, ya, zb), plane + g.index(0, yb, zb)};
+        return planeRows8(rows, x, y.f, z.f);
+    }
+    const __m256i rx = _mm256_set1_epi32(g.res.x), ry = _mm256_set1_epi32(g.res.y);
+    auto rowOf = [&](__m256i yi, __m256i zi) {
+        return _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(zi, ry), yi), rx);
+    };
+    auto at = [&](__m256i row, __m256i xi) {
+        return _mm256_i32gather_ps(plane, _mm256_add_epi32(row, xi), 4);
+    };
+    const __m256i r00 = rowOf(y.i0, z.i0), r10 = rowOf(y.i1, z.i0), r01 = rowOf(y.i0, z.i1),
+                  r11 = rowOf(y.i1, z.i1);
+    return trilerp8(at(r00, x.i0), at(r00, x.i1), at(r10, x.i0), at(r10, x.i1), at(r01, x.i0),
+                    at(r01, x.i1), at(r11, x.i0), at(r11, x.i1), x.f, y.f, z.f);
+}
+
+/// GridSampler<K>() in 8 lanes (cells / s at density-grid index positions p). Staggered: from
+/// the planes (GridSampler::planes not null), the corners of each axis computed once for the
+/// two positions the components use (q and q - 1/2).
 template <VelocityKind K>
 [[gnu::always_inline]] inline Vec8 gridVelocity8(const GridSampler<K>& s, const Vec8& p) {
     const __m256 sc = _mm256_set1_ps(s.gScale), ih = _mm256_set1_ps(s.invH);
@@ -664,62 +747,60 @@ template <VelocityKind K>
     if constexpr (K == VelocityKind::Centred) {
         const Vec8 u = gridVector8(s.g, mx, my, mz);
         return {_mm256_mul_ps(u.x, ih), _mm256_mul_ps(u.y, ih), _mm256_mul_ps(u.z, ih)};
-    } else
-        return {_mm256_mul_ps(gridComponent8(s.g, 0, qx, my, mz), ih),
-                _mm256_mul_ps(gridComponent8(s.g, 1, mx, qy, mz), ih),
-                _mm256_mul_ps(gridComponent8(s.g, 2, mx, my, qz), ih)};
+    } else {
+        const ivec3 n = s.g.res;
+        const size_t plane = s.g.v.size();
+        const Corner8 xq = xCorner8(qx, n.x), xm = xCorner8(mx, n.x);
+        const Corner8 yq = yzCorner8(qy, n.y), ym = yzCorner8(my, n.y);
+        const Corner8 zq = yzCorner8(qz, n.z), zm = yzCorner8(mz, n.z);
+        return {_mm256_mul_ps(planeComponent8(s.g, s.planes, xq, ym, zm), ih),
+                _mm256_mul_ps(planeComponent8(s.g, s.planes + plane, xm, yq, zm), ih),
+                _mm256_mul_ps(planeComponent8(s.g, s.planes + 2 * plane, xm, ym, zq), ih)};
+    }
 }
 
-/// GridRowVelocity<K>(x) for the 8 cells x0 .. x0 + 7.
+/// GridRowVelocity<K>(x) for the 8 cells x0 .. x0 + 7 (Staggered: from the planes).
 template <VelocityKind K>
 [[gnu::always_inline]] inline Vec8 rowVelocity8(const GridRowVelocity<K>& r, __m256 px) {
     const __m256 qx =
         _mm256_add_ps(_mm256_mul_ps(px, _mm256_set1_ps(r.s.gScale)), _mm256_set1_ps(r.s.gOff.x));
     const __m256 ih = _mm256_set1_ps(r.s.invH);
-    // component a's corners along x (Centred: all three alike); its rows where the 8 entries are
-    // consecutive (a grid aligned with the density's, away from its x edges): plain loads
-    // instead of gathers, the same values
-    auto corners = [&](int a) {
-        const auto& k = r.c[K == VelocityKind::Centred ? 0 : a];
-        const bool shifted = K == VelocityKind::Centred || a != 0;
+    const __m256 mx = _mm256_sub_ps(qx, _mm256_set1_ps(0.5f));
+    __m256 u[3];
+    if constexpr (K == VelocityKind::Centred) { // one set of corners and loads for all three
+        // the rows where the 8 entries are consecutive (a grid aligned with the density's, away
+        // from its x edges): plain loads instead of gathers, the same values
+        const auto& k = r.c[0];
         GridCorners8 g;
-        gridCorner8(shifted ? _mm256_sub_ps(qx, _mm256_set1_ps(0.5f)) : qx, r.nx, g.x0, g.x1, g.fx);
+        gridCorner8(mx, r.nx, g.x0, g.x1, g.fx);
         g.fy = _mm256_set1_ps(k.fy);
         g.fz = _mm256_set1_ps(k.fz);
         int first = 0;
         const bool contiguous = allLanes(consecutiveLanes(g.x0, g.x1, &first));
         for (int row = 0; row < 4; ++row) g.row[row] = contiguous ? k.r[row] + first : nullptr;
-        return g;
-    };
-    auto gather = [&](int a, const GridCorners8& g) {
-        const auto& k = r.c[K == VelocityKind::Centred ? 0 : a];
-        const __m256i three = _mm256_set1_epi32(3), ca = _mm256_set1_epi32(a);
-        const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(g.x0, three), ca);
-        const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(g.x1, three), ca);
-        auto at = [&](int row, __m256i o) { return _mm256_i32gather_ps(&k.r[row]->x, o, 4); };
-        return trilerp8(at(0, o0), at(0, o1), at(1, o0), at(1, o1), at(2, o0), at(2, o1), at(3, o0),
-                        at(3, o1), g.fx, g.fy, g.fz);
-    };
-    __m256 u[3];
-    if constexpr (K == VelocityKind::Centred) { // one set of corners and loads for all three
-        const GridCorners8 g = corners(0);
-        if (g.row[0]) {
-            const Vec8 v = rowsTrilerp8(g, 0, 3);
+        if (contiguous) {
+            const Vec8 v = rowsTrilerp8(g);
             u[0] = v.x;
             u[1] = v.y;
             u[2] = v.z;
         } else {
-            for (int a = 0; a < 3; ++a) u[a] = gather(a, g);
-        }
-    } else {
-        for (int a = 0; a < 3; ++a) {
-            const GridCorners8 g = corners(a);
-            if (g.row[0]) {
-                u[a] = comp(rowsTrilerp8(g, a, a + 1), a);
-            } else {
-                u[a] = gather(a, g);
+            const __m256i three = _mm256_set1_epi32(3);
+            for (int a = 0; a < 3; ++a) {
+                const __m256i ca = _mm256_set1_epi32(a);
+                const __m256i o0 = _mm256_add_epi32(_mm256_mullo_epi32(g.x0, three), ca);
+                const __m256i o1 = _mm256_add_epi32(_mm256_mullo_epi32(g.x1, three), ca);
+                auto at = [&](int row, __m256i o) {
+                    return _mm256_i32gather_ps(&k.r[row]->x, o, 4);
+                };
+                u[a] = trilerp8(at(0, o0), at(0, o1), at(1, o0), at(1, o1), at(2, o0), at(2, o1),
+                                at(3, o0), at(3, o1), g.fx, g.fy, g.fz);
             }
         }
+    } else { // component 0 at x = q, 1 and 2 at q - 1/2 (their x corners shared)
+        const Corner8 xq = xCorner8(qx, r.nx), xm = xCorner8(mx, r.nx);
+        for (int a = 0; a < 3; ++a)
+            u[a] = planeRows8(r.pr[a], a == 0 ? xq : xm, _mm256_set1_ps(r.c[a].fy),
+                              _mm256_set1_ps(r.c[a].fz));
     }
     return {_mm256_mul_ps(u[0], ih), _mm256_mul_ps(u[1], ih), _mm256_mul_ps(u[2], ih)};
 }
@@ -975,7 +1056,9 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     // the grid kernel's 8-cell blocks (AVX2, the zero boundary): pass 1 needs one RK2 substep too
     const bool zeroBlocks =
         gridKernel && ap.boundary == Boundary::Zero && gridBlocksUsable(*vel.grid, in);
-    const bool blocks = zeroBlocks && ap.backtrace == Backtrace::RK2;
+    // (a staggered grid's blocks read its planes: a field without them uses the per-cell kernel)
+    const bool blocks = zeroBlocks && ap.backtrace == Backtrace::RK2 &&
+                        (vel.kind != VelocityKind::Staggered || vel.planes);
     DensityGrid& dst = &in == &out ? ws.tmp : out;
     dst.res = res;
     dst.v.resize(cells);

@@ -35,6 +35,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -75,11 +76,19 @@ struct VelocityField {
     vec3 uniform{0.0f};                 ///< Uniform
     std::vector<WindLayer> layers;      ///< Layered: altitudes strictly increasing
     const VelocityGrid* grid = nullptr; ///< Centred, Staggered: not owned, must outlive the field
+    /// Staggered (made by staggeredGrid()): the grid's x, y and z components copied into three
+    /// planes of res.x * res.y * res.z floats each (index order as VelocityGrid::index), read by
+    /// advect()'s 8-cell blocks with plain loads where a vec3 grid needs shuffles; shared by
+    /// copies of the field. Null: the blocks are not used (the per-cell grid kernel is).
+    std::shared_ptr<const std::vector<float>> planes;
 };
 
 VelocityField uniformWind(vec3 wind);
 VelocityField layeredWind(std::vector<WindLayer> layers);
 VelocityField centredGrid(const VelocityGrid& g);
+/// A staggered grid's field. It copies the components into VelocityField::planes (12 bytes per
+/// face, one pass over the grid, in parallel): make it once per grid, not per step, and again
+/// after editing the grid's values (advect() reads the copy, velocityAt() the grid).
 VelocityField staggeredGrid(const VelocityGrid& g);
 
 /// "" when the field is usable, else the first problem (empty or unsorted layers, a grid whose
