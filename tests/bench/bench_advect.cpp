@@ -11,6 +11,8 @@
 //                                          velocity grid of the same size, 2 = a staggered one
 //                                          (n + 1 faces); kernel 1 = the row / grid kernel,
 //                                          0 = the per-cell path (the reference); all threads
+//   BM_StaggeredGridField/<n>             staggeredGrid() of (n + 1)^3 faces: the one-time copy
+//                                          of the components into planes
 // scheme: 0 = semi-Lagrangian, 1 = MacCormack; threads: the TBB thread count. items_per_second
 // is steps per second. Run from the build dir:
 //   ./tests/nimbus_bench --benchmark_filter=Advect
@@ -160,5 +162,22 @@ BENCHMARK(BM_AdvectCube)
     ->ArgsProduct({{64, 128, 256}, {0, 1}, {0, 1, 2}, {1, 0}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// staggeredGrid() of an (n + 1)^3 grid: the one-time copy of its components into the planes the
+// 8-cell blocks read (once per grid, not per step)
+void BM_StaggeredGridField(benchmark::State& state) {
+    const int n = int(state.range(0)) + 1;
+    VelocityGrid g;
+    g.res = ivec3(n);
+    g.frame = GridFrame{vec3(0.0f), 25.0f};
+    g.v.resize(size_t(n) * n * n);
+    for (size_t i = 0; i < g.v.size(); ++i) g.v[i] = vec3(float(i % 7), float(i % 5), float(i % 3));
+    for (auto _ : state) {
+        VelocityField f = staggeredGrid(g);
+        benchmark::DoNotOptimize(f.planes->data());
+    }
+    state.counters["faces"] = double(g.v.size());
+}
+BENCHMARK(BM_StaggeredGridField)->Arg(128)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace
