@@ -101,6 +101,24 @@ template <class F> VelocityGrid gridOf(ivec3 res, GridFrame f, F&& at) {
     return g;
 }
 
+/// A density of res cells, random in [0, 1) with a fraction @p empty of zeros.
+DensityGrid speckled(ivec3 res, unsigned seed, float empty) {
+    DensityGrid d = blank(res);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (float& v : d.v) v = u(rng) < empty ? 0.0f : u(rng);
+    return d;
+}
+
+/// A drift with a slow swirl, entries of res on frame f: smooth across 8 cells, so the 8-cell
+/// blocks read most corners with plain loads.
+VelocityGrid smoothDrift(ivec3 res, GridFrame f) {
+    return gridOf(res, f, [](int x, int y, int z) {
+        return vec3(0.9f + 0.05f * std::sin(0.05f * float(z)), 0.02f * float(y) / 10.0f,
+                    -0.4f + 0.05f * std::cos(0.05f * float(x)));
+    });
+}
+
 /// The rotation sampled at cell centres (centred) or at the faces (staggered, res + 1).
 VelocityGrid rotationGrid(ivec3 res, GridFrame f, vec3 c, float omega, bool staggered,
                           vec3 drift = vec3(0.0f), float strain = 0.0f) {
@@ -647,17 +665,8 @@ TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnRandomVelocityGrids) {
 TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnSmoothVelocityGrids) {
     const ivec3 res(48, 10, 40);
     const GridFrame f{vec3(2.0f, 50.0f, -4.0f), 0.5f};
-    DensityGrid start = blank(res);
-    std::mt19937 rng(23);
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (float& v : start.v) v = u(rng) < 0.3f ? 0.0f : u(rng);
-    auto smoothGrid = [&](ivec3 r) {
-        return gridOf(r, f, [](int x, int y, int z) {
-            return vec3(0.9f + 0.05f * std::sin(0.05f * float(z)), 0.02f * float(y) / 10.0f,
-                        -0.4f + 0.05f * std::cos(0.05f * float(x)));
-        });
-    };
-    const VelocityGrid centred = smoothGrid(res), staggered = smoothGrid(res + 1);
+    const DensityGrid start = speckled(res, 23, 0.3f);
+    const VelocityGrid centred = smoothDrift(res, f), staggered = smoothDrift(res + 1, f);
     int compared = 0;
     for (const VelocityField& v : {centredGrid(centred), staggeredGrid(staggered)}) {
         AdvectWorkspace probe;
@@ -696,14 +705,8 @@ TEST(AdvectGridKernel, SameBitsAsThePerCellPathOnSmoothVelocityGrids) {
 TEST(AdvectStaggered, PlanesAreACopyOfTheGridThatOnlyTheBlocksNeed) {
     const ivec3 res(48, 10, 40);
     const GridFrame f{vec3(2.0f, 50.0f, -4.0f), 0.5f};
-    DensityGrid start = blank(res);
-    std::mt19937 rng(29);
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (float& v : start.v) v = u(rng) < 0.3f ? 0.0f : u(rng);
-    VelocityGrid g = gridOf(res + 1, f, [](int x, int y, int z) {
-        return vec3(0.9f + 0.05f * std::sin(0.05f * float(z)), 0.002f * float(y),
-                    -0.4f + 0.05f * std::cos(0.05f * float(x)));
-    });
+    const DensityGrid start = speckled(res, 29, 0.3f);
+    VelocityGrid g = smoothDrift(res + 1, f);
     const VelocityField withPlanes = staggeredGrid(g);
     ASSERT_TRUE(withPlanes.planes);
     ASSERT_EQ(withPlanes.planes->size(), 3 * g.v.size());
