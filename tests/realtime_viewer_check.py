@@ -18,7 +18,7 @@ display number itself (-displayfd), so nothing races for one, and it is started 
    (< 30 dB), so the comparison can tell views apart. Then a 4-pass export (4 pixel samples, no
    sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB. Temporal accumulation:
    6 frames with --accumulate 4 against `nimbus rt --accumulate 4` (>= 45 dB) and far from one
-   pass (< 60 dB); --accumulate 0 exits 2.
+   pass (< 60 dB); --accumulate 0 and --frames 3x exit 2.
 4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
    and a message naming the file and the problem; a march.comp that does not compile: exit 3 and
    the compiler's log.
@@ -204,6 +204,8 @@ if rc == 0:
     check(q < 60.0, f"accumulated: differs from one pass ({q:.2f} dB < 60)")
 rc, out = xvfb([export, "--frames", "1", "--accumulate", "0"])
 check(rc == 2 and "--accumulate wants a count" in out, f"viewer --accumulate 0: exit {rc}")
+rc, out = xvfb([export, "--frames", "3x"])  # a count with trailing characters
+check(rc == 2 and "--frames wants a count" in out, f"viewer --frames 3x: exit {rc}")
 
 # 3b. a multi-pass export (4 pixel samples: one dispatch per sample, sampleIndex at its offset),
 # no sun, transparent background, 64x36
@@ -312,6 +314,8 @@ if HEADLESS:
         check(q < 60.0, f"the accumulated passes differ from one pass ({q:.2f} dB < 60)")
     rc, out = run([HEADLESS, scene_export, "--accumulate", "0"])
     check(rc == 2 and "--accumulate wants a count" in out, f"headless --accumulate 0: exit {rc}")
+    rc, out = run([HEADLESS, scene_export, "--frames", "99999999999"])  # past a long's range
+    check(rc == 2 and "--frames wants a count" in out, f"headless --frames 99999999999: exit {rc}")
     rc, out = run([HEADLESS, os.path.join(SCRATCH, "no_such_export")])
     check(rc == 2 and "no_such_export/" in out and "cannot open" in out,
           f"headless, missing export: exit {rc}: {out.strip()!r}")

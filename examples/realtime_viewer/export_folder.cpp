@@ -241,4 +241,13 @@ const Member* findMember(const ExportFolder& e, const std::string& name, const s
     return &it->second;
 }
 
+bool parseCount(const char* text, int lo, int hi, int* out) {
+    char* end = nullptr;
+    errno = 0;
+    const long v = std::strtol(text, &end, 10);
+    if (end == text || *end != '\0' || errno == ERANGE || v < lo || v > hi) return false;
+    *out = int(v);
+    return true;
+}
+
 } // namespace viewer

@@ -56,4 +56,8 @@ bool loadExport(const std::string& dir, ExportFolder& out, std::string* error);
 const Member* findMember(const ExportFolder& e, const std::string& name, const std::string& type,
                          std::string* error);
 
+/// A whole decimal count in [lo, hi] (no trailing characters): false otherwise. For the
+/// command-line options of both runners.
+bool parseCount(const char* text, int lo, int hi, int* out);
+
 } // namespace viewer

@@ -125,14 +125,6 @@ Summary summarise(std::vector<double> v) {
     return s;
 }
 
-bool parseCount(const char* text, int lo, int* out) {
-    char* end = nullptr;
-    const long v = std::strtol(text, &end, 10);
-    if (end == text || *end != '\0' || v < lo || v > 100000) return false;
-    *out = int(v);
-    return true;
-}
-
 } // namespace
 
 int main(int argc, char** argv) {
@@ -145,17 +137,17 @@ int main(int argc, char** argv) {
             std::fputs(kUsage, stdout);
             return 0;
         } else if (a == "--frames" && hasValue) {
-            if (!parseCount(argv[++i], 1, &frames)) {
+            if (!viewer::parseCount(argv[++i], 1, 100000, &frames)) {
                 std::fprintf(stderr, "nimbus_headless: --frames wants a count in 1..100000\n");
                 return kExitUsage;
             }
         } else if (a == "--warmup" && hasValue) {
-            if (!parseCount(argv[++i], 0, &warmup)) {
+            if (!viewer::parseCount(argv[++i], 0, 100000, &warmup)) {
                 std::fprintf(stderr, "nimbus_headless: --warmup wants a count in 0..100000\n");
                 return kExitUsage;
             }
         } else if (a == "--accumulate" && hasValue) {
-            if (!parseCount(argv[++i], 1, &accumulate) || accumulate > 4096) {
+            if (!viewer::parseCount(argv[++i], 1, 4096, &accumulate)) {
                 std::fprintf(stderr, "nimbus_headless: --accumulate wants a count in 1..4096\n");
                 return kExitUsage;
             }

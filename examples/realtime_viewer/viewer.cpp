@@ -34,7 +34,7 @@ const char* const kUsage =
     "                     [--window WxH] [--move RIGHT,UP,FORWARD] [--turn YAW,PITCH]\n"
     "                     [--accumulate N]\n"
     "  EXPORT_DIR     a folder written by `nimbus export-glsl scene.toml -o EXPORT_DIR`\n"
-    "  --frames N     render N frames, write the screenshots of the last one, exit\n"
+    "  --frames N     render N frames (1..100000000), write the screenshots of the last one, exit\n"
     "  --screenshot   .pfm: the resolved linear RGB at the export's size (working space);\n"
     "                 .ppm: the window as shown (8-bit sRGB). Key P writes them too\n"
     "  --window WxH   window size (default: the export's image, scaled up to >= 960 wide)\n"
@@ -190,9 +190,8 @@ int main(int argc, char** argv) {
             std::fputs(kUsage, stdout);
             return 0;
         } else if (a == "--frames" && hasValue) {
-            frames = std::atoi(argv[++i]);
-            if (frames < 1) {
-                std::fprintf(stderr, "nimbus_viewer: --frames wants a count >= 1\n");
+            if (!viewer::parseCount(argv[++i], 1, 100000000, &frames)) {
+                std::fprintf(stderr, "nimbus_viewer: --frames wants a count in 1..100000000\n");
                 return kExitUsage;
             }
         } else if (a == "--screenshot" && hasValue) {
@@ -208,8 +207,7 @@ int main(int argc, char** argv) {
                 return kExitUsage;
             }
         } else if (a == "--accumulate" && hasValue) {
-            accumulate = std::atoi(argv[++i]);
-            if (accumulate < 1 || accumulate > 4096) {
+            if (!viewer::parseCount(argv[++i], 1, 4096, &accumulate)) {
                 std::fprintf(stderr, "nimbus_viewer: --accumulate wants a count in 1..4096\n");
                 return kExitUsage;
             }
