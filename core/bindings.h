@@ -41,6 +41,9 @@ struct FrameBindings {
     /// read by plugin/vdb; null when the scene names none.
     std::shared_ptr<const sim::VelocityGrid> velocity;
     bool velocityStaggered = false; ///< the grid's layout (MAC faces) as read
+    /// Planned before the frame's files were read (`--explain`): a null velocity means "not
+    /// read yet", which the plan states, instead of "missing", which it refuses.
+    bool unread = false;
 
     /// The grid of volume `i` (an empty binding when there is none).
     const GridBinding& grid(int i) const {

@@ -212,8 +212,8 @@ std::string FramePlan::explain() const {
     }
     if (advected && advectRes.x == 0) {
         o << "  advection: " << advectWind
-          << "; the domain follows from the source's bounds (a VDB grid is read when the frame "
-             "is rendered)\n";
+          << "; the domain follows from the source's bounds and the wind (VDB grids are read "
+             "when the frame is rendered)\n";
     } else if (advected) {
         char adv[512];
         std::snprintf(adv, sizeof adv,
@@ -316,7 +316,9 @@ std::string FramePlan::explain() const {
 }
 
 FramePlan planFrame(const SceneDesc& s, int frame, const AovSet& aovs) {
-    return planFrame(s, frame, FrameBindings{}, aovs);
+    FrameBindings unread;
+    unread.unread = true;
+    return planFrame(s, frame, unread, aovs);
 }
 
 namespace {
@@ -324,9 +326,18 @@ namespace {
 /// [field.advect]: the simulation's domain replaces the source's bounds for the plan.
 void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bounds, FramePlan& p) {
     const AdvectDesc& a = s.field.advect;
-    std::string problem;
-    const FieldMotion wind = advectWind(a, bindings.velocity, bindings.velocityStaggered, &problem);
+    const char* scheme = a.maccormack ? "MacCormack" : "semi-Lagrangian";
+    char buf[200];
     p.advected = true;
+    if (a.wind == AdvectWind::Grid && !bindings.velocity && bindings.unread) {
+        // the domain grows with the wind, which is read with the frame
+        p.advectWind =
+            std::string(scheme) + ", velocity grid \"" + a.velocityGrid + "\" of " + a.velocityPath;
+        return;
+    }
+    std::string problem;
+    const FieldMotion wind =
+        advectWind(a, bindings.velocity, bindings.velocityStaggered, &problem, false);
     if (!problem.empty()) {
         p.refusal = problem;
         return;
@@ -348,8 +359,6 @@ void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bound
     p.advectStep = advectStep(a, s.render.fps);
     p.advectSteps = advectStepsFor(a, s.render.fps, p.time);
     p.advectBytes = advectBytes(dom);
-    const char* scheme = a.maccormack ? "MacCormack" : "semi-Lagrangian";
-    char buf[200];
     switch (a.wind) {
     case AdvectWind::Uniform:
         std::snprintf(buf, sizeof buf, "%s, uniform wind (%.4g, %.4g, %.4g)", scheme, a.uniform.x,

@@ -337,6 +337,13 @@ TEST(AdvectedVdb, MantaflowDensityMovesWithItsOwnStaggeredVelocity) {
                              "\"\n[field.advect]\nvelocity = \"" + path + "\"\n";
     host::Session s;
     ASSERT_TRUE(s.loadString(text, "manta.toml").ok());
+    // --explain plans before reading: the velocity is not read yet, which is no refusal
+    const FramePlan unread = s.plan(3);
+    EXPECT_TRUE(unread.refusal.empty()) << unread.refusal;
+    EXPECT_NE(unread.explain().find("velocity grid \"velocity\" of " + path), std::string::npos)
+        << unread.explain();
+    EXPECT_NE(unread.explain().find("VDB grids are read when the frame is rendered"),
+              std::string::npos);
     ASSERT_TRUE(s.bind(0).ok());
     ASSERT_TRUE(s.bindings().velocity);
     EXPECT_TRUE(s.bindings().velocityStaggered); // the grid class says (velocity_layout "auto")

@@ -112,7 +112,7 @@ AdvectDomain advectDomain(const AdvectDesc& d, const Box& source, float sourceVo
 }
 
 FieldMotion advectWind(const AdvectDesc& d, std::shared_ptr<const sim::VelocityGrid> grid,
-                       bool staggered, std::string* problem) {
+                       bool staggered, std::string* problem, bool toAdvect) {
     FieldMotion m;
     switch (d.wind) {
     case AdvectWind::Uniform:
@@ -135,7 +135,7 @@ FieldMotion advectWind(const AdvectDesc& d, std::shared_ptr<const sim::VelocityG
                            "\": no velocity grid was loaded for this frame";
             return FieldMotion{};
         }
-        m.velocity = staggered ? sim::staggeredGrid(*grid) : sim::centredGrid(*grid);
+        m.velocity = staggered ? sim::staggeredGrid(*grid, toAdvect) : sim::centredGrid(*grid);
         m.grid = std::move(grid);
         m.moving = true;
         break;

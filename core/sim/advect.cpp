@@ -334,9 +334,10 @@ VelocityField centredGrid(const VelocityGrid& g) {
     return f;
 }
 
-VelocityField staggeredGrid(const VelocityGrid& g) {
+VelocityField staggeredGrid(const VelocityGrid& g, bool withPlanes) {
     VelocityField f = centredGrid(g);
     f.kind = VelocityKind::Staggered;
+    if (!withPlanes) return f;
     const size_t n = g.v.size();
     auto planes = std::make_shared<std::vector<float>>(3 * n);
     float* px = planes->data();

@@ -86,10 +86,12 @@ struct VelocityField {
 VelocityField uniformWind(vec3 wind);
 VelocityField layeredWind(std::vector<WindLayer> layers);
 VelocityField centredGrid(const VelocityGrid& g);
-/// A staggered grid's field. It copies the components into VelocityField::planes (12 bytes per
-/// face, one pass over the grid, in parallel): make it once per grid, not per step, and again
-/// after editing the grid's values (advect() reads the copy, velocityAt() the grid).
-VelocityField staggeredGrid(const VelocityGrid& g);
+/// A staggered grid's field. With @p withPlanes it copies the components into VelocityField::planes
+/// (12 bytes per face, one pass over the grid, in parallel): make it once per grid, not per
+/// step, and again after editing the grid's values (advect() reads the copy, velocityAt() the
+/// grid). Without: a field to look up, validate or compare, and advect() takes its per-cell
+/// grid kernel.
+VelocityField staggeredGrid(const VelocityGrid& g, bool withPlanes = true);
 
 /// "" when the field is usable, else the first problem (empty or unsorted layers, a grid whose
 /// v does not hold res entries, a voxel size <= 0, non-finite values).

@@ -270,6 +270,7 @@ FramePlan Session::plan(int frame, const AovSet& aovs) {
     if (boundFrame_ == frame) return renderer().plan(frame, bindings_, aovs);
     FrameBindings unbound;
     unbound.geometry = geometry_;
+    unbound.unread = true;
     return renderer().plan(frame, unbound, aovs);
 }
 
