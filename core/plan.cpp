@@ -336,8 +336,7 @@ void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bound
         return;
     }
     std::string problem;
-    const FieldMotion wind =
-        advectWind(a, bindings.velocity, bindings.velocityStaggered, &problem, false);
+    const FieldMotion wind = advectWind(a, bindings.velocity, bindings.velocityStaggered, &problem);
     if (!problem.empty()) {
         p.refusal = problem;
         return;

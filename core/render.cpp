@@ -126,8 +126,8 @@ Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, d
             plan.advectBounds.lo == advect_->domain().bounds.lo) {
             // another binding: the same static VDB file read again for this frame, or the next
             // grid of a sequence; compared by content (the sequence keeps its own wind grid)
-            const FieldMotion wind = advectWind(scene_.field.advect, bindings.velocity,
-                                                bindings.velocityStaggered, nullptr, false);
+            const FieldMotion wind =
+                advectWind(scene_.field.advect, bindings.velocity, bindings.velocityStaggered);
             keep = advect_->sameSource(makeAdvectSource(scene_.field, g), wind);
             if (keep) {
                 advectSourceKey_ = g.grid;

@@ -112,7 +112,7 @@ AdvectDomain advectDomain(const AdvectDesc& d, const Box& source, float sourceVo
 }
 
 FieldMotion advectWind(const AdvectDesc& d, std::shared_ptr<const sim::VelocityGrid> grid,
-                       bool staggered, std::string* problem, bool toAdvect) {
+                       bool staggered, std::string* problem) {
     FieldMotion m;
     switch (d.wind) {
     case AdvectWind::Uniform:
@@ -135,7 +135,7 @@ FieldMotion advectWind(const AdvectDesc& d, std::shared_ptr<const sim::VelocityG
                            "\": no velocity grid was loaded for this frame";
             return FieldMotion{};
         }
-        m.velocity = staggered ? sim::staggeredGrid(*grid, toAdvect) : sim::centredGrid(*grid);
+        m.velocity = staggered ? sim::staggeredGrid(*grid, false) : sim::centredGrid(*grid);
         m.grid = std::move(grid);
         m.moving = true;
         break;
@@ -187,7 +187,7 @@ bool AdvectedSequence::sameSource(const Field& source, const FieldMotion& wind) 
 
 AdvectedSequence::AdvectedSequence(const AdvectDesc& d, float fps, const AdvectDomain& domain,
                                    const Field& source, const FieldMotion& wind)
-    : desc_(d), domain_(domain), wind_(wind.velocity), windGrid_(wind.grid),
+    : desc_(d), domain_(domain), wind_(sim::withPlanes(wind.velocity)), windGrid_(wind.grid),
       dt_(advectStep(d, fps)) {
     params_.scheme =
         d.maccormack ? sim::AdvectScheme::MacCormack : sim::AdvectScheme::SemiLagrangian;

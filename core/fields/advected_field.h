@@ -50,11 +50,11 @@ struct AdvectDomain {
 AdvectDomain advectDomain(const AdvectDesc& d, const Box& source, float sourceVoxel,
                           const sim::VelocityField& wind);
 /// The advection's wind in world units / s ("" problem) from the description and, for
-/// AdvectWind::Grid, the frame's velocity grid; `problem` names what is wrong. @p toAdvect:
-/// a staggered grid's field gets the planes advect() reads (sim::staggeredGrid(), one copy of
-/// the grid); false for a wind only validated or compared.
+/// AdvectWind::Grid, the frame's velocity grid; `problem` names what is wrong. A staggered
+/// grid's field comes without planes: the AdvectedSequence that advects with it adds them
+/// (sim::withPlanes(), one copy of the grid per sequence).
 FieldMotion advectWind(const AdvectDesc& d, std::shared_ptr<const sim::VelocityGrid> grid,
-                       bool staggered, std::string* problem = nullptr, bool toAdvect = true);
+                       bool staggered, std::string* problem = nullptr);
 /// Seconds per step (AdvectDesc::step, or one frame).
 float advectStep(const AdvectDesc& d, float fps);
 /// Full steps from time 0 to a frame at `time` (the frame adds one partial step when it falls

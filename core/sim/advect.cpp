@@ -128,12 +128,14 @@ template <VelocityKind K> struct GridSampler {
     const VelocityGrid& g;
     vec3 gOff;
     float gScale, invH;
-    /// Staggered: VelocityField::planes (component c at planes + c * g.v.size()), or null
-    const float* planes;
+    /// Staggered: component c's plane in VelocityField::planes, or null (no planes)
+    const float* plane[3] = {};
 
     explicit GridSampler(const Sampler& s)
-        : g(*s.f.grid), gOff(s.gOff), gScale(s.gScale), invH(s.invH),
-          planes(s.f.planes ? s.f.planes->data() : nullptr) {}
+        : g(*s.f.grid), gOff(s.gOff), gScale(s.gScale), invH(s.invH) {
+        if (s.f.planes)
+            for (int c = 0; c < 3; ++c) plane[c] = s.f.planes->data() + c * g.v.size();
+    }
 
     [[gnu::always_inline]] vec3 operator()(vec3 p) const {
         if constexpr (K == VelocityKind::Centred)
@@ -178,9 +180,8 @@ template <VelocityKind K> struct GridRowVelocity {
             c[k].r[1] = v + s.g.index(0, y1, z0);
             c[k].r[2] = v + s.g.index(0, y0, z1);
             c[k].r[3] = v + s.g.index(0, y1, z1);
-            if (s.planes)
-                for (int row = 0; row < 4; ++row)
-                    pr[k][row] = s.planes + k * s.g.v.size() + size_t(c[k].r[row] - v);
+            if (s.plane[k])
+                for (int row = 0; row < 4; ++row) pr[k][row] = s.plane[k] + size_t(c[k].r[row] - v);
         }
     }
 
@@ -334,10 +335,15 @@ VelocityField centredGrid(const VelocityGrid& g) {
     return f;
 }
 
-VelocityField staggeredGrid(const VelocityGrid& g, bool withPlanes) {
+VelocityField staggeredGrid(const VelocityGrid& g, bool planes) {
     VelocityField f = centredGrid(g);
     f.kind = VelocityKind::Staggered;
-    if (!withPlanes) return f;
+    return planes ? withPlanes(std::move(f)) : f;
+}
+
+VelocityField withPlanes(VelocityField f) {
+    if (f.kind != VelocityKind::Staggered || !f.grid || f.planes) return f;
+    const VelocityGrid& g = *f.grid;
     const size_t n = g.v.size();
     auto planes = std::make_shared<std::vector<float>>(3 * n);
     float* px = planes->data();
@@ -735,7 +741,7 @@ struct Corner8 {
 }
 
 /// GridSampler<K>() in 8 lanes (cells / s at density-grid index positions p). Staggered: from
-/// the planes (GridSampler::planes not null), the corners of each axis computed once for the
+/// the planes (GridSampler::plane not null), the corners of each axis computed once for the
 /// two positions the components use (q and q - 1/2).
 template <VelocityKind K>
 [[gnu::always_inline]] inline Vec8 gridVelocity8(const GridSampler<K>& s, const Vec8& p) {
@@ -750,13 +756,12 @@ template <VelocityKind K>
         return {_mm256_mul_ps(u.x, ih), _mm256_mul_ps(u.y, ih), _mm256_mul_ps(u.z, ih)};
     } else {
         const ivec3 n = s.g.res;
-        const size_t plane = s.g.v.size();
         const Corner8 xq = xCorner8(qx, n.x), xm = xCorner8(mx, n.x);
         const Corner8 yq = yzCorner8(qy, n.y), ym = yzCorner8(my, n.y);
         const Corner8 zq = yzCorner8(qz, n.z), zm = yzCorner8(mz, n.z);
-        return {_mm256_mul_ps(planeComponent8(s.g, s.planes, xq, ym, zm), ih),
-                _mm256_mul_ps(planeComponent8(s.g, s.planes + plane, xm, yq, zm), ih),
-                _mm256_mul_ps(planeComponent8(s.g, s.planes + 2 * plane, xm, ym, zq), ih)};
+        return {_mm256_mul_ps(planeComponent8(s.g, s.plane[0], xq, ym, zm), ih),
+                _mm256_mul_ps(planeComponent8(s.g, s.plane[1], xm, yq, zm), ih),
+                _mm256_mul_ps(planeComponent8(s.g, s.plane[2], xm, ym, zq), ih)};
     }
 }
 

@@ -76,22 +76,25 @@ struct VelocityField {
     vec3 uniform{0.0f};                 ///< Uniform
     std::vector<WindLayer> layers;      ///< Layered: altitudes strictly increasing
     const VelocityGrid* grid = nullptr; ///< Centred, Staggered: not owned, must outlive the field
-    /// Staggered (made by staggeredGrid()): the grid's x, y and z components copied into three
-    /// planes of res.x * res.y * res.z floats each (index order as VelocityGrid::index), read by
-    /// advect()'s 8-cell blocks with plain loads where a vec3 grid needs shuffles; shared by
-    /// copies of the field. Null: the blocks are not used (the per-cell grid kernel is).
+    /// Staggered (made by withPlanes(), which staggeredGrid() calls): the grid's x, y and z
+    /// components copied into three planes of res.x * res.y * res.z floats each (index order as
+    /// VelocityGrid::index), read by advect()'s 8-cell blocks with plain loads where a vec3 grid
+    /// needs shuffles; shared by copies of the field. Null: the blocks are not used (the per-cell
+    /// grid kernel is).
     std::shared_ptr<const std::vector<float>> planes;
 };
 
 VelocityField uniformWind(vec3 wind);
 VelocityField layeredWind(std::vector<WindLayer> layers);
 VelocityField centredGrid(const VelocityGrid& g);
-/// A staggered grid's field. With @p withPlanes it copies the components into VelocityField::planes
-/// (12 bytes per face, one pass over the grid, in parallel): make it once per grid, not per
-/// step, and again after editing the grid's values (advect() reads the copy, velocityAt() the
-/// grid). Without: a field to look up, validate or compare, and advect() takes its per-cell
-/// grid kernel.
-VelocityField staggeredGrid(const VelocityGrid& g, bool withPlanes = true);
+/// A staggered grid's field, with its planes (withPlanes()) unless @p planes is false: a field
+/// only looked up, validated or compared needs none (advect() then takes its per-cell kernel).
+VelocityField staggeredGrid(const VelocityGrid& g, bool planes = true);
+/// @p f with VelocityField::planes when it is a staggered grid's field without them: a copy of
+/// the components (12 bytes per face, one pass over the grid, in parallel). Make it once per
+/// grid, not per step, and again after editing the grid's values (advect() reads the copy,
+/// velocityAt() the grid). Other fields are returned as they are.
+VelocityField withPlanes(VelocityField f);
 
 /// "" when the field is usable, else the first problem (empty or unsorted layers, a grid whose
 /// v does not hold res entries, a voxel size <= 0, non-finite values).
