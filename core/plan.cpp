@@ -216,18 +216,38 @@ std::string FramePlan::explain() const {
              "when the frame is rendered)\n";
     } else if (advected) {
         char adv[512];
-        std::snprintf(adv, sizeof adv,
-                      "  advection: %s; %d x %d x %d cells of %.4g%s over (%.4g, %.4g, %.4g) to "
-                      "(%.4g, %.4g, %.4g), steps of %.4g s: %llu from time 0 when rendered alone "
-                      "(a renderer continuing a sequence computes only the steps since its "
-                      "previous frame); %.1f MB\n",
-                      advectWind.c_str(), advectRes.x, advectRes.y, advectRes.z, advectVoxel,
-                      advectCoarsened ? " (the default voxel, enlarged to stay within 2^24 cells)"
-                                      : "",
-                      advectBounds.lo.x, advectBounds.lo.y, advectBounds.lo.z, advectBounds.hi.x,
-                      advectBounds.hi.y, advectBounds.hi.z, advectStep,
-                      (unsigned long long)advectSteps, advectBytes / 1048576.0);
+        std::snprintf(
+            adv, sizeof adv,
+            "  advection: %s; %d x %d x %d cells of %.4g%s over (%.4g, %.4g, %.4g) to "
+            "(%.4g, %.4g, %.4g), steps of %.4g s: %llu from time 0 when rendered alone "
+            "(a renderer continuing a sequence computes only the steps since its "
+            "previous frame)\n",
+            advectWind.c_str(), advectRes.x, advectRes.y, advectRes.z, advectVoxel,
+            advectCoarsened ? " (the default voxel, enlarged to stay within 2^24 cells)" : "",
+            advectBounds.lo.x, advectBounds.lo.y, advectBounds.lo.z, advectBounds.hi.x,
+            advectBounds.hi.y, advectBounds.hi.z, advectStep, (unsigned long long)advectSteps);
         o << adv;
+        const AdvectMemory& m = advectMemory;
+        const double mb = 1.0 / 1048576.0;
+        std::snprintf(adv, sizeof adv,
+                      "  advection memory: %.1f MB: the state %.1f, %llu checkpoint%s %.1f, the "
+                      "frame %.1f, the step's workspace %.1f",
+                      m.total() * mb, m.state * mb, (unsigned long long)m.checkpointCount,
+                      m.checkpointCount == 1 ? "" : "s", m.checkpoints * mb, m.frame * mb,
+                      m.step.total() * mb);
+        o << adv;
+        if (m.velocity > 0.0) {
+            std::snprintf(adv, sizeof adv, ", the velocity grid %.1f", m.velocity * mb);
+            o << adv;
+        }
+        if (m.step.ringMost > m.step.ring) {
+            std::snprintf(adv, sizeof adv,
+                          "; up to %.1f MB more where a vertical wind crosses many cells in a "
+                          "step (MacCormack's ring of slabs, %.1f MB at most)",
+                          (m.step.ringMost - m.step.ring) * mb, m.step.ringMost * mb);
+            o << adv;
+        }
+        o << "\n";
     }
     o << "  march steps: " << stepDecision << "\n";
     o << "  empty-space skipping: "
@@ -357,7 +377,7 @@ void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bound
     p.advectCoarsened = dom.coarsened;
     p.advectStep = advectStep(a, s.render.fps);
     p.advectSteps = advectStepsFor(a, s.render.fps, p.time);
-    p.advectBytes = advectBytes(dom);
+    p.advectMemory = advectMemory(dom, a, s.render.fps, p.time, wind.velocity);
     switch (a.wind) {
     case AdvectWind::Uniform:
         std::snprintf(buf, sizeof buf, "%s, uniform wind (%.4g, %.4g, %.4g)", scheme, a.uniform.x,

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/bindings.h"
+#include "core/fields/advected_field.h"
 #include "core/image.h"
 #include "core/scene.h"
 
@@ -96,7 +97,7 @@ struct FramePlan {
     Box advectBounds;
     float advectStep = 0.0f;       ///< seconds per step
     std::uint64_t advectSteps = 0; ///< full steps from time 0 to the frame (plus a partial one)
-    double advectBytes = 0.0;      ///< the sequence's grids
+    AdvectMemory advectMemory;     ///< what the sequence and the frame hold, by part
     std::string advectWind;        ///< what carries it, in words
     bool advectCoarsened = false;  ///< the default voxel was enlarged to fit kMaxAdvectCells
     /// Set when the frame cannot be rendered as configured (a grid past kMaxGridCells): the

@@ -112,6 +112,11 @@ bool Renderer::render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats
     return render(plan, FrameBindings{}, fb, stats, cb);
 }
 
+AdvectMemory Renderer::advectMemory() {
+    std::lock_guard<std::mutex> lock(advectMutex_);
+    return advect_ ? advect_->memory() : AdvectMemory{};
+}
+
 Field Renderer::fieldFor(const FramePlan& plan, const FrameBindings& bindings, double* bakeSeconds,
                          const std::atomic<bool>* cancel) {
     if (bakeSeconds) *bakeSeconds = 0.0;

@@ -141,6 +141,10 @@ class Renderer {
     /// plan renders translated (plan.rebased).
     MarchGrids marchGrids(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats,
                           const std::atomic<bool>* cancel = nullptr);
+    /// [field.advect]: what the simulation kept between frames holds now (its frames are the
+    /// fields'; all 0 before the first frame or without advection): the plan's
+    /// FramePlan::advectMemory is tested against it.
+    AdvectMemory advectMemory();
 
   private:
     SceneDesc scene_;

@@ -158,6 +158,109 @@ TEST(AdvectedField, AFrameAloneEqualsTheSameFrameOfASequenceBitForBit) {
     EXPECT_NE(a, alone20.as<AdvectedField>().grid.frame->density.v);
 }
 
+namespace {
+
+/// A velocity grid over boxInWind's domain (cells of 1 unit) blowing `wind` everywhere.
+std::shared_ptr<const sim::VelocityGrid> windGrid(vec3 wind, int nz = 6) {
+    auto g = std::make_shared<sim::VelocityGrid>();
+    g->res = ivec3(18, 6, nz);
+    g->frame = sim::GridFrame{vec3(-3.0f), 1.0f};
+    g->v.assign(size_t(g->res.x) * g->res.y * g->res.z, wind);
+    return g;
+}
+
+/// The frame's grid and block maxima, from their capacities.
+double frameBytes(const Field& f) {
+    const auto& fr = *f.as<AdvectedField>().grid.frame;
+    return double(fr.density.v.capacity() + fr.maxima.v.capacity()) * sizeof(float);
+}
+
+} // namespace
+
+TEST(AdvectedField, ThePlansMemoryIsWhatTheSimulationHolds) {
+    struct Case {
+        std::string what;
+        FieldDesc field;
+        std::shared_ptr<const sim::VelocityGrid> grid;
+        bool staggered = false;
+        int frame = 37;
+        bool ringGrows = false; ///< a vertical wind crossing more slabs than the ring starts with
+    };
+    std::vector<Case> cases;
+    auto add = [&](std::string what, vec3 wind, bool mac, int frame = 37) {
+        FieldDesc f = boxInWind(wind, 0.03f); // steps do not fall on frames: a partial one
+        f.advect.checkpointEvery = 10;
+        f.advect.maccormack = mac;
+        cases.push_back({what, f, nullptr, false, frame});
+        return &cases.back();
+    };
+    add("uniform, MacCormack (row kernel)", vec3(3.0f, 0.0f, -0.25f), true);
+    add("uniform, semi-Lagrangian", vec3(3.0f, 0.0f, -0.25f), false);
+    add("uniform with a vertical component, MacCormack (per cell: the limiter's range grids)",
+        vec3(3.0f, 0.5f, -0.25f), true);
+    add("frame 0: no step", vec3(3.0f, 0.0f, 0.0f), true, 0);
+    add("frame 1: one partial step", vec3(3.0f, 0.0f, 0.0f), true, 1);
+    Case* layered = add("layered, vertical wind, MacCormack", vec3(0.0f), true);
+    layered->field.advect.wind = AdvectWind::Layered;
+    layered->field.advect.layers = {AutomatonWindRow{-1.0f, vec3(2.0f, 0.0f, 0.0f)},
+                                    AutomatonWindRow{1.0f, vec3(6.0f, 0.3f, 0.0f)}};
+    for (bool staggered : {false, true})
+        for (bool mac : {true, false}) {
+            Case* c = add(staggered ? "staggered velocity grid, " : "centred velocity grid, ",
+                          vec3(0.0f), mac);
+            c->what += mac ? "MacCormack" : "semi-Lagrangian";
+            c->field.advect.wind = AdvectWind::Grid;
+            c->field.advect.velocityPath = "wind.vdb";
+            c->grid = windGrid(vec3(3.0f, 0.0f, 0.1f));
+            c->staggered = staggered;
+        }
+    // a vertical wind of 36 cells a step in a domain of 128 z slabs: the ring starts with 66
+    // (twice the 32 slabs of a chunk, and 2) and grows to all of them
+    Case* fast = add("centred velocity grid, fast vertical wind", vec3(0.0f), true, 3);
+    fast->field.advect.wind = AdvectWind::Grid;
+    fast->field.advect.velocityPath = "wind.vdb";
+    fast->field.advect.bounds.hi.z = 30.0f;
+    fast->grid = windGrid(vec3(0.0f, 0.0f, 300.0f), 34);
+    fast->ringGrows = true;
+
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.what);
+        const SceneDesc s = sceneOf(c.field);
+        FrameBindings b;
+        b.velocity = c.grid;
+        b.velocityStaggered = c.staggered;
+        // the frame alone, and the same frame after the frames before it
+        for (int first : {c.frame, std::max(0, c.frame - 8)}) {
+            Renderer r(s);
+            Field f;
+            for (int frame = first; frame <= c.frame; ++frame) f = r.fieldFor(r.plan(frame, b), b);
+            const FramePlan p = r.plan(c.frame, b);
+            ASSERT_TRUE(p.refusal.empty()) << p.refusal;
+            const AdvectMemory& want = p.advectMemory;
+            const AdvectMemory held = r.advectMemory();
+            EXPECT_EQ(held.state, want.state);
+            EXPECT_EQ(held.checkpointCount, want.checkpointCount);
+            EXPECT_EQ(held.checkpoints, want.checkpoints);
+            EXPECT_EQ(frameBytes(f), want.frame);
+            EXPECT_EQ(held.step.grids, want.step.grids);
+            EXPECT_EQ(held.step.rows, want.step.rows);
+            EXPECT_EQ(held.velocity, want.velocity);
+            if (c.ringGrows) {
+                EXPECT_GT(held.step.ring, want.step.ring);
+                EXPECT_LE(held.step.ring, want.step.ringMost);
+                EXPECT_NE(p.explain().find("more where a vertical wind crosses many cells"),
+                          std::string::npos);
+            } else {
+                EXPECT_EQ(held.step.ring, want.step.ring);
+            }
+            const double total = held.total() - held.frame + frameBytes(f);
+            std::printf("%-80s frame %2d from %2d: planned %7.3f MB, held %7.3f MB\n",
+                        c.what.c_str(), c.frame, first, want.total() / 1048576.0,
+                        total / 1048576.0);
+        }
+    }
+}
+
 TEST(AdvectedField, TheMajorantBoundsTheDensity) {
     FieldDesc fd = boxInWind(vec3(0.0f));
     fd.kind = FieldKind::Cumulus;

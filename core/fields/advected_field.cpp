@@ -148,11 +148,64 @@ FieldMotion advectWind(const AdvectDesc& d, std::shared_ptr<const sim::VelocityG
     return m;
 }
 
-double advectBytes(const AdvectDomain& dom) {
-    const double cells = double(dom.res.x) * dom.res.y * dom.res.z;
-    // floats: the checkpoint of step 0, the state, the frame, the workspace's forward grid,
-    // scratch grid and its lo/hi bounds
-    return cells * 7.0 * 4.0;
+sim::AdvectParams advectParams(const AdvectDesc& d) {
+    sim::AdvectParams p;
+    p.scheme = d.maccormack ? sim::AdvectScheme::MacCormack : sim::AdvectScheme::SemiLagrangian;
+    return p;
+}
+
+namespace {
+
+double gridBytes(ivec3 r) {
+    return r.x < 1 || r.y < 1 || r.z < 1 ? 0.0 : double(r.x) * r.y * r.z * sizeof(float);
+}
+
+/// A velocity grid (vec3 per voxel) and, staggered, the planes advect()'s blocks read.
+double velocityBytes(const sim::VelocityField& wind) {
+    if (!wind.grid) return 0.0;
+    const double voxels = double(wind.grid->res.x) * wind.grid->res.y * wind.grid->res.z;
+    return voxels * sizeof(vec3) * (wind.kind == sim::VelocityKind::Staggered ? 2.0 : 1.0);
+}
+
+} // namespace
+
+AdvectMemory advectMemory(const AdvectDomain& dom, const AdvectDesc& d, float fps, float time,
+                          const sim::VelocityField& wind) {
+    AdvectMemory m;
+    const ivec3 r = dom.res;
+    const double grid = gridBytes(r);
+    if (grid == 0.0) return m;
+    const float dt = advectStep(d, fps);
+    std::uint64_t n = 0;
+    float s = 0.0f;
+    if (time >= 0.0f) sim::stepOf(double(time), dt, n, s);
+    const bool partial = time < 0.0f || s > 0.0f;
+    m.state = grid;
+    m.checkpointCount = 1 + (d.checkpointEvery > 0 ? n / std::uint64_t(d.checkpointEvery) : 0);
+    m.checkpoints = grid * double(m.checkpointCount);
+    const ivec3 blocks = (r + ivec3(kBlock - 1)) / kBlock;
+    m.frame = grid + gridBytes(blocks);
+    // full steps go from the state to the state (through AdvectWorkspace::tmp); the partial
+    // step writes the frame
+    if (n > 0 || partial) m.step = sim::stepMemory(r, wind, advectParams(d), n > 0);
+    m.velocity = velocityBytes(wind);
+    return m;
+}
+
+AdvectMemory AdvectedSequence::memory() const {
+    auto bytes = [](const auto& v) { return double(v.capacity()) * sizeof(v[0]); };
+    AdvectMemory m;
+    m.state = bytes(state_.v);
+    for (const auto& [step, g] : checkpoints_) m.checkpoints += bytes(g.v);
+    m.checkpointCount = checkpoints_.size();
+    m.step.grids = bytes(ws_.fwd.v) + bytes(ws_.tmp.v) + bytes(ws_.lo) + bytes(ws_.hi);
+    m.step.rows = bytes(ws_.rowReach) + bytes(ws_.rowMassIn) + bytes(ws_.rowMassOut) +
+                  bytes(ws_.rowClampMass) + bytes(ws_.rowCfl) + bytes(ws_.rowClamped) +
+                  bytes(ws_.rowSubsteps);
+    m.step.ring = m.step.ringMost = bytes(ws_.ring);
+    if (windGrid_) m.velocity = bytes(windGrid_->v);
+    if (wind_.planes) m.velocity += bytes(*wind_.planes);
+    return m;
 }
 
 sim::DensityGrid sampleSource(const AdvectDomain& domain, const Field& source) {
@@ -189,8 +242,7 @@ AdvectedSequence::AdvectedSequence(const AdvectDesc& d, float fps, const AdvectD
                                    const Field& source, const FieldMotion& wind)
     : desc_(d), domain_(domain), wind_(sim::withPlanes(wind.velocity)), windGrid_(wind.grid),
       dt_(advectStep(d, fps)) {
-    params_.scheme =
-        d.maccormack ? sim::AdvectScheme::MacCormack : sim::AdvectScheme::SemiLagrangian;
+    params_ = advectParams(d);
     sim::DensityGrid g = sampleSource(domain, source);
     if (g.v.empty()) return;
     sourceMax_ = g.v.empty() ? 0.0f : *std::max_element(g.v.begin(), g.v.end());

@@ -60,8 +60,25 @@ float advectStep(const AdvectDesc& d, float fps);
 /// Full steps from time 0 to a frame at `time` (the frame adds one partial step when it falls
 /// between two).
 std::uint64_t advectStepsFor(const AdvectDesc& d, float fps, float time);
-/// Memory of a sequence: the source, the state, a frame, the advection's workspace.
-double advectBytes(const AdvectDomain& dom);
+/// The step parameters a scene's advection uses (the scheme; RK2, zero boundary).
+sim::AdvectParams advectParams(const AdvectDesc& d);
+
+/// The memory of an advection at a frame, bytes by part: advectMemory() is the plan's figure,
+/// AdvectedSequence::memory() measures what a sequence holds (tests compare the two).
+struct AdvectMemory {
+    double state = 0.0;       ///< the state after the frame's full steps
+    double checkpoints = 0.0; ///< the kept states: step 0, and one every checkpointEvery steps
+    std::uint64_t checkpointCount = 0;
+    double frame = 0.0;    ///< the frame's grid and its block maxima (held by the field)
+    sim::StepMemory step;  ///< the advection's workspace (its ring at its least)
+    double velocity = 0.0; ///< the velocity grid and, staggered, its planes (0: none, or unread)
+    double total() const { return state + checkpoints + frame + step.total() + velocity; }
+};
+/// The plan's figure for a frame `time` seconds in, rendered alone or after earlier frames of a
+/// sequence (the same states are kept either way), through `wind` (advectWind(); a velocity
+/// grid's bytes from its resolution).
+AdvectMemory advectMemory(const AdvectDomain& dom, const AdvectDesc& d, float fps, float time,
+                          const sim::VelocityField& wind);
 
 /// The source's density at the cell centres of the domain (empty for an empty domain).
 sim::DensityGrid sampleSource(const AdvectDomain& domain, const Field& source);
@@ -86,6 +103,9 @@ class AdvectedSequence {
     const AdvectDomain& domain() const { return domain_; }
     /// Cells the last frame set to 0 as residue (below kAdvectResidue x the source's maximum).
     std::uint64_t residueCells() const { return residueCells_; }
+    /// What the sequence holds now (AdvectMemory::frame is 0: the frames are the caller's),
+    /// from its buffers' capacities.
+    AdvectMemory memory() const;
 
   private:
     void advanceTo(std::uint64_t n, const std::atomic<bool>* cancel);

@@ -1041,6 +1041,59 @@ double gridMass(const DensityGrid& d, const GridFrame& frame) {
     return m * h * h * h;
 }
 
+namespace {
+
+/// The fused MacCormack passes' slabs per chunk: enough rows and cells per parallel loop to
+/// keep both cores busy.
+int fusedChunk(ivec3 res) {
+    const size_t slabCells = size_t(res.x) * size_t(res.y);
+    return std::clamp(int(std::max<size_t>(size_t(128) / size_t(res.y), size_t(32768) / slabCells)),
+                      1, res.z);
+}
+
+/// The ring's slabs when it is first made (it grows when a vertical wind reaches further).
+int ringSlabsAtLeast(ivec3 res) {
+    return std::min(res.z, 2 * fusedChunk(res) + 2);
+}
+
+} // namespace
+
+StepKernel stepKernel(const VelocityField& vel, const AdvectParams& ap) {
+    StepKernel k;
+    // a wind the same along every row of x: the row kernel (RowLookup); the Euler and RK2
+    // stages of such a wind equal the velocity at the start
+    // (RK3's weights 2/9 + 3/9 + 4/9 need not sum to 1 in float: it keeps the per-cell path)
+    // (a vertical component moves rows across y: a uniform wind with one keeps the per-cell path)
+    k.row = exactInOneSubstep(vel) && ap.rowKernel && ap.backtrace != Backtrace::RK3 &&
+            !(vel.kind == VelocityKind::Uniform && vel.uniform.y != 0.0f);
+    // a velocity grid: the grid kernel (GridRowVelocity for the first stage, no switch per
+    // lookup), the same float operations as the per-cell path
+    k.grid =
+        ap.rowKernel && (vel.kind == VelocityKind::Centred || vel.kind == VelocityKind::Staggered);
+    k.mac = ap.scheme == AdvectScheme::MacCormack;
+    k.fused = k.mac && k.grid;
+    k.limiterGrids = k.mac && !k.row && !k.fused;
+    return k;
+}
+
+StepMemory stepMemory(ivec3 res, const VelocityField& vel, const AdvectParams& ap, bool inPlace) {
+    StepMemory m;
+    if (res.x < 1 || res.y < 1 || res.z < 1) return m;
+    const StepKernel k = stepKernel(vel, ap);
+    const double cells = double(res.x) * res.y * res.z, grid = cells * sizeof(float);
+    const double rows = double(res.y) * res.z;
+    m.grids = (inPlace ? grid : 0.0) + (k.mac ? grid : 0.0) + (k.limiterGrids ? 2.0 * grid : 0.0);
+    m.rows = rows * (3.0 * sizeof(double) + sizeof(float) + 2.0 * sizeof(std::uint32_t) +
+                     (k.fused ? sizeof(int) : 0.0));
+    if (k.fused) {
+        const double slab = 5.0 * double(res.x) * res.y * sizeof(float);
+        // a periodic boundary may wrap to the last slab: the ring holds every slab
+        m.ring = slab * (ap.boundary == Boundary::Periodic ? res.z : ringSlabsAtLeast(res));
+        m.ringMost = slab * res.z;
+    }
+    return m;
+}
+
 AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const VelocityField& vel,
                    float dt, const AdvectParams& ap, DensityGrid& out, AdvectWorkspace& ws) {
     const ivec3 res = in.res;
@@ -1048,17 +1101,8 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     const size_t cells = size_t(nx) * size_t(std::max(rows, 0));
     const Sampler u(vel, frame);
     const bool exact = exactInOneSubstep(vel);
-    // a wind the same along every row of x: the row kernel (RowLookup); the Euler and RK2
-    // stages of such a wind equal the velocity at the start
-    // (RK3's weights 2/9 + 3/9 + 4/9 need not sum to 1 in float: it keeps the per-cell path)
-    // (a vertical component moves rows across y: a uniform wind with one keeps the per-cell path)
-    const bool rowKernel = exact && ap.rowKernel && ap.backtrace != Backtrace::RK3 &&
-                           !(vel.kind == VelocityKind::Uniform && vel.uniform.y != 0.0f);
-    // a velocity grid: the grid kernel (GridRowVelocity for the first stage, no switch per
-    // lookup), the same float operations as the per-cell path
-    const bool gridKernel =
-        ap.rowKernel && (vel.kind == VelocityKind::Centred || vel.kind == VelocityKind::Staggered);
-    const bool mac = ap.scheme == AdvectScheme::MacCormack;
+    const StepKernel kernel = stepKernel(vel, ap);
+    const bool rowKernel = kernel.row, gridKernel = kernel.grid, mac = kernel.mac;
     // the grid kernel's 8-cell blocks (AVX2, the zero boundary): pass 1 needs one RK2 substep too
     const bool zeroBlocks =
         gridKernel && ap.boundary == Boundary::Zero && gridBlocksUsable(*vel.grid, in);
@@ -1075,8 +1119,8 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     // at the centre); the backward trace's end and the limiter's range wait for pass 2 in a ring
     // of z slabs, and pass 2 follows pass 1 slab by slab as soon as the slabs of the forward
     // step its lookups read are done (a wavefront: what pass 2 reads is still in cache)
-    const bool fused = mac && gridKernel;
-    if (mac && !rowKernel && !fused) { // the row kernel recomputes the limiter's range in pass 2
+    const bool fused = kernel.fused;
+    if (kernel.limiterGrids) { // the row kernel recomputes the limiter's range in pass 2
         ws.lo.resize(cells);
         ws.hi.resize(cells);
     }
@@ -1286,12 +1330,12 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     } else if (rows > 0) {
         const int nz = res.z;
         // slabs per chunk: enough rows and cells per parallel loop to keep both cores busy
-        const int chunk = std::clamp(
-            int(std::max<size_t>(size_t(128) / size_t(ny), size_t(32768) / slabCells)), 1, nz);
+        const int chunk = fusedChunk(res);
         // the ring holds the slabs pass 1 did and pass 2 did not yet: [z, next1)
         auto hold = [&](int z, int next1, int upTo) {
             const int want = upTo - z;
             if (ringSlabs >= want) return;
+            // (the first: ringSlabsAtLeast(res))
             const int slabs = std::min(nz, std::max({want, 2 * ringSlabs, 2 * chunk + 2}));
             std::vector<float> grown(size_t(slabs) * 5 * slabCells);
             for (int s = z; s < next1; ++s) // move the live slabs to their new slots

@@ -156,6 +156,30 @@ struct AdvectWorkspace {
     std::vector<std::uint32_t> rowClamped, rowSubsteps;
 };
 
+/// Which of advect()'s kernels a step through `vel` with `params` takes.
+struct StepKernel {
+    bool row = false;   ///< the row kernel (a wind the same along every row of x)
+    bool grid = false;  ///< the grid kernel (a velocity grid)
+    bool mac = false;   ///< MacCormack: a forward grid (AdvectWorkspace::fwd)
+    bool fused = false; ///< MacCormack with the grid kernel: the ring of slabs, pass 2 following
+    /// MacCormack's limiter range kept per cell (AdvectWorkspace::lo, hi): the per-cell path
+    bool limiterGrids = false;
+};
+StepKernel stepKernel(const VelocityField& vel, const AdvectParams& params);
+
+/// The bytes an AdvectWorkspace holds after a step on a grid of `res` cells (what advect()
+/// sizes; `inPlace`: out is in, whose result goes through AdvectWorkspace::tmp).
+struct StepMemory {
+    double grids = 0.0; ///< tmp, fwd, lo and hi
+    double rows = 0.0;  ///< the per-row sums
+    /// The fused MacCormack's ring: the slabs it starts with (a periodic boundary: every slab);
+    /// it grows, up to ringMost (the whole grid), while a vertical wind reaches further
+    double ring = 0.0, ringMost = 0.0;
+    double total() const { return grids + rows + ring; }
+};
+StepMemory stepMemory(ivec3 res, const VelocityField& vel, const AdvectParams& params,
+                      bool inPlace);
+
 /// One step of length dt (seconds): out = the density `in` (placed by `frame`) advected through
 /// `vel`. `out` may be `in`. Expects validate(vel) == "" and a finite dt.
 AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const VelocityField& vel,
