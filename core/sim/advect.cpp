@@ -1335,8 +1335,7 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
         auto hold = [&](int z, int next1, int upTo) {
             const int want = upTo - z;
             if (ringSlabs >= want) return;
-            // (the first: ringSlabsAtLeast(res))
-            const int slabs = std::min(nz, std::max({want, 2 * ringSlabs, 2 * chunk + 2}));
+            const int slabs = std::min(nz, std::max({want, 2 * ringSlabs, ringSlabsAtLeast(res)}));
             std::vector<float> grown(size_t(slabs) * 5 * slabCells);
             for (int s = z; s < next1; ++s) // move the live slabs to their new slots
                 std::copy_n(ws.ring.data() + size_t(s % ringSlabs) * 5 * slabCells, 5 * slabCells,
