@@ -183,8 +183,7 @@ AdvectMemory advectMemory(const AdvectDomain& dom, const AdvectDesc& d, float fp
     m.state = grid;
     m.checkpointCount = 1 + (d.checkpointEvery > 0 ? n / std::uint64_t(d.checkpointEvery) : 0);
     m.checkpoints = grid * double(m.checkpointCount);
-    const ivec3 blocks = (r + ivec3(kBlock - 1)) / kBlock;
-    m.frame = grid + gridBytes(blocks);
+    m.frame = grid + gridBytes(sim::blockMaximaRes(r, kBlock));
     // full steps go from the state to the state (through AdvectWorkspace::tmp); the partial
     // step writes the frame
     if (n > 0 || partial) m.step = sim::stepMemory(r, wind, advectParams(d), n > 0);

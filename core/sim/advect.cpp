@@ -1064,7 +1064,8 @@ StepKernel stepKernel(const VelocityField& vel, const AdvectParams& ap) {
     // stages of such a wind equal the velocity at the start
     // (RK3's weights 2/9 + 3/9 + 4/9 need not sum to 1 in float: it keeps the per-cell path)
     // (a vertical component moves rows across y: a uniform wind with one keeps the per-cell path)
-    k.row = exactInOneSubstep(vel) && ap.rowKernel && ap.backtrace != Backtrace::RK3 &&
+    k.exact = exactInOneSubstep(vel);
+    k.row = k.exact && ap.rowKernel && ap.backtrace != Backtrace::RK3 &&
             !(vel.kind == VelocityKind::Uniform && vel.uniform.y != 0.0f);
     // a velocity grid: the grid kernel (GridRowVelocity for the first stage, no switch per
     // lookup), the same float operations as the per-cell path
@@ -1100,9 +1101,9 @@ AdvectStats advect(const DensityGrid& in, const GridFrame& frame, const Velocity
     const int nx = res.x, ny = res.y, rows = res.y * res.z;
     const size_t cells = size_t(nx) * size_t(std::max(rows, 0));
     const Sampler u(vel, frame);
-    const bool exact = exactInOneSubstep(vel);
     const StepKernel kernel = stepKernel(vel, ap);
-    const bool rowKernel = kernel.row, gridKernel = kernel.grid, mac = kernel.mac;
+    const bool exact = kernel.exact, rowKernel = kernel.row, gridKernel = kernel.grid,
+               mac = kernel.mac;
     // the grid kernel's 8-cell blocks (AVX2, the zero boundary): pass 1 needs one RK2 substep too
     const bool zeroBlocks =
         gridKernel && ap.boundary == Boundary::Zero && gridBlocksUsable(*vel.grid, in);

@@ -158,6 +158,7 @@ struct AdvectWorkspace {
 
 /// Which of advect()'s kernels a step through `vel` with `params` takes.
 struct StepKernel {
+    bool exact = false; ///< the wind is constant along a trace: one substep (exactInOneSubstep)
     bool row = false;   ///< the row kernel (a wind the same along every row of x)
     bool grid = false;  ///< the grid kernel (a velocity grid)
     bool mac = false;   ///< MacCormack: a forward grid (AdvectWorkspace::fwd)

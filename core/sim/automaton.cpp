@@ -457,7 +457,7 @@ void blockMaxima(const DensityGrid& d, int block, int apron, BlockMaxima& out) {
     block = std::max(1, block);
     apron = std::max(0, apron);
     out.block = block;
-    out.res = (d.res + block - 1) / block;
+    out.res = blockMaximaRes(d.res, block);
     out.v.assign(size_t(out.res.x) * out.res.y * out.res.z, 0.0f);
     tbb::parallel_for(tbb::blocked_range<int>(0, out.res.z), [&](const tbb::blocked_range<int>& r) {
         std::vector<float> rowMax(size_t(d.res.x));

@@ -217,6 +217,10 @@ struct BlockMaxima {
     float at(int x, int y, int z) const { return v[(size_t(z) * res.y + y) * res.x + x]; }
 };
 void blockMaxima(const DensityGrid& d, int block, int apron, BlockMaxima& out);
+/// The blocks blockMaxima() makes for a grid of `res` cells (BlockMaxima::res).
+inline ivec3 blockMaximaRes(ivec3 res, int block) {
+    return (res + block - 1) / block;
+}
 
 /// A simulation driven by time: keeps the state and the smoothed grids of the two steps that
 /// bracket the last requested time; going back in time re-simulates from the seed.
