@@ -137,6 +137,40 @@ TEST(RtAccumulate, OnePassIsTheFrame) {
     }
 }
 
+// The work buffers a MarchPass keeps from frame to frame are zeroed before each render: the same
+// frame rendered again by the same pass, and again after a frame of another size (the buffers
+// made anew), is the same bit for bit. The frame's time is its three parts, and the GPU's clock
+// saw the dispatches.
+TEST(RtAccumulate, KeptWorkBuffersStartFromZero) {
+    if (!requireContext()) return;
+    std::vector<std::string> o = settings(48, 27, 2.0);
+    host::Session session;
+    ASSERT_TRUE(session.load(kDefaultScene, o).ok());
+    std::vector<std::string> small = settings(24, 14, 2.0);
+    host::Session other;
+    ASSERT_TRUE(other.load(kDefaultScene, small).ok());
+    rt::MarchPass pass;
+    pass.setAccumulation(2);
+    std::string error;
+    std::vector<Framebuffer> frames(3);
+    for (int k = 0; k < 3; ++k) {
+        rt::MarchStats stats;
+        ASSERT_TRUE(
+            pass.render(session.scene(), session.plan(1), frames[std::size_t(k)], stats, &error))
+            << error;
+        EXPECT_GT(stats.gpuSeconds, 0.0);
+        EXPECT_NEAR(stats.uploadSeconds + stats.marchSeconds + stats.readSeconds,
+                    stats.frameSeconds, 1e-6);
+        if (k == 1) { // a frame of another size between the second and the third
+            Framebuffer fb;
+            ASSERT_TRUE(pass.render(other.scene(), other.plan(1), fb, stats, &error)) << error;
+        }
+    }
+    EXPECT_EQ(frames[1].rgba, frames[0].rgba);
+    EXPECT_EQ(frames[2].rgba, frames[0].rgba);
+    EXPECT_EQ(frames[2].depth, frames[0].depth);
+}
+
 // At a coarse step (4x the scene's), 16 accumulated passes are clearly closer to a converged
 // fine-step CPU reference (0.25x the scene's step, the mean of 4 renders with their own seeds)
 // than one pass. Measured at 80x45 (relative RMSE, N = 16 over N = 1): 0.0521 / 0.1099 = 0.474

@@ -180,8 +180,10 @@ int runRt(const RtOptions& o) {
         printWarnings(session);
         if (int rc = report(st)) return rc;
         if (!o.quiet)
-            std::printf("frame %d: %dx%d, %.4f s on the GPU%s%s -> %s\n", frame, fb.width,
-                        fb.height, stats.frameSeconds,
+            std::printf("frame %d: %dx%d, %.4f s on the GPU (the march %.2f ms on its clock; "
+                        "upload %.4f s, dispatches and wait %.4f s, read-back %.4f s)%s%s -> %s\n",
+                        frame, fb.width, fb.height, stats.frameSeconds, 1e3 * stats.gpuSeconds,
+                        stats.uploadSeconds, stats.marchSeconds, stats.readSeconds,
                         o.accumulate > 1
                             ? (" (" + std::to_string(o.accumulate) + " accumulated passes)").c_str()
                             : "",

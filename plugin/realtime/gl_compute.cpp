@@ -219,12 +219,13 @@ void ComputeProgram::dispatch(unsigned groupsX, unsigned groupsY, unsigned group
 
 StorageBuffer::StorageBuffer(std::size_t bytes, const void* data) : bytes_(bytes) {
     glCreateBuffers(1, &id_);
-    std::vector<unsigned char> zeros;
-    if (!data) {
-        zeros.assign(bytes, 0);
-        data = zeros.data();
-    }
     glNamedBufferStorage(id_, GLsizeiptr(bytes), data, GL_DYNAMIC_STORAGE_BIT);
+    // zeros written by the GL where the buffer lives, not copied from the host
+    if (!data) clear();
+}
+
+void StorageBuffer::clear() {
+    glClearNamedBufferData(id_, GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, nullptr);
 }
 
 StorageBuffer::~StorageBuffer() {

@@ -91,6 +91,8 @@ class StorageBuffer {
     void bind(unsigned binding) const;
     /// Copies @p bytes from @p offset into @p dst.
     void read(void* dst, std::size_t bytes, std::size_t offset = 0) const;
+    /// Sets every byte to 0 (on the GL's side: nothing crosses from the host).
+    void clear();
     std::size_t size() const { return bytes_; }
 
   private:

@@ -639,18 +639,33 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     // Each pass is dispatched slice by slice until no ray is left marching; a render whose loop
     // budget ran out is discarded and done again in shorter slices (setSliceSteps).
     const int passes = f.multisample ? P.pixelSamples : 1;
+    const auto tUploaded = Clock::now();
     const std::uint32_t frameKey = P.frameKey;
-    std::unique_ptr<gl::StorageBuffer> pixels, counters;
     stats.dispatches = 0;
     stats.budgetRetries = 0;
+    stats.gpuSeconds = 0.0;
+    // the dispatches' time on the GPU's clock: a GL_TIMESTAMP before and after each
+    struct Queries {
+        GLuint id[2] = {0, 0};
+        Queries() { glGenQueries(2, id); }
+        ~Queries() { glDeleteQueries(2, id); }
+    } stamps;
     for (;;) {
-        pixels = std::make_unique<gl::StorageBuffer>(n * 12 * sizeof(float));
-        const std::uint32_t zero = 0;
-        counters = std::make_unique<gl::StorageBuffer>(sizeof zero, &zero);
-        // the rays' state between slices (RtSlices: 4 counters, then 48 bytes per pixel), zeros
-        const gl::StorageBuffer slices(16 + n * 48);
-        pixels->bind(1);
-        counters->bind(2);
+        // zeros: the pixels' sums (12 floats a pixel), the non-finite counter, the rays' state
+        // between slices (RtSlices: 4 counters, then 48 bytes per pixel)
+        const auto zeros = [](std::unique_ptr<gl::StorageBuffer>& b, std::size_t bytes) {
+            if (b && b->size() == bytes)
+                b->clear();
+            else
+                b = std::make_unique<gl::StorageBuffer>(bytes);
+        };
+        zeros(pixels_, n * 12 * sizeof(float));
+        zeros(counters_, sizeof(std::uint32_t));
+        zeros(slices_, 16 + n * 48);
+        gl::StorageBuffer& pixels = *pixels_;
+        gl::StorageBuffer& slices = *slices_;
+        pixels.bind(1);
+        counters_->bind(2);
         slices.bind(14);
         P.sliceSteps = sliceSteps_;
         std::uint32_t sliced[2] = {0, 0}; // unfinished, loopBudgetSpent (summed over dispatches)
@@ -663,9 +678,15 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
                     const gl::StorageBuffer params(sizeof P, &P);
                     params.bind(0);
                     const std::uint32_t before = sliced[0];
+                    glQueryCounter(stamps.id[0], GL_TIMESTAMP);
                     program->dispatch(unsigned((w + 7) / 8), unsigned((h + 7) / 8));
+                    glQueryCounter(stamps.id[1], GL_TIMESTAMP);
                     ++stats.dispatches;
                     slices.read(sliced, sizeof sliced);
+                    GLuint64 t[2] = {0, 0};
+                    glGetQueryObjectui64v(stamps.id[0], GL_QUERY_RESULT, &t[0]);
+                    glGetQueryObjectui64v(stamps.id[1], GL_QUERY_RESULT, &t[1]);
+                    stats.gpuSeconds += 1e-9 * double(t[1] - t[0]);
                     if (sliced[1] != 0 || sliced[0] == before) break;
                 }
             }
@@ -682,11 +703,16 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         sliceSteps_ = sliceSteps_ > 64 ? 64 : std::max(1, sliceSteps_ / 4);
     }
     stats.sliceSteps = sliceSteps_;
+    const auto tMarched = Clock::now();
     std::vector<float> out(n * 12);
-    pixels->read(out.data(), out.size() * sizeof(float));
+    pixels_->read(out.data(), out.size() * sizeof(float));
     std::uint32_t bad = 0;
-    counters->read(&bad, sizeof bad);
-    stats.frameSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    counters_->read(&bad, sizeof bad);
+    const auto tRead = Clock::now();
+    stats.uploadSeconds = std::chrono::duration<double>(tUploaded - t0).count();
+    stats.marchSeconds = std::chrono::duration<double>(tMarched - tUploaded).count();
+    stats.readSeconds = std::chrono::duration<double>(tRead - tMarched).count();
+    stats.frameSeconds = std::chrono::duration<double>(tRead - t0).count();
     const std::string e = gl::glErrors();
     if (!e.empty()) {
         if (error) *error = "GL error during the march pass: " + e;

@@ -186,6 +186,13 @@ std::uint32_t accumulationKey(std::uint32_t frameKey, int pass);
 struct MarchStats {
     double compileSeconds = 0.0; ///< compiling the program (0 when it was cached)
     double frameSeconds = 0.0;   ///< parameter upload, dispatch, wait and read-back (all passes)
+    double uploadSeconds = 0.0;  ///< of frameSeconds: the data's buffers made and filled
+    double marchSeconds = 0.0;   ///< of frameSeconds: the work buffers, the dispatches, the wait
+    double readSeconds = 0.0;    ///< of frameSeconds: the sums read back to the host
+    /// the dispatches alone on the GPU's clock (GL_TIMESTAMP queries before and after each, summed
+    /// over every pass and slice of the frame, the discarded renders' included): what the march
+    /// costs the GPU, without the uploads, the work buffers' allocation and the read-back
+    double gpuSeconds = 0.0;
     std::uint64_t nonFinite = 0; ///< pixels or samples that were NaN/Inf (as RenderStats)
     int sliceSteps = 0;          ///< camera steps per ray per dispatch the frame was rendered with
     int dispatches = 0;          ///< dispatches of the frame, the discarded renders' included
@@ -246,6 +253,9 @@ class MarchPass {
 
   private:
     std::map<std::string, std::unique_ptr<gl::ComputeProgram>> programs_;
+    /// the work buffers (the pixels' sums, the counters, the rays' state between slices): kept
+    /// from frame to frame while the size holds, cleared on the GL's side before each render
+    std::unique_ptr<gl::StorageBuffer> pixels_, counters_, slices_;
     int accumulate_ = 1;
     int sliceSteps_ = kWholeRay;
 };
