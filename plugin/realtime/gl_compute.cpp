@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 namespace nimbus::gl {
@@ -225,11 +226,15 @@ StorageBuffer::StorageBuffer(std::size_t bytes, const void* data) : bytes_(bytes
 }
 
 void StorageBuffer::clear() {
-    glClearNamedBufferData(id_, GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, nullptr);
+    if (bytes_ % 4 == 0)
+        glClearNamedBufferData(id_, GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+    else
+        glClearNamedBufferData(id_, GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, nullptr);
 }
 
 StorageBuffer::~StorageBuffer() {
     if (id_) glDeleteBuffers(1, &id_);
+    if (staging_) glDeleteBuffers(1, &staging_);
 }
 
 void StorageBuffer::bind(unsigned binding) const {
@@ -237,7 +242,27 @@ void StorageBuffer::bind(unsigned binding) const {
 }
 
 void StorageBuffer::read(void* dst, std::size_t bytes, std::size_t offset) const {
-    glGetNamedBufferSubData(id_, GLintptr(offset), GLsizeiptr(bytes), dst);
+    constexpr std::size_t kStaged = std::size_t(1) << 20;
+    if (bytes < kStaged) {
+        glGetNamedBufferSubData(id_, GLintptr(offset), GLsizeiptr(bytes), dst);
+        return;
+    }
+    if (stagingBytes_ < bytes) {
+        if (staging_) glDeleteBuffers(1, &staging_);
+        glCreateBuffers(1, &staging_);
+        glNamedBufferStorage(staging_, GLsizeiptr(bytes), nullptr,
+                             GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
+        stagingBytes_ = bytes;
+    }
+    glCopyNamedBufferSubData(id_, staging_, GLintptr(offset), 0, GLsizeiptr(bytes));
+    // mapping waits for the copy
+    const void* p = glMapNamedBufferRange(staging_, 0, GLsizeiptr(bytes), GL_MAP_READ_BIT);
+    if (!p) { // the GL refused the map (its error stays pending for the caller): the plain read
+        glGetNamedBufferSubData(id_, GLintptr(offset), GLsizeiptr(bytes), dst);
+        return;
+    }
+    std::memcpy(dst, p, bytes);
+    glUnmapNamedBuffer(staging_);
 }
 
 std::string glErrors() {

@@ -89,15 +89,20 @@ class StorageBuffer {
 
     /// Binds to `layout(std430, binding = @p binding) buffer`.
     void bind(unsigned binding) const;
-    /// Copies @p bytes from @p offset into @p dst.
+    /// Copies @p bytes from @p offset into @p dst. Reads of a megabyte or more go through a
+    /// staging buffer in the host's memory (GL_CLIENT_STORAGE_BIT, mapped for reading), kept
+    /// for the next read: a GPU driver copies to it at the bus' speed.
     void read(void* dst, std::size_t bytes, std::size_t offset = 0) const;
-    /// Sets every byte to 0 (on the GL's side: nothing crosses from the host).
+    /// Sets every byte to 0 (on the GL's side: nothing crosses from the host; a size that is a
+    /// multiple of 4 is cleared as 32-bit words).
     void clear();
     std::size_t size() const { return bytes_; }
 
   private:
     unsigned id_ = 0;
     std::size_t bytes_ = 0;
+    mutable unsigned staging_ = 0; ///< read()'s staging buffer (0 until a large read)
+    mutable std::size_t stagingBytes_ = 0;
 };
 
 /// The pending GL errors as text ("" when there is none); clears them.

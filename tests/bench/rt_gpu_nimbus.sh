@@ -15,6 +15,8 @@
 # light volume); and the command's wall time per frame (its whole wall time less the context
 # and the compile, over FRAMES: the scene, the noise bake, the grids, the GPU and the EXR
 # written). The smoke1 scene reads ../shared/data/vdb/openvdb_smoke1.vdb beside the repository.
+# Also writes OUT_DIR/rt_cumulus.0001.exr and rt_smoke1.0001.exr (480x270, frame 1, as the
+# scenes ship) for tests/bench/rt_gpu_accuracy.py.
 set -euo pipefail
 nimbus=${1:?usage: rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]}
 out=${2:?usage: rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]}
@@ -27,6 +29,11 @@ mkdir -p "$out"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
+# frame 1 of both scenes as they ship at 480x270, for rt_gpu_accuracy.py (against the CPU)
+for s in cumulus smoke1; do
+    "$nimbus" rt "$here/examples/scenes/$s.toml" --frames 1 -q -o "$out/rt_$s.####.exr" \
+        --set camera.width=480 --set camera.height=270 --set 'output.preview=""'
+done
 echo "| scene | size | passes | frame on the GPU, ms: median [min-max] | the march on the GPU's clock, ms | upload / dispatches and wait / read-back, ms | CPU grids per frame, ms | wall per frame, ms |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
 run() { # LABEL SCENE WxH ACCUMULATE [--set k=v ...]
