@@ -540,6 +540,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.bakeNoise = true;
         p.noiseDecision = "field.evaluation = \"baked\"";
         break;
+    case NoiseEval::Rgba:
+        p.bakeNoise = true;
+        p.noiseDecision = "field.evaluation = \"rgba\" (Olajos' RGBA8 channels)";
+        break;
     case NoiseEval::Auto:
         p.bakeNoise = directEvals > bakeEvals;
         std::snprintf(buf, sizeof buf, "auto: ~%.3g direct noise evaluations vs %.3g to bake",

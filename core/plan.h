@@ -128,6 +128,14 @@ inline std::uint32_t frameSeedKey(const SceneDesc& s, const FramePlan& p) {
     return s.render.seedPerFrame ? std::uint32_t(p.frame) : 0u;
 }
 
+/// The noise evaluation the plan chose, fixed (what `converge` and the suite render with, so
+/// that their references and ladders take the same noise): the tiles the scene asked for when
+/// the plan bakes (float tiles for "auto"), else direct.
+inline NoiseEval plannedNoiseEval(const SceneDesc& s, const FramePlan& p) {
+    if (!p.bakeNoise) return NoiseEval::Direct;
+    return s.field.cumulus.eval == NoiseEval::Rgba ? NoiseEval::Rgba : NoiseEval::Baked;
+}
+
 /// Plans frame `frame` of the scene with what is bound to it (a VDB field's bounds size its
 /// majorant cell).
 FramePlan planFrame(const SceneDesc& scene, int frame, const FrameBindings& bindings,

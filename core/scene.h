@@ -78,7 +78,10 @@ struct MediumDesc {
 /// The kinds of field a scene names; Advected is what any of them becomes in a frame when
 /// [field.advect] carries it (never a scene file's `kind`).
 enum class FieldKind { Homogeneous, Cumulus, Vdb, Gardner, Sdf, Automaton, Advected };
-enum class NoiseEval { Auto, Direct, Baked };
+/// How the cumulus noise is evaluated: chosen by the plan, per sample, from baked float tiles
+/// (each noise's octaves summed per node), or from baked RGBA8 tiles in Olajos' channel layout
+/// (several frequencies per node, combined after interpolation: kern::cumulusBaseChannels).
+enum class NoiseEval { Auto, Direct, Baked, Rgba };
 
 /// A box of constant density (tests, fog layers).
 struct HomogeneousDesc {

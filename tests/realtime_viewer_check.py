@@ -18,7 +18,9 @@ display number itself (-displayfd), so nothing races for one, and it is started 
    (< 30 dB), so the comparison can tell views apart. Then a 4-pass export (4 pixel samples, no
    sun, transparent background, 64x36) against `nimbus rt`: >= 45 dB. Temporal accumulation:
    6 frames with --accumulate 4 against `nimbus rt --accumulate 4` (>= 45 dB) and far from one
-   pass (< 60 dB); --accumulate 0 and --frames 3x exit 2.
+   pass (< 60 dB); --accumulate 0 and --frames 3x exit 2. Then an export with data buffers
+   (the diffusion grid, the Mie table) and one with 3D textures (field.evaluation = "rgba"),
+   64x36, each against `nimbus rt` (>= 45 dB).
 4. Bad export folders (a missing file, broken JSON, a missing member, a short params.bin): exit 2
    and a message naming the file and the problem; a march.comp that does not compile: exit 3 and
    the compiler's log.
@@ -239,6 +241,22 @@ if image is not None:
     p = psnr(image, rt_reference("rt_data", data_sets))
     print(f"PSNR diffusion grid + Mie table: {p:.2f} dB")
     check(p >= 45.0, f"diffusion grid + Mie table: PSNR {p:.2f} dB >= 45")
+
+# 3d. an export with textures: field.evaluation = "rgba" (Olajos' channel layout), the noise
+# tiles as RGBA8 3D textures (params.json's "textures", made by the viewer from their files)
+rgba_sets = ["camera.width=64", "camera.height=36", 'field.evaluation="rgba"']
+rgba_export = os.path.join(SCRATCH, "export_rgba")
+args = [NIMBUS, "export-glsl", SCENE, "-o", rgba_export, "--frame", "1"]
+for s in SETS + rgba_sets:
+    args += ["--set", s]
+rc, out = run(args)
+check(rc == 0 and "noise_base_rgba.bin" in out and "noise_detail_rgba.bin" in out,
+      "nimbus export-glsl (rgba noise) exits 0 and writes its textures: " + out.strip())
+image = view("rgba", rgba_export, [])
+if image is not None:
+    p = psnr(image, rt_reference("rt_rgba", rgba_sets))
+    print(f"PSNR rgba noise textures: {p:.2f} dB")
+    check(p >= 45.0, f"rgba noise textures: PSNR {p:.2f} dB >= 45")
 
 # 4. bad export folders: exit 2 before any window, the file and the problem named
 def broken(tag, edit, expect, want=2):

@@ -605,6 +605,19 @@ double exportAgainstRt(const std::vector<std::string>& sets, const std::string& 
         data.back()->bind(unsigned(b["binding"].integer()));
         dataFiles.push_back(b["file"].text);
     }
+    // the 3D textures the JSON names (field.evaluation = "rgba": RGBA8, linear, repeat)
+    std::vector<std::unique_ptr<gl::Texture3D>> textures;
+    for (const Json& t : doc["textures"].items) {
+        const std::string bytes = readFile(dir.string() + "/" + t["file"].text);
+        const long res = t["size"].items.at(0).integer();
+        EXPECT_EQ(t["size"].items.at(1).integer(), res);
+        EXPECT_EQ(t["format"].text, "GL_RGBA8");
+        EXPECT_EQ(bytes.size(), std::size_t(4 * res * res * res)) << t["file"].text;
+        textures.push_back(std::make_unique<gl::Texture3D>(
+            int(res), reinterpret_cast<const std::uint8_t*>(bytes.data())));
+        textures.back()->bind(unsigned(t["unit"].integer()));
+        dataFiles.push_back(t["file"].text);
+    }
     const gl::StorageBuffer pixels(pixelBytes);
     const gl::StorageBuffer counters(counterBytes);
     pixels.bind(unsigned(pixelBinding));
@@ -858,6 +871,59 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheLightVolume) {
     EXPECT_TRUE(contains(shader, "#define RT_LIGHT_VOLUME 0"));
     EXPECT_FALSE(contains(shader, "RtLightGrid"));
     EXPECT_FALSE(contains(shader, "rtLightVolumeSample"));
+}
+
+// field.evaluation = "rgba": Olajos' channel layout goes out as two RGBA8 3D textures
+// (noise_base_rgba.bin, noise_detail_rgba.bin: the CPU's bytes), described in params.json's
+// "textures" (units 4 and 5, GL_LINEAR, GL_REPEAT); the shader samples them
+// (RT_RGBA_NOISE) and has neither the float tiles' buffers nor the noise functions; the image
+// from the files alone is nimbus rt's. Without the mode no texture is exported.
+TEST(ExportGlslGpu, SameImageAsRtWithRgbaNoise) {
+    std::vector<std::string> files;
+    std::string shader;
+    const std::vector<std::string> sets = {"camera.width=64", "camera.height=36",
+                                           "render.multiple_scattering=\"none\"",
+                                           "field.evaluation=\"rgba\""};
+    EXPECT_GE(exportAgainstRt(sets, "rgba_noise", files, kScene, 3, &shader), 45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"majorant.bin", "noise_base_rgba.bin",
+                                               "noise_detail_rgba.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_RGBA_NOISE 1"));
+    EXPECT_TRUE(contains(shader, "layout(binding = 4) uniform sampler3D rtBaseChannels;"));
+    EXPECT_TRUE(contains(shader, "cumulusBaseFromChannels(rtChannels("));
+    EXPECT_FALSE(contains(shader, "RtBaseNoise"));
+    EXPECT_FALSE(contains(shader, "rtNoiseSample("));
+    EXPECT_FALSE(contains(shader, "NB_FN float worleyFbm(")); // the noise is not evaluated
+    host::Session session;
+    ASSERT_TRUE(session.load(kScene, sets).ok());
+    const FramePlan plan = session.plan(3);
+    const rt::BakedNoise noise = rt::bakedNoise(session.renderer(), plan, session.bindings());
+    ASSERT_TRUE(noise.base && noise.base->channels());
+    std::string error;
+    rt::GlslExport e;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, nullptr, &session.bindings(), &noise,
+                               e, &error))
+        << error;
+    ASSERT_EQ(e.data.size(), 2u);
+    EXPECT_EQ(e.data[0].first, "noise_base_rgba.bin");
+    EXPECT_EQ(e.data[0].second, noise.base->rgba);
+    EXPECT_EQ(e.data[1].second, noise.detail->rgba);
+    EXPECT_TRUE(contains(e.json, "\"sampler\": \"rtBaseChannels\", \"unit\": 4"));
+    EXPECT_TRUE(contains(e.json, "\"wrap\": \"GL_REPEAT\""));
+    // float tiles: no texture
+    rt::GlslExport floats;
+    host::Session baked;
+    ASSERT_TRUE(
+        baked
+            .load(kScene, {"camera.width=64", "camera.height=36",
+                           "render.multiple_scattering=\"none\"", "field.evaluation=\"baked\""})
+            .ok());
+    const rt::BakedNoise bn = rt::bakedNoise(baked.renderer(), baked.plan(3), baked.bindings());
+    ASSERT_TRUE(rt::exportGlsl(baked.scene(), baked.plan(3), kScene, nullptr, &baked.bindings(),
+                               &bn, floats, &error))
+        << error;
+    EXPECT_TRUE(contains(floats.json, "\"textures\": [],"));
+    EXPECT_FALSE(contains(floats.shader, "sampler3D"));
+    EXPECT_TRUE(contains(floats.shader, "#define RT_RGBA_NOISE 0"));
 }
 
 TEST(ExportGlslGpu, SameImageAsRtWithBakedNoise) {

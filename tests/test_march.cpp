@@ -201,8 +201,12 @@ TEST(March, BlockSkippingYieldsTheSameSpansAsTheCellWalk) {
 }
 
 TEST(March, FieldMajorantBoundsDensity) {
-    for (bool baked : {false, true}) {
+    // direct noise, float tiles, and RGBA8 tiles in Olajos' layout (the bound from the channels'
+    // extremes: the largest Perlin channel, the smallest Worley ones)
+    for (int mode : {0, 1, 2}) {
+        const bool baked = mode > 0;
         SceneDesc s = cumulusFromBelow();
+        if (mode == 2) s.field.cumulus.eval = NoiseEval::Rgba;
         s.field.cumulus.baseBakeResolution = 32;
         s.field.cumulus.detailBakeResolution = 16;
         auto base = baked ? bakeCumulusBase(s.field.cumulus) : nullptr;
@@ -220,7 +224,7 @@ TEST(March, FieldMajorantBoundsDensity) {
                 vec3 a((k % 3) / 2.0f, ((k / 3) % 3) / 2.0f, (k / 9) / 2.0f);
                 float rho = f.density(b.lo + a * b.extent());
                 positive += rho > 0.0f;
-                ASSERT_LE(rho, m + 1e-6f) << "baked=" << baked;
+                ASSERT_LE(rho, m + 1e-6f) << "mode " << mode;
             }
         }
         EXPECT_GT(positive, 500) << "the test field must hold cloud";
@@ -239,6 +243,59 @@ TEST(March, BakedNoiseEqualsDirectAtNodes) {
                         kern::cumulusBaseNoise(cumulusParams(c, 0.0f), node / 16.0f), 1e-6f);
             EXPECT_NEAR(vol->sample(node + vec3(16.0f, -32.0f, 48.0f)), vol->sample(node), 1e-5f);
         }
+}
+
+// Olajos' channel layout (field.evaluation = "rgba"): combined at one point, the channels are the
+// noise itself (every octave count of the detail noise); at the nodes of an RGBA8 tile, within
+// the 8-bit quantisation of the channels; the tile wraps.
+TEST(March, RgbaChannelsAreTheNoise) {
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+    for (int detailOctaves : {1, 2, 3, 4, 5, 6}) {
+        CumulusDesc c;
+        c.detailOctaves = detailOctaves;
+        const kern::CumulusParams P = cumulusParams(c, 0.0f);
+        double worst = 0.0;
+        for (int i = 0; i < 2000; ++i) {
+            const vec3 q(u(rng), u(rng), u(rng));
+            const float base = kern::cumulusBaseNoise(P, q);
+            const float detail = kern::cumulusDetailNoise(P, q);
+            worst = std::max(
+                worst, double(std::abs(
+                           kern::cumulusBaseFromChannels(kern::cumulusBaseChannels(P, q)) - base)));
+            worst = std::max(worst, double(std::abs(kern::cumulusDetailFromChannels(
+                                                        P, kern::cumulusDetailChannels(P, q)) -
+                                                    detail)));
+            const vec4 ch = kern::cumulusDetailChannels(P, q);
+            for (int k = 0; k < 4; ++k) ASSERT_TRUE(ch[k] >= 0.0f && ch[k] <= 1.0f) << k;
+        }
+        EXPECT_LT(worst, 2e-6) << detailOctaves << " detail octaves";
+    }
+    CumulusDesc c;
+    c.eval = NoiseEval::Rgba;
+    c.baseBakeResolution = 16;
+    c.detailBakeResolution = 16;
+    const auto base = bakeCumulusBase(c), detail = bakeCumulusDetail(c);
+    ASSERT_TRUE(base->channels() && detail->channels());
+    EXPECT_TRUE(base->values.empty());
+    EXPECT_EQ(base->rgba.size(), std::size_t(4 * 16 * 16 * 16));
+    const kern::CumulusParams P = cumulusParams(c, 0.0f);
+    for (int i = 0; i < 16; i += 3)
+        for (int j = 0; j < 16; j += 5) {
+            const vec3 node(float(i), float(j), float((i + j) % 16));
+            const vec4 want = kern::cumulusBaseChannels(P, node / 16.0f);
+            const vec4 got = base->sample4(node);
+            for (int k = 0; k < 4; ++k) EXPECT_NEAR(got[k], want[k], 0.5f / 255.0f + 1e-6f);
+            const vec4 wantD = kern::cumulusDetailChannels(P, node / 16.0f);
+            const vec4 gotD = detail->sample4(node);
+            for (int k = 0; k < 4; ++k) EXPECT_NEAR(gotD[k], wantD[k], 0.5f / 255.0f + 1e-6f);
+            const vec4 wrapped = base->sample4(node + vec3(16.0f, -32.0f, 48.0f));
+            for (int k = 0; k < 4; ++k) EXPECT_NEAR(wrapped[k], got[k], 1e-5f);
+        }
+    // between the nodes: each channel interpolated apart (the midpoint of two nodes along x)
+    const vec4 a = base->sample4(vec3(3, 4, 5)), b = base->sample4(vec3(4, 4, 5));
+    const vec4 mid = base->sample4(vec3(3.5f, 4, 5));
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(mid[k], 0.5f * (a[k] + b[k]), 1e-6f);
 }
 
 TEST(March, EmptySpaceSkippingSameImageFewerLookups) {

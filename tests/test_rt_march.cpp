@@ -667,6 +667,38 @@ TEST(RtMarchParity, BakedNoise) {
               45.0);
 }
 
+// field.evaluation = "rgba": Olajos' channel layout, RGBA8 3D textures filtered by the texture
+// unit (its weights are the GL's own, so the image is close to the CPU's, not equal), at frames
+// 1 and 12 and with the diffusion grid; the pass refuses float tiles for it
+TEST(RtMarchParity, RgbaNoiseTextures) {
+    if (!requireContext()) return;
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, {"field.evaluation=\"rgba\""}, "rgba_frame1", &maxAbs), 45.0);
+    EXPECT_GE(gpuAgainstCpu(12, {"field.evaluation=\"rgba\""}, "rgba_frame12", &maxAbs), 45.0);
+    EXPECT_GE(gpuAgainstCpu(1, {"field.evaluation=\"rgba\""}, "rgba_grid", &maxAbs, "grid"), 45.0);
+    host::Session session;
+    std::vector<std::string> settings = paritySettings(48, 27);
+    settings.push_back("field.evaluation=\"rgba\"");
+    ASSERT_TRUE(session.load(kDefaultScene, settings).ok());
+    const FramePlan plan = session.plan(1);
+    EXPECT_TRUE(plan.bakeNoise);
+    const rt::MarchFeatures f = rt::marchFeatures(session.scene(), plan);
+    EXPECT_TRUE(f.bakedNoise && f.rgbaNoise);
+    EXPECT_TRUE(contains(f.defines(), "#define RT_RGBA_NOISE 1\n"));
+    EXPECT_TRUE(contains(rt::explainMarch(session.scene(), plan), "Olajos' channel layout"));
+    CumulusDesc floats = session.scene().field.cumulus;
+    floats.eval = NoiseEval::Baked;
+    rt::BakedNoise wrong;
+    wrong.base = bakeCumulusBase(floats);
+    wrong.detail = bakeCumulusDetail(floats);
+    Framebuffer fb;
+    rt::MarchStats stats;
+    std::string error;
+    rt::MarchPass pass;
+    EXPECT_FALSE(pass.render(session.scene(), plan, nullptr, nullptr, &wrong, fb, stats, &error));
+    EXPECT_TRUE(contains(error, "are float tiles, not RGBA8")) << error;
+}
+
 // field.evaluation = "auto" where the plan bakes (160x90 of the default scene): the GPU follows
 // the CPU's plan (the frame's tiles, RT_BAKED_NOISE)
 TEST(RtMarchParity, AutoFollowsThePlansBake) {

@@ -1,6 +1,7 @@
 #include "core/fields/cumulus.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <tbb/parallel_for.h>
 
@@ -31,6 +32,48 @@ float NoiseVolume::sample(vec3 u) const {
     float c0 = c00 + f.y * (c10 - c00);
     float c1 = c01 + f.y * (c11 - c01);
     return c0 + f.z * (c1 - c0);
+}
+
+vec4 NoiseVolume::sample4(vec3 u) const {
+    const float n = float(res);
+    vec3 w = u - glm::floor(u / n) * n; // [0, res)
+    vec3 f0 = glm::floor(w);
+    vec3 f = w - f0;
+    int x0 = wrapIndex(int(f0.x), res), y0 = wrapIndex(int(f0.y), res),
+        z0 = wrapIndex(int(f0.z), res);
+    int x1 = wrapIndex(x0 + 1, res), y1 = wrapIndex(y0 + 1, res), z1 = wrapIndex(z0 + 1, res);
+    auto at = [&](int x, int y, int z) {
+        const std::uint8_t* c = &rgba[4 * ((size_t(z) * res + y) * res + x)];
+        return vec4(float(c[0]), float(c[1]), float(c[2]), float(c[3])) / 255.0f;
+    };
+    vec4 c00 = at(x0, y0, z0) + f.x * (at(x1, y0, z0) - at(x0, y0, z0));
+    vec4 c10 = at(x0, y1, z0) + f.x * (at(x1, y1, z0) - at(x0, y1, z0));
+    vec4 c01 = at(x0, y0, z1) + f.x * (at(x1, y0, z1) - at(x0, y0, z1));
+    vec4 c11 = at(x0, y1, z1) + f.x * (at(x1, y1, z1) - at(x0, y1, z1));
+    vec4 c0 = c00 + f.y * (c10 - c00);
+    vec4 c1 = c01 + f.y * (c11 - c01);
+    return c0 + f.z * (c1 - c0);
+}
+
+void NoiseVolume::rangeOver(vec3 lo, vec3 hi, vec4& lowest, vec4& highest) const {
+    ivec3 a(glm::floor(lo)), b(glm::ceil(hi));
+    b = glm::min(b, a + ivec3(res - 1)); // an axis wider than the tile: each node once
+    std::uint8_t mn[4] = {255, 255, 255, 255}, mx[4] = {0, 0, 0, 0};
+    for (int z = a.z; z <= b.z; ++z) {
+        const int zz = wrapIndex(z, res);
+        for (int y = a.y; y <= b.y; ++y) {
+            const std::uint8_t* row = &rgba[4 * (size_t(zz) * res + wrapIndex(y, res)) * res];
+            for (int x = a.x; x <= b.x; ++x) {
+                const std::uint8_t* c = &row[4 * wrapIndex(x, res)];
+                for (int k = 0; k < 4; ++k) {
+                    mn[k] = std::min(mn[k], c[k]);
+                    mx[k] = std::max(mx[k], c[k]);
+                }
+            }
+        }
+    }
+    lowest = vec4(float(mn[0]), float(mn[1]), float(mn[2]), float(mn[3])) / 255.0f;
+    highest = vec4(float(mx[0]), float(mx[1]), float(mx[2]), float(mx[3])) / 255.0f;
 }
 
 float NoiseVolume::maxOver(vec3 lo, vec3 hi) const {
@@ -98,11 +141,34 @@ std::shared_ptr<const NoiseVolume> bakeTile(int res, const std::atomic<bool>* ca
     return vol;
 }
 
+/// The same for RGBA8 channels: each channel in [0, 1] rounded to the nearest k / 255.
+template <class F>
+std::shared_ptr<const NoiseVolume> bakeTileRgba(int res, const std::atomic<bool>* cancel,
+                                                F&& channels) {
+    auto vol = std::make_shared<NoiseVolume>();
+    vol->res = res;
+    vol->rgba.resize(4 * size_t(res) * res * res);
+    tbb::parallel_for(0, res, [&](int z) {
+        for (int y = 0; y < res; ++y)
+            for (int x = 0;
+                 x < res && !(x == 0 && cancel && cancel->load(std::memory_order_relaxed)); ++x) {
+                const vec4 v = channels(vec3(float(x), float(y), float(z)) / float(res));
+                std::uint8_t* c = &vol->rgba[4 * ((size_t(z) * res + y) * res + x)];
+                for (int k = 0; k < 4; ++k)
+                    c[k] = std::uint8_t(std::lround(std::clamp(v[k], 0.0f, 1.0f) * 255.0f));
+            }
+    });
+    return vol;
+}
+
 } // namespace
 
 std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c,
                                                    const std::atomic<bool>* cancel) {
     const kern::CumulusParams P = cumulusParams(c, 0.0f);
+    if (c.eval == NoiseEval::Rgba)
+        return bakeTileRgba(c.baseBakeResolution, cancel,
+                            [&](vec3 q) { return kern::cumulusBaseChannels(P, q); });
     return bakeTile(c.baseBakeResolution, cancel,
                     [&](vec3 q) { return kern::cumulusBaseNoise(P, q); });
 }
@@ -110,6 +176,9 @@ std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c,
 std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c,
                                                      const std::atomic<bool>* cancel) {
     const kern::CumulusParams P = cumulusParams(c, 0.0f);
+    if (c.eval == NoiseEval::Rgba)
+        return bakeTileRgba(c.detailBakeResolution, cancel,
+                            [&](vec3 q) { return kern::cumulusDetailChannels(P, q); });
     return bakeTile(c.detailBakeResolution, cancel,
                     [&](vec3 q) { return kern::cumulusDetailNoise(P, q); });
 }
@@ -121,11 +190,17 @@ float CumulusField::density(vec3 p) const {
     if (kern::cloudShape(params.layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
     const vec3 qb = kern::cumulusBaseDomain(params, p);
     const float base =
-        baseBake ? baseBake->sample(qb * float(baseBake->res)) : kern::cumulusBaseNoise(params, qb);
+        !baseBake ? kern::cumulusBaseNoise(params, qb)
+        : baseBake->channels()
+            ? kern::cumulusBaseFromChannels(baseBake->sample4(qb * float(baseBake->res)))
+            : baseBake->sample(qb * float(baseBake->res));
     if (kern::cloudShape(params.layer, env, base, 0.0f) <= 0.0f) return 0.0f;
     const vec3 qd = kern::cumulusDetailDomain(params, p);
-    const float detail = detailBake ? detailBake->sample(qd * float(detailBake->res))
-                                    : kern::cumulusDetailNoise(params, qd);
+    const float detail = !detailBake ? kern::cumulusDetailNoise(params, qd)
+                         : detailBake->channels()
+                             ? kern::cumulusDetailFromChannels(
+                                   params, detailBake->sample4(qd * float(detailBake->res)))
+                             : detailBake->sample(qd * float(detailBake->res));
     return params.density * kern::cloudShape(params.layer, env, base, detail);
 }
 
@@ -135,7 +210,15 @@ float CumulusField::majorant(const Box& c) const {
     float baseMax = 1.0f;
     if (baseBake) {
         const float s = float(baseBake->res) / params.basePeriod;
-        baseMax = baseBake->maxOver((c.lo - params.baseOffset) * s, (c.hi - params.baseOffset) * s);
+        const vec3 lo = (c.lo - params.baseOffset) * s, hi = (c.hi - params.baseOffset) * s;
+        if (baseBake->channels()) {
+            // the combination rises with the Perlin channel and falls with the Worley ones
+            vec4 mn, mx;
+            baseBake->rangeOver(lo, hi, mn, mx);
+            baseMax = kern::cumulusBaseFromChannels(vec4(mx.x, mn.y, mn.z, mn.w));
+        } else {
+            baseMax = baseBake->maxOver(lo, hi);
+        }
     }
     return kern::cumulusDensityBound(params, envMax, baseMax);
 }

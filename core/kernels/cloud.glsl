@@ -195,6 +195,73 @@ NB_FN float cumulusDetailNoise(IN(CumulusParams) C, vec3 q) {
                      C.layer.seed + 0x9e3779b9u);
 }
 
+// Olajos' channel layout (2016, ch. 2: several frequencies in the RGBA channels of one 3D
+// texture, combined per sample after the texture unit's trilinear filter), for tiles baked
+// with field.evaluation = "rgba". Base: R the Perlin FBM mapped to [0, 1], G, B, A the Worley
+// noise at 1, 2 and 4 times the lattice frequency (perlinWorley's parts). Detail: R, G, B its
+// Worley octaves 0, 1, 2, A the octaves from 3 on, averaged with their FBM weights. Every
+// channel lies in [0, 1]. At the same point, ...FromChannels(...Channels(q)) is the noise
+// (up to rounding); between the nodes of a tile the channels are interpolated before the
+// combination, not after it.
+NB_FN vec4 cumulusBaseChannels(IN(CumulusParams) C, vec3 q) {
+    vec3 p = q * float(C.baseLattice);
+    int per = C.baseLattice;
+    uint ws = C.layer.seed + 7919u;
+    return vec4(0.5f + 0.5f * perlinFbm(p, per, C.baseOctaves, 0.5f, C.layer.seed),
+                worleyNoise(p, per, ws), worleyNoise(p * 2.0f, per * 2, ws + 101u),
+                worleyNoise(p * 4.0f, per * 4, ws + 202u));
+}
+
+NB_FN float cumulusBaseFromChannels(vec4 c) {
+    // worleyFbm's sum for 3 octaves in its order: weights 1, 1/2, 1/4 over their sum
+    float worley = (c.y + 0.5f * c.z + 0.25f * c.w) / 1.75f;
+    return perlinWorleyOf(c.x, worley);
+}
+
+NB_FN vec4 cumulusDetailChannels(IN(CumulusParams) C, vec3 q) {
+    vec3 p = q * float(C.detailLattice);
+    uint seed = C.layer.seed + 0x9e3779b9u;
+    vec4 c = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+    float tail = 0.0f;
+    float tailNorm = 0.0f;
+    float amp = 1.0f;
+    float freq = 1.0f;
+    int per = C.detailLattice;
+    for (int i = 0; i < C.detailOctaves; i++) {
+        float w = worleyNoise(p * freq, per, seed + uint(i) * 101u);
+        if (i == 0) c.x = w;
+        if (i == 1) c.y = w;
+        if (i == 2) c.z = w;
+        if (i >= 3) {
+            tail += amp * w;
+            tailNorm += amp;
+        }
+        amp *= 0.5f;
+        freq *= 2.0f;
+        per *= 2;
+    }
+    if (tailNorm > 0.0f) c.w = tail / tailNorm;
+    return c;
+}
+
+NB_FN float cumulusDetailFromChannels(IN(CumulusParams) C, vec4 c) {
+    // worleyFbm's weights (gain 1/2): 1, 1/2, 1/4 for R, G, B and the octaves' own for A
+    float sum = 0.0f;
+    float norm = 0.0f;
+    float tailNorm = 0.0f;
+    float amp = 1.0f;
+    for (int i = 0; i < C.detailOctaves; i++) {
+        if (i == 0) sum += amp * c.x;
+        if (i == 1) sum += amp * c.y;
+        if (i == 2) sum += amp * c.z;
+        if (i >= 3) tailNorm += amp;
+        norm += amp;
+        amp *= 0.5f;
+    }
+    sum += tailNorm * c.w;
+    return sum / norm;
+}
+
 // Noise-domain points of world point p: the base noise drifts with the field, the detail noise
 // with its own offset.
 NB_FN vec3 cumulusBaseDomain(IN(CumulusParams) C, vec3 p) {

@@ -104,9 +104,16 @@ NB_FN float remapRange(float v, float lo0, float hi0, float lo1, float hi1) {
 // (Schneider 2015, "The real-time volumetric cloudscapes of Horizon: Zero Dawn"). The raw
 // combination concentrates in [0.4, 0.8] (measured: 99.9% of 200k samples); it is stretched
 // from [0.35, 0.85] to [0, 1] so that coverage and softness act on the full range.
+// perlinWorleyOf combines the two parts: perlin01 (the Perlin FBM mapped to [0, 1]) and the
+// Worley FBM of 3 octaves. It is non-decreasing in perlin01 and, for perlin01 <= 1,
+// non-increasing in worley (d pw / d worley = (perlin01 - 1) / (2 - worley)^2).
+NB_FN float perlinWorleyOf(float perlin01, float worley) {
+    float pw = remapRange(perlin01, worley - 1.0f, 1.0f, 0.0f, 1.0f);
+    return clamp(remapRange(pw, 0.35f, 0.85f, 0.0f, 1.0f), 0.0f, 1.0f);
+}
+
 NB_FN float perlinWorley(vec3 p, int period, int octaves, uint seed) {
     float perlin01 = 0.5f + 0.5f * perlinFbm(p, period, octaves, 0.5f, seed);
     float worley = worleyFbm(p, period, 3, 0.5f, seed + 7919u);
-    float pw = remapRange(perlin01, worley - 1.0f, 1.0f, 0.0f, 1.0f);
-    return clamp(remapRange(pw, 0.35f, 0.85f, 0.0f, 1.0f), 0.0f, 1.0f);
+    return perlinWorleyOf(perlin01, worley);
 }

@@ -186,6 +186,38 @@ bool loadExport(const std::string& dir, ExportFolder& out, std::string* error) {
             e.buffers.push_back(w);
         }
 
+        for (const Json& t : field(doc, "textures", Json::Array, "").items) {
+            TextureFile tf;
+            tf.unit = unsigned(count(t, "unit", "textures[]."));
+            const std::string& file = field(t, "file", Json::String, "textures[].").text;
+            if (field(t, "format", Json::String, "textures[].").text != "GL_RGBA8" ||
+                field(t, "target", Json::String, "textures[].").text != "GL_TEXTURE_3D")
+                throw FieldError("texture " + file + " is not a GL_RGBA8 GL_TEXTURE_3D");
+            const Json& size = field(t, "size", Json::Array, "textures[].");
+            if (size.items.size() != 3)
+                throw FieldError("texture " + file + ": size is not [x, y, z]");
+            std::size_t texels = 1;
+            for (int k = 0; k < 3; ++k) {
+                const Json& v = size.items[std::size_t(k)];
+                if (v.kind != Json::Number || !(v.number >= 1.0 && v.number <= 4096.0) ||
+                    v.number != double(int(v.number)))
+                    throw FieldError("texture " + file + ": size[" + std::to_string(k) +
+                                     "] is not a whole number in [1, 4096]");
+                tf.size[k] = int(v.number);
+                texels *= std::size_t(tf.size[k]);
+            }
+            std::string bytes;
+            if (!readFile(dir + "/" + file, bytes, error)) return false;
+            if (bytes.size() != 4 * texels) {
+                if (error)
+                    *error = dir + "/" + file + ": " + std::to_string(bytes.size()) +
+                             " bytes, textures[].size says " + std::to_string(4 * texels);
+                return false;
+            }
+            tf.data.assign(bytes.begin(), bytes.end());
+            e.textures.push_back(std::move(tf));
+        }
+
         const Json& output = field(doc, "output", Json::Object, "");
         e.outputBinding = unsigned(count(output, "buffer_binding", "output."));
         e.floatsPerPixel = int(count(output, "floats_per_pixel", "output."));

@@ -31,12 +31,22 @@ struct WorkBuffer {
     std::vector<std::uint8_t> data; ///< the file's bytes; empty for a buffer the pass writes
 };
 
+/// A 3D texture of params.json's "textures" (field.evaluation = "rgba": the noise tiles in
+/// Olajos' channel layout): GL_RGBA8, GL_LINEAR, GL_REPEAT, bound to its unit; `data` holds its
+/// file (4 bytes a texel, x fastest).
+struct TextureFile {
+    unsigned unit = 0;
+    int size[3] = {0, 0, 0};
+    std::vector<std::uint8_t> data;
+};
+
 struct ExportFolder {
     std::string shader;               ///< the text of march.comp
     std::vector<std::uint8_t> params; ///< params.bin: the block for the frame's first pass
     unsigned paramBinding = 0;        ///< parameter_block.binding
     std::map<std::string, Member> members;
     std::vector<WorkBuffer> buffers;
+    std::vector<TextureFile> textures;
     int width = 0, height = 0;      ///< image
     unsigned groups[3] = {1, 1, 1}; ///< dispatch.groups
     int passes = 1;                 ///< dispatch.passes (sampleIndex = 0 .. passes - 1)

@@ -125,6 +125,21 @@ bool createExportPass(ExportFolder& ex, ExportPass& p, std::string* log) {
                      data ? GL_STATIC_DRAW : GL_DYNAMIC_COPY);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, ex.buffers[k].binding, p.work[k]);
     }
+    // the 3D textures of params.json (the noise tiles of field.evaluation = "rgba")
+    p.textures.assign(ex.textures.size(), 0);
+    for (std::size_t k = 0; k < ex.textures.size(); ++k) {
+        const TextureFile& t = ex.textures[k];
+        glCreateTextures(GL_TEXTURE_3D, 1, &p.textures[k]);
+        glTextureStorage3D(p.textures[k], 1, GL_RGBA8, t.size[0], t.size[1], t.size[2]);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glTextureSubImage3D(p.textures[k], 0, 0, 0, 0, t.size[0], t.size[1], t.size[2], GL_RGBA,
+                            GL_UNSIGNED_BYTE, t.data.data());
+        for (GLenum e : {GL_TEXTURE_MIN_FILTER, GL_TEXTURE_MAG_FILTER})
+            glTextureParameteri(p.textures[k], e, GL_LINEAR);
+        for (GLenum e : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+            glTextureParameteri(p.textures[k], e, GL_REPEAT);
+        glBindTextureUnit(t.unit, p.textures[k]);
+    }
     // the resolve pass reads the output buffer at output.buffer_binding
     glShaderStorageBlockBinding(
         p.resolve, glGetProgramResourceIndex(p.resolve, GL_SHADER_STORAGE_BLOCK, "Pixels"),

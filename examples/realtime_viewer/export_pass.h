@@ -37,7 +37,8 @@ std::uint32_t accumulationKey(std::uint32_t frameKey, int pass);
 struct ExportPass {
     GLuint march = 0, resolve = 0;
     GLuint paramBuffer = 0;
-    std::vector<GLuint> work; ///< one per ExportFolder::buffers
+    std::vector<GLuint> work;     ///< one per ExportFolder::buffers
+    std::vector<GLuint> textures; ///< one per ExportFolder::textures
     GLuint image = 0, framebuffer = 0, vao = 0;
     const Member* sampleIndex = nullptr; ///< when the export has more than one pass
     const Member* frameKey = nullptr;    ///< when present: accumulation passes re-key it

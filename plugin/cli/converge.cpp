@@ -90,7 +90,7 @@ bool prepare(LoadedScene& ls, std::optional<int> requested, double scale, SceneD
     base.camera.width = std::max(1, int(std::lround(base.camera.width * scale)));
     base.camera.height = std::max(1, int(std::lround(base.camera.height * scale)));
     Renderer probe(base);
-    base.field.cumulus.eval = probe.plan(frame, b).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
+    base.field.cumulus.eval = plannedNoiseEval(base, probe.plan(frame, b));
     return true;
 }
 

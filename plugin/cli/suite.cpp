@@ -217,8 +217,7 @@ void prepareBase(Cloud& c, int w, int h) {
     // the noise evaluation the plan picks at the scene's own size (baked for the default
     // scene), not at the suite's: what the scene renders with out of the box
     Renderer probe(c.ls->scene());
-    c.base.field.cumulus.eval =
-        probe.plan(c.frame, c.bindings).bakeNoise ? NoiseEval::Baked : NoiseEval::Direct;
+    c.base.field.cumulus.eval = plannedNoiseEval(c.ls->scene(), probe.plan(c.frame, c.bindings));
     const vec3 st = c.base.medium.sigma_s + c.base.medium.sigma_a;
     c.sigmaT0 = (st.x + st.y + st.z) / 3.0f;
 }

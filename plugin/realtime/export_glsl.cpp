@@ -32,6 +32,7 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_PHOTON_SKIN", f.photonSkin},
             {"RT_VDB", f.vdb},
             {"RT_BAKED_NOISE", f.bakedNoise},
+            {"RT_RGBA_NOISE", f.rgbaNoise},
             {"RT_SKIP", f.skip},
             {"RT_SDF", f.sdf},
             {"RT_LIGHT_VOLUME", f.lightVolume},
@@ -1001,7 +1002,10 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtVdbGrid"),
                                   std::vector<std::uint8_t>(b, b + g.size));
         }
-        if (f.bakedNoise) {
+        if (f.rgbaNoise) {
+            out.data.emplace_back(kBaseChannelsFile, noise->base->rgba);
+            out.data.emplace_back(kDetailChannelsFile, noise->detail->rgba);
+        } else if (f.bakedNoise) {
             out.data.emplace_back(bufferFile("RtBaseNoise"), bytesOf(noise->base->values));
             out.data.emplace_back(bufferFile("RtDetailNoise"), bytesOf(noise->detail->values));
         }
@@ -1136,7 +1140,39 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
          "sums[8] / sums[9] where sums[9] > 0, else 0. Premultiplied scene-linear RGB in the "
          "working space (before nimbus rt's output colour transform); depth in world units along "
          "the ray\"},\n";
-    j << "  \"textures\": [],\n";
+    j << "  \"textures\": [";
+    if (m.features.rgbaNoise) {
+        // Olajos' channel layout (field.evaluation = "rgba"): the sampler3D units of
+        // march_data.glsl
+        const CumulusDesc& c = s.field.cumulus;
+        const struct {
+            const char* sampler;
+            int unit, res;
+            const char* file;
+            const char* meaning;
+        } tex[2] = {
+            {"rtBaseChannels", 4, c.baseBakeResolution, kBaseChannelsFile,
+             "the base noise in Olajos' channel layout (kern::cumulusBaseChannels, "
+             "core/kernels/cloud.glsl): R the Perlin FBM mapped to [0, 1], G, B, A the Worley "
+             "noise at 1, 2 and 4 times the lattice frequency; the shader combines the filtered "
+             "channels (cumulusBaseFromChannels)"},
+            {"rtDetailChannels", 5, c.detailBakeResolution, kDetailChannelsFile,
+             "the detail noise in Olajos' channel layout (kern::cumulusDetailChannels): R, G, B "
+             "its Worley octaves 0, 1, 2, A the octaves from 3 on averaged with their weights; "
+             "combined after the filter (cumulusDetailFromChannels)"}};
+        for (int k = 0; k < 2; ++k)
+            j << (k ? "," : "") << "\n    {\"sampler\": " << jsonString(tex[k].sampler)
+              << ", \"unit\": " << tex[k].unit << ", \"target\": \"GL_TEXTURE_3D\", \"size\": ["
+              << tex[k].res << ", " << tex[k].res << ", " << tex[k].res
+              << "], \"format\": \"GL_RGBA8\", \"filter\": \"GL_LINEAR\", \"wrap\": "
+                 "\"GL_REPEAT\", \"file\": "
+              << jsonString(tex[k].file)
+              << ", \"layout\": \"4 bytes (R, G, B, A) per texel, x fastest, then y, then z; "
+                 "the tile is periodic\", \"meaning\": "
+              << jsonString(tex[k].meaning) << "}";
+        j << "\n  ";
+    }
+    j << "],\n";
     j << "  \"parameter_block\": {\"struct\": \"RtMarchParams\", \"block\": \"RtParamBlock\", "
          "\"binding\": 0, \"bytes\": "
       << blockSize << ", \"file\": " << jsonString(kExportParamsFile) << ",\n    \"members\": [\n";

@@ -95,7 +95,9 @@ struct GlslExport {
     /// (RT_PHOTON_SKIN), vdb_grid.bin (RT_VDB: the field's NanoVDB grid, vdbGridBytes),
     /// noise_base.bin and noise_detail.bin (RT_BAKED_NOISE: the CPU's baked noise tiles, res^3
     /// floats each, x fastest), majorant.bin (RT_SKIP: the frame's majorant grid, one float per
-    /// cell, x fastest); their bindings and layouts are in params.json's "buffers".
+    /// cell, x fastest); their bindings and layouts are in params.json's "buffers". With
+    /// RT_RGBA_NOISE the tiles are noise_base_rgba.bin and noise_detail_rgba.bin instead (RGBA8
+    /// 3D textures, res^3 x 4 bytes), described in params.json's "textures".
     std::vector<std::pair<std::string, std::vector<std::uint8_t>>> data;
 };
 
@@ -103,6 +105,8 @@ struct GlslExport {
 inline constexpr const char* kExportShaderFile = "march.comp";
 inline constexpr const char* kExportJsonFile = "params.json";
 inline constexpr const char* kExportParamsFile = "params.bin";
+inline constexpr const char* kBaseChannelsFile = "noise_base_rgba.bin";
+inline constexpr const char* kDetailChannelsFile = "noise_detail_rgba.bin";
 
 /// Exports frame `plan` of `scene` (`scenePath` is recorded in the JSON; `bindings`: what the
 /// host bound to the frame, which a VDB field's grid comes from). False with *error when

@@ -265,6 +265,26 @@ void StorageBuffer::read(void* dst, std::size_t bytes, std::size_t offset) const
     glUnmapNamedBuffer(staging_);
 }
 
+Texture3D::Texture3D(int res, const std::uint8_t* rgba) {
+    glCreateTextures(GL_TEXTURE_3D, 1, &id_);
+    glTextureStorage3D(id_, 1, GL_RGBA8, res, res, res);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4); // rows of 4 res bytes
+    glTextureSubImage3D(id_, 0, 0, 0, 0, res, res, res, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    glTextureParameteri(id_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(id_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(id_, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(id_, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    glTextureParameteri(id_, GL_TEXTURE_WRAP_R, GL_REPEAT);
+}
+
+Texture3D::~Texture3D() {
+    if (id_) glDeleteTextures(1, &id_);
+}
+
+void Texture3D::bind(unsigned unit) const {
+    glBindTextureUnit(unit, id_);
+}
+
 std::string glErrors() {
     std::string s;
     for (int i = 0; i < 16; ++i) {

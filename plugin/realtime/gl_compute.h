@@ -105,6 +105,21 @@ class StorageBuffer {
     mutable std::size_t stagingBytes_ = 0;
 };
 
+/// A periodic RGBA8 3D texture of res^3 texels (x fastest, then y, then z; 4 bytes a texel),
+/// filtered by the texture unit: GL_LINEAR, GL_REPEAT on every axis, no mipmaps.
+class Texture3D {
+  public:
+    Texture3D(int res, const std::uint8_t* rgba);
+    ~Texture3D();
+    Texture3D(const Texture3D&) = delete;
+    Texture3D& operator=(const Texture3D&) = delete;
+    /// Binds to `layout(binding = @p unit) uniform sampler3D`.
+    void bind(unsigned unit) const;
+
+  private:
+    unsigned id_ = 0;
+};
+
 /// The pending GL errors as text ("" when there is none); clears them.
 std::string glErrors();
 

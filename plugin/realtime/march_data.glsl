@@ -9,7 +9,9 @@
 // baked (RT_BAKED_NOISE), sampled as NoiseVolume::sample; the SDF cloud's node array (RT_SDF),
 // evaluated by the kernel sdfTreeStep as SdfTree::distance. Shader storage buffers and
 // trilinear interpolation by hand rather than textures: a texture unit's filtering weights are
-// fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. Assembled after
+// fixed point on most GPUs (commonly 8 bits of fraction), the CPU's are float. The one
+// exception is field.evaluation = "rgba" (RT_RGBA_NOISE): Olajos' layout asks for 3D textures
+// and the texture unit's filter, so that mode's parity is measured, not exact. Assembled after
 // march_params.glsl; tests/test_rt_march.cpp compiles it with its own main() to compare each
 // lookup with the CPU's on thousands of points.
 
@@ -47,8 +49,17 @@ layout(std430, binding = 9) readonly buffer RtVdbGrid { uint pnanovdb_buf_data[]
 // bakeCumulusBase / bakeCumulusDetail, the bytes Renderer::fieldFor samples): one float per node
 // of a periodic res^3 tile, x fastest, then y, then z; base res = P.baseBakeRes, detail res =
 // P.detailBakeRes. One scalar per node: the CPU bakes each noise with its octaves summed.
+#if RT_RGBA_NOISE
+// field.evaluation = "rgba": the tiles in Olajos' channel layout (kern::cumulusBaseChannels /
+// cumulusDetailChannels): RGBA8 3D textures of baseBakeRes^3 / detailBakeRes^3 texels, node i
+// of the tile at texel i, GL_LINEAR, GL_REPEAT; the texture unit interpolates each channel and
+// cumulusBaseFromChannels / cumulusDetailFromChannels combine them
+layout(binding = 4) uniform sampler3D rtBaseChannels;
+layout(binding = 5) uniform sampler3D rtDetailChannels;
+#else
 layout(std430, binding = 10) readonly buffer RtBaseNoise { float rtBaseNoise[]; };
 layout(std430, binding = 11) readonly buffer RtDetailNoise { float rtDetailNoise[]; };
+#endif
 #endif
 #if RT_SKIP
 // the field's majorant grid for the frame (MajorantGrid, core/tracking/majorant.h: the grid the
@@ -157,7 +168,18 @@ float rtVdbDensity(vec3 p, float scale) {
 }
 #endif
 
-#if RT_BAKED_NOISE
+#if RT_BAKED_NOISE && RT_RGBA_NOISE
+// The RGBA8 tile's channels at u in voxel units through the texture unit: u wrapped into
+// [0, res) as NoiseVolume::sample4 wraps it, node i at texel i, whose centre is (i + 0.5) / res
+// (the filter's weights are the GPU's own: 8 bits of fraction on many).
+vec4 rtChannels(sampler3D tile, int res, vec3 u) {
+    float n = float(res);
+    vec3 w = u - floor(u / n) * n;
+    return textureLod(tile, (w + 0.5f) / n, 0.0f);
+}
+#endif
+
+#if RT_BAKED_NOISE && !RT_RGBA_NOISE
 // i modulo n in [0, n) for every int i (GLSL leaves % of a negative operand undefined)
 int rtWrapIndex(int i, int n) { return i >= 0 ? i % n : (n - 1) - ((-1 - i) % n); }
 
@@ -193,17 +215,27 @@ float rtNoiseSample(int tile, int res, vec3 u) {
     precise float v = c0 + f.z * (c1 - c0);
     return v;
 }
+#endif
 
+#if RT_BAKED_NOISE
 // CumulusField::density with both tiles baked (core/fields/cumulus.cpp): the kernel's three
 // stages (cumulusDensity), the noises read from the tiles at the noise-domain points times res.
 float rtBakedCumulusDensity(CumulusParams C, vec3 p) {
     float env = cumulusEnvelope(C, p);
     if (cloudShape(C.layer, env, 1.0f, 0.0f) <= 0.0f) return 0.0f;
     precise vec3 ub = cumulusBaseDomain(C, p) * float(P.baseBakeRes);
+#if RT_RGBA_NOISE
+    float base = cumulusBaseFromChannels(rtChannels(rtBaseChannels, P.baseBakeRes, ub));
+#else
     float base = rtNoiseSample(0, P.baseBakeRes, ub);
+#endif
     if (cloudShape(C.layer, env, base, 0.0f) <= 0.0f) return 0.0f;
     precise vec3 ud = cumulusDetailDomain(C, p) * float(P.detailBakeRes);
+#if RT_RGBA_NOISE
+    float detail = cumulusDetailFromChannels(C, rtChannels(rtDetailChannels, P.detailBakeRes, ud));
+#else
     float detail = rtNoiseSample(1, P.detailBakeRes, ud);
+#endif
     return C.density * cloudShape(C.layer, env, base, detail);
 }
 #endif

@@ -1,7 +1,8 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SDF, RT_SKIP, RT_LIGHT_VOLUME: only the features the scene uses are
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_RGBA_NOISE, RT_SDF, RT_SKIP, RT_LIGHT_VOLUME: only
+// the features the scene uses are
 // compiled in; RT_RESUMABLE: `nimbus rt`'s march in slices, below), the embedded kernels
 // (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie table,
 // the multiple-scattering grids, the majorant grid, and their lookups), then this file.
@@ -12,7 +13,7 @@
 // hashes of (pixel, frame, seed) for the jitter of each ray and of each shadow ray, the same step
 // schedules (core/tracking/step_schedule.h; in float here, double on the CPU), the density from
 // cumulusDensity evaluated per sample (RT_BAKED_NOISE: its noises read from the tiles the CPU
-// baked; RT_VDB: the field's NanoVDB grid through PNanoVDB; RT_SDF: the SDF cloud's tree through
+// baked, RT_RGBA_NOISE: RGBA8 3D textures in Olajos' channel layout; RT_VDB: the field's NanoVDB grid through PNanoVDB; RT_SDF: the SDF cloud's tree through
 // the kernel sdfTreeStep), the sun's transmittance by a shadow march per sample (RT_LIGHT_VOLUME:
 // read from the CPU's light-attenuation volume where it holds the sample), phaseEval (or
 // the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the

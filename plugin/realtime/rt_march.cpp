@@ -134,6 +134,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
     f.vdb = s.field.kind == FieldKind::Vdb;
     f.bakedNoise = s.field.kind == FieldKind::Cumulus && p.bakeNoise;
+    f.rgbaNoise = f.bakedNoise && s.field.cumulus.eval == NoiseEval::Rgba;
     f.skip = skipsWith(p, majorant);
     f.sdf = s.field.kind == FieldKind::Sdf;
     f.lightVolume = f.sun && p.lightVolume;
@@ -152,6 +153,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_PHOTON_SKIN ") + (photonSkin ? "1" : "0") + "\n";
     d += std::string("#define RT_VDB ") + (vdb ? "1" : "0") + "\n";
     d += std::string("#define RT_BAKED_NOISE ") + (bakedNoise ? "1" : "0") + "\n";
+    d += std::string("#define RT_RGBA_NOISE ") + (rgbaNoise ? "1" : "0") + "\n";
     d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
     d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
     d += std::string("#define RT_LIGHT_VOLUME ") + (lightVolume ? "1" : "0") + "\n";
@@ -414,6 +416,13 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
         o << "  GPU field: vdb, the NanoVDB float grid in a storage buffer read through "
              "PNanoVDB, trilinear as on the CPU, density scale "
           << s.field.vdb.density << "\n";
+    else if (f.rgbaNoise)
+        o << "  GPU field: cumulus, noise read from the RGBA8 tiles the CPU baked in Olajos' "
+             "channel layout (as the CPU plan; "
+          << s.field.cumulus.baseBakeResolution << "^3 base, "
+          << s.field.cumulus.detailBakeResolution
+          << "^3 detail, 3D textures filtered by the texture unit, the channels combined after "
+             "the filter)\n";
     else if (f.bakedNoise)
         o << "  GPU field: cumulus, noise read from the tiles the CPU baked (as the CPU plan; "
           << s.field.cumulus.baseBakeResolution << "^3 base, "
@@ -501,6 +510,12 @@ std::string bakedNoiseError(const SceneDesc& s, const BakedNoise* noise) {
     if (noise->base->res != c.baseBakeResolution || noise->detail->res != c.detailBakeResolution)
         return "the baked noise tiles given to the GLSL pass are not at the scene's "
                "field.base_bake_resolution / detail_bake_resolution";
+    const bool rgba = c.eval == NoiseEval::Rgba;
+    if (noise->base->channels() != rgba || noise->detail->channels() != rgba)
+        return rgba ? "field.evaluation = \"rgba\" and the noise tiles given to the GLSL pass "
+                      "are float tiles, not RGBA8"
+                    : "the noise tiles given to the GLSL pass are RGBA8 tiles and "
+                      "field.evaluation is not \"rgba\"";
     return "";
 }
 
@@ -577,6 +592,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
     std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
         sdfNodes, bounds, light;
+    std::unique_ptr<gl::Texture3D> baseChannels, detailChannels;
     // the majorant grid the CPU renders with: a density bound per cell, then the block distances
     // (RT_SKIP)
     if (f.skip) {
@@ -585,7 +601,14 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         bounds->bind(13);
     }
     // the cumulus noise tiles the CPU baked, their floats as NoiseVolume holds them
-    if (f.bakedNoise) {
+    if (f.rgbaNoise) {
+        // Olajos' layout: RGBA8 3D textures, the texture unit filters (units 4 and 5)
+        baseChannels = std::make_unique<gl::Texture3D>(noise->base->res, noise->base->rgba.data());
+        detailChannels =
+            std::make_unique<gl::Texture3D>(noise->detail->res, noise->detail->rgba.data());
+        baseChannels->bind(4);
+        detailChannels->bind(5);
+    } else if (f.bakedNoise) {
         const std::vector<float>& b = noise->base->values;
         const std::vector<float>& d = noise->detail->values;
         baseNoise = std::make_unique<gl::StorageBuffer>(b.size() * sizeof(float), b.data());

@@ -73,6 +73,9 @@ struct MarchFeatures {
     bool photonSkin = false;    ///< RT_PHOTON_SKIN: render.photon_skin > 0 (with photons)
     bool vdb = false;           ///< RT_VDB: the field is a NanoVDB grid (PNanoVDB), not the cumulus
     bool bakedNoise = false;    ///< RT_BAKED_NOISE: the cumulus noise from the CPU's baked tiles
+    /// RT_RGBA_NOISE (with RT_BAKED_NOISE): the tiles are RGBA8 in Olajos' channel layout
+    /// (field.evaluation = "rgba"), 3D textures on units 4 and 5 filtered by the texture unit
+    bool rgbaNoise = false;
     /// RT_SKIP: empty-space skipping over the frame's majorant grid (binding 13)
     bool skip = false;
     bool sdf = false; ///< RT_SDF: the field is an SDF cloud (its node array), not the cumulus

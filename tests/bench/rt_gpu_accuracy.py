@@ -13,8 +13,8 @@ References (`nimbus render`, the CPU `march`), 480x270, frame 1:
     which the diffusion grid shares), one sample per pixel; reference: the same at m = 0.25,
     mean of 4 seeds;
   - cumulus_480x270, smoke1_480x270 and their _volume variants: the CPU image at equal settings;
-  - rt_cumulus.0001.exr, rt_smoke1.0001.exr (`nimbus rt` itself, tests/bench/rt_gpu_nimbus.sh's
-    machine): the CPU image at equal settings.
+  - rt_cumulus.0001.exr, rt_smoke1.0001.exr, rt_cumulus_rgba.0001.exr (`nimbus rt` itself,
+    tests/bench/rt_gpu_nimbus.sh's machine): the CPU image at equal settings.
 Errors over RGB (ACEScg, the working space); PSNR with the reference's largest value as the
 peak; relative RMSE = sqrt(sum d^2 / sum ref^2). Pixels of EXR files are read by oiiotool.
 """
@@ -108,11 +108,12 @@ for name, (scene, sets) in equal.items():
     print(f"| {name} | CPU, equal settings | {psnr:.2f} | {rel:.4f} |")
 # `nimbus rt` itself on the GPU machine (tests/bench/rt_gpu_nimbus.sh's set: rt_<scene>.0001.exr,
 # 480x270, frame 1, as the scene ships) against `nimbus render` here
-for name, scene in (("rt_cumulus", CUMULUS), ("rt_smoke1", SMOKE1)):
+for name, scene, sets in (("rt_cumulus", CUMULUS, []), ("rt_smoke1", SMOKE1, []),
+                          ("rt_cumulus_rgba", CUMULUS, ['field.evaluation="rgba"'])):
     p = os.path.join(GPU, name + ".0001.exr")
     if not os.path.exists(p):
         continue
-    psnr, rel = errors(exr(p), render(scene, "cpu_" + name[3:] + "_480x270", []))
+    psnr, rel = errors(exr(p), render(scene, "cpu_" + name[3:] + "_480x270", sets))
     print(f"| {name} (`nimbus rt` EXR) | CPU, equal settings | {psnr:.2f} | {rel:.4f} |")
 # what the light volume changes against the shadow marches (CPU only, equal settings)
 for name in ("cumulus", "smoke1"):

@@ -2,8 +2,10 @@
 # rt_gpu_nimbus.sh: frame times of `nimbus rt` itself (the whole command: scene, plan, the CPU's
 # grids, upload, dispatch, read-back, the EXR and its preview written) for the default scene
 # and smoke1 at 1280x720 and 1920x1080, one pass and 4 accumulated passes, with shadow marches
-# (as the scenes ship) and with the light-attenuation volume. Run it on the machine with the
-# GPU; on llvmpipe pass small SIZES to try it.
+# (as the scenes ship) and with the light-attenuation volume; the default scene also with its
+# noise in Olajos' RGBA8 3D textures (field.evaluation = "rgba"). Run it on the machine with
+# the GPU (tests/bench/rt_gpu_pack.sh packs nimbus for one without Nimbus' dependencies); on
+# llvmpipe pass small SIZES to try it.
 #   tests/bench/rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]
 # Each run renders frames 1..FRAMES of the scene (the default scene's clouds drift between
 # them); frame 1 compiles the shader and is left out of the medians. One row per run, medians
@@ -15,8 +17,8 @@
 # light volume); and the command's wall time per frame (its whole wall time less the context
 # and the compile, over FRAMES: the scene, the noise bake, the grids, the GPU and the EXR
 # written). The smoke1 scene reads ../shared/data/vdb/openvdb_smoke1.vdb beside the repository.
-# Also writes OUT_DIR/rt_cumulus.0001.exr and rt_smoke1.0001.exr (480x270, frame 1, as the
-# scenes ship) for tests/bench/rt_gpu_accuracy.py.
+# Also writes OUT_DIR/rt_cumulus.0001.exr, rt_smoke1.0001.exr (480x270, frame 1, as the scenes
+# ship) and rt_cumulus_rgba.0001.exr (the same with "rgba") for tests/bench/rt_gpu_accuracy.py.
 set -euo pipefail
 nimbus=${1:?usage: rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]}
 out=${2:?usage: rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]}
@@ -34,6 +36,10 @@ for s in cumulus smoke1; do
     "$nimbus" rt "$here/examples/scenes/$s.toml" --frames 1 -q -o "$out/rt_$s.####.exr" \
         --set camera.width=480 --set camera.height=270 --set 'output.preview=""'
 done
+# and the default scene with its noise in Olajos' RGBA8 textures (field.evaluation = "rgba")
+"$nimbus" rt "$here/examples/scenes/cumulus.toml" --frames 1 -q -o "$out/rt_cumulus_rgba.####.exr" \
+    --set camera.width=480 --set camera.height=270 --set 'output.preview=""' \
+    --set 'field.evaluation="rgba"'
 echo "| scene | size | passes | frame on the GPU, ms: median [min-max] | the march on the GPU's clock, ms | upload / dispatches and wait / read-back, ms | CPU grids per frame, ms | wall per frame, ms |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
 run() { # LABEL SCENE WxH ACCUMULATE [--set k=v ...]
@@ -71,10 +77,13 @@ print(f"| {label} | {size} | {acc} | {med(col(0, 1e3))} | {med(col(1, 1.0))} | {
 PY
 }
 volume=(--set 'render.shadow="volume"')
+rgba=(--set 'field.evaluation="rgba"')
 for size in "${sizes[@]}"; do
     for acc in 1 4; do
         run "default scene as it ships" cumulus.toml "$size" "$acc"
         run "default scene, light volume" cumulus.toml "$size" "$acc" "${volume[@]}"
+        run "default scene, rgba noise" cumulus.toml "$size" "$acc" "${rgba[@]}"
+        run "default scene, light volume, rgba noise" cumulus.toml "$size" "$acc" "${volume[@]}" "${rgba[@]}"
         run "smoke1 as it ships" smoke1.toml "$size" "$acc"
         run "smoke1, light volume" smoke1.toml "$size" "$acc" "${volume[@]}"
     done

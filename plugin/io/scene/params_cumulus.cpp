@@ -76,9 +76,13 @@ void addCumulusParams(std::vector<Param>& t) {
     t.push_back(cu.param("evaluation",
                          WordTable<NoiseEval>{{"auto", NoiseEval::Auto},
                                               {"direct", NoiseEval::Direct},
-                                              {"baked", NoiseEval::Baked}},
-                         "Noise evaluation: direct (exact, slow), baked (tiled volumes, fast) or "
-                         "auto (chosen by the plan).",
+                                              {"baked", NoiseEval::Baked},
+                                              {"rgba", NoiseEval::Rgba}},
+                         "Noise evaluation: direct (exact, slow), baked (tiled float volumes, "
+                         "fast), rgba (Olajos' layout: tiled RGBA8 volumes, several frequencies "
+                         "per texel combined after interpolation; on the GPU, 3D textures "
+                         "filtered by the texture unit) or auto (chosen by the plan: direct or "
+                         "baked).",
                          &CumulusDesc::eval));
     t.push_back(cu.param("base_bake_resolution", closed(8, 512),
                          "Voxels per base tile edge when baked.", &CumulusDesc::baseBakeResolution)
