@@ -19,6 +19,9 @@ on/off, one or four samples per pixel; sixteen combinations would repeat the sam
 A baked variant (field.evaluation = "baked": RT_BAKED_NOISE) has the tiles' buffers and lookup,
 noise_base.bin and noise_detail.bin at bindings 10 and 11 of baseBakeRes^3 and detailBakeRes^3
 floats, and none of the noise kernels (worleyFbm); the others have the noise kernels and no tiles.
+An "rgba" variant (RT_BAKED_NOISE and RT_RGBA_NOISE, Olajos' layout) has the two samplers and
+the channels' combination instead of the buffers, noise_base_rgba.bin and noise_detail_rgba.bin
+of res^3 RGBA8 texels listed in params.json's "textures" (units 4 and 5), and no float tiles.
 Every variant skips empty space (RT_SKIP: majorant.bin at binding 13, majorantResX * Y * Z floats,
 some of them 0) but one with render.skip_empty = false, which has neither the file nor the code.
 An SDF cloud (examples/scenes/sdf_cloud.toml, RT_SDF) has the tree's buffer, lookup and kernels
@@ -84,6 +87,10 @@ VARIANTS = {
     # the noise from the tiles the CPU bakes
     "baked": ([NONE, 'field.evaluation="baked"'],
               dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_SKIP=1)),
+    # Olajos' layout: the tiles as RGBA8 3D textures (params.json's "textures")
+    "rgba": ([NONE, 'field.evaluation="rgba"'],
+             dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_RGBA_NOISE=1,
+                  RT_SKIP=1)),
     # render.skip_empty = false: no majorant grid, no RT_SKIP (its code and majorant.bin absent)
     "no_skip": ([NONE, "render.skip_empty=false"],
                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
@@ -111,12 +118,12 @@ VARIANTS["sdf_cloud"] = ([NONE],
 SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
-                "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_RESUMABLE"]
+                "RT_RGBA_NOISE", "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_RESUMABLE"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
         "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
         "RT_VDB": [("vdb_grid.bin", 9)],
-        "RT_BAKED_NOISE": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
+        "FLOAT_TILES": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
         "RT_SKIP": [("majorant.bin", 13)],
         "RT_SDF": [("sdf_nodes.bin", 12)],
         "RT_LIGHT_VOLUME": [("light_tau.bin", 15)]}
@@ -138,8 +145,11 @@ MARKERS = {
     "RT_MS_PHOTONS": ["buffer RtPhotonGrid", "rtPhoton["],
     "RT_PHOTON_SKIN": ["buffer RtSkinGrid", "rtSkinTau["],
     "RT_VDB": ["buffer RtVdbGrid", "pnanovdb_readaccessor_get_value_address(", "rtVdbDensity("],
-    "RT_BAKED_NOISE": ["buffer RtBaseNoise", "buffer RtDetailNoise", "rtNoiseSample(",
-                       "rtBakedCumulusDensity("],
+    "RT_BAKED_NOISE": ["rtBakedCumulusDensity("],
+    # the float tiles (RT_BAKED_NOISE without RT_RGBA_NOISE) and Olajos' RGBA8 textures
+    "FLOAT_TILES": ["buffer RtBaseNoise", "buffer RtDetailNoise", "rtNoiseSample("],
+    "RT_RGBA_NOISE": ["uniform sampler3D rtBaseChannels", "uniform sampler3D rtDetailChannels",
+                      "cumulusBaseFromChannels(rtChannels(", "NB_FN float cumulusDetailFromChannels("],
     "RT_SKIP": ["buffer RtMajorant", "bool rtEmptyCell(", "int rtSkipTo(",
                 "n = rtSkipTo(s, n, tExit, tOut);"],
     "RT_SDF": ["buffer RtSdfNodes", "rtSdfDensity(", "NB_FN void sdfTreeStep(",
@@ -182,7 +192,9 @@ for name, (sets, on) in VARIANTS.items():
     check(doc["frame"] == 3, f"{name}: frame {doc['frame']}")
     check(not re.search(r"^\s*#\s*(if|ifdef|ifndef|elif)\b.*\bRT_", text, re.M),
           f"{name}: an #if on an RT_ macro is left in the text")
-    for feature, on in features.items():
+    have = dict(features, FLOAT_TILES=int(features["RT_BAKED_NOISE"] and
+                                          not features["RT_RGBA_NOISE"]))
+    for feature, on in have.items():
         for marker in MARKERS[feature]:
             check((marker in text) == bool(on),
                   f"{name}: {feature} {'on' if on else 'off'} but '{marker}' is "
@@ -246,16 +258,16 @@ for name, (sets, on) in VARIANTS.items():
     check(doc["dispatch"]["passes"] == (4 if features["RT_MULTISAMPLE"] else 1),
           f"{name}: passes {doc['dispatch']['passes']}")
     bindings = sorted(b["binding"] for b in doc["buffers"])
-    want = sorted([0, 1, 2] + [b for f in DATA if features[f] for _, b in DATA[f]])
+    want = sorted([0, 1, 2] + [b for f in DATA if have[f] for _, b in DATA[f]])
     check(bindings == want, f"{name}: bindings {bindings}, expected {want}")
     # the data files: written exactly for the features that read them, of the size the JSON says
     for f, files in DATA.items():
         for file, binding in files:
             path = os.path.join(out, file)
-            check(os.path.isfile(path) == bool(features[f]),
-                  f"{name}: {file} {'missing' if features[f] else 'written'} with {f} "
-                  f"{'on' if features[f] else 'off'}")
-            if features[f]:
+            check(os.path.isfile(path) == bool(have[f]),
+                  f"{name}: {file} {'missing' if have[f] else 'written'} with {f} "
+                  f"{'on' if have[f] else 'off'}")
+            if have[f]:
                 b = [b for b in doc["buffers"] if b["binding"] == binding]
                 check(len(b) == 1 and b[0].get("file") == file and
                       b[0]["bytes"] == os.path.getsize(path) > 0,
@@ -264,14 +276,29 @@ for name, (sets, on) in VARIANTS.items():
     res = {m["name"]: m["value"] for m in block["members"]
            if m["name"] in ("baseBakeRes", "detailBakeRes")}
     check(len(res) == 2, f"{name}: baseBakeRes / detailBakeRes not in the block")
-    for file, key in (("noise_base.bin", "baseBakeRes"), ("noise_detail.bin", "detailBakeRes")):
+    # (the float tiles: res^3 floats; the RGBA8 textures: res^3 texels of 4 bytes, in "textures"
+    # on units 4 and 5; the same byte count)
+    textures = doc["textures"]
+    check(len(textures) == (2 if features["RT_RGBA_NOISE"] else 0),
+          f"{name}: {len(textures)} textures with RT_RGBA_NOISE {features['RT_RGBA_NOISE']}")
+    rgba_files = [(t.get("file"), t.get("unit"), t.get("size"), t.get("format")) for t in textures]
+    for k, (file, key) in enumerate((("noise_base", "baseBakeRes"),
+                                     ("noise_detail", "detailBakeRes"))):
+        file += "_rgba.bin" if features["RT_RGBA_NOISE"] else ".bin"
         path = os.path.join(out, file)
         if features["RT_BAKED_NOISE"]:
             check(res.get(key, 0) > 0 and os.path.isfile(path) and
                   os.path.getsize(path) == 4 * res[key] ** 3,
-                  f"{name}: {file} is not {key}^3 floats ({res.get(key)})")
+                  f"{name}: {file} is not {key}^3 floats or RGBA8 texels ({res.get(key)})")
         else:
             check(res.get(key) == 0, f"{name}: {key} {res.get(key)} without RT_BAKED_NOISE")
+        if features["RT_RGBA_NOISE"]:
+            check(rgba_files[k] == (file, 4 + k, [res.get(key)] * 3, "GL_RGBA8"),
+                  f"{name}: texture {k} is {rgba_files[k]}")
+        check(not os.path.isfile(os.path.join(out, file.replace("_rgba.bin", ".bin")
+                                              if features["RT_RGBA_NOISE"] else
+                                              file.replace(".bin", "_rgba.bin"))),
+              f"{name}: the other kind of tile was written too")
     # the majorant grid: one float per cell, resX * resY * resZ from the block (0 without), then
     # one per block of 4^3 cells (the distances: whole numbers 0..255)
     mres = {m["name"]: m["value"] for m in block["members"] if m["name"].startswith("majorantRes")}
