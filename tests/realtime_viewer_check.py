@@ -225,38 +225,35 @@ if image is not None:
     print(f"PSNR 4 spp, no sun, transparent: {p:.2f} dB")
     check(p >= 45.0, f"4 spp: PSNR {p:.2f} dB >= 45")
 
+def data_export_against_rt(tag, what, sets, files):
+    """An export of the scene with `sets` writes `files`; the viewer's image of it against
+    `nimbus rt`'s at the same settings: >= 45 dB. Returns the export's folder."""
+    export = os.path.join(SCRATCH, "export_" + tag)
+    args = [NIMBUS, "export-glsl", SCENE, "-o", export, "--frame", "1"]
+    for s in SETS + sets:
+        args += ["--set", s]
+    rc, out = run(args)
+    check(rc == 0 and all(f in out for f in files),
+          f"nimbus export-glsl ({what}) exits 0 and writes {files}: " + out.strip())
+    image = view(tag, export, [])
+    if image is not None:
+        p = psnr(image, rt_reference("rt_" + tag, sets))
+        print(f"PSNR {what}: {p:.2f} dB")
+        check(p >= 45.0, f"{what}: PSNR {p:.2f} dB >= 45")
+    return export
+
+
 # 3c. an export with data buffers: the scene as it ships (the diffusion grid of the frame) with
 # the Lorenz-Mie table, 64x36: diffusion.bin and mie_table.bin uploaded from their files
-data_sets = ["camera.width=64", "camera.height=36", 'render.multiple_scattering="grid"',
-             'medium.phase="mie_table"']
-data_export = os.path.join(SCRATCH, "export_data")
-args = [NIMBUS, "export-glsl", SCENE, "-o", data_export, "--frame", "1"]
-for s in SETS + data_sets:
-    args += ["--set", s]
-rc, out = run(args)
-check(rc == 0 and "diffusion.bin" in out and "mie_table.bin" in out,
-      "nimbus export-glsl (grid, Mie table) exits 0 and writes its data: " + out.strip())
-image = view("data", data_export, [])
-if image is not None:
-    p = psnr(image, rt_reference("rt_data", data_sets))
-    print(f"PSNR diffusion grid + Mie table: {p:.2f} dB")
-    check(p >= 45.0, f"diffusion grid + Mie table: PSNR {p:.2f} dB >= 45")
-
+data_export = data_export_against_rt(
+    "data", "diffusion grid + Mie table",
+    ["camera.width=64", "camera.height=36", 'render.multiple_scattering="grid"',
+     'medium.phase="mie_table"'], ["diffusion.bin", "mie_table.bin"])
 # 3d. an export with textures: field.evaluation = "rgba" (Olajos' channel layout), the noise
 # tiles as RGBA8 3D textures (params.json's "textures", made by the viewer from their files)
-rgba_sets = ["camera.width=64", "camera.height=36", 'field.evaluation="rgba"']
-rgba_export = os.path.join(SCRATCH, "export_rgba")
-args = [NIMBUS, "export-glsl", SCENE, "-o", rgba_export, "--frame", "1"]
-for s in SETS + rgba_sets:
-    args += ["--set", s]
-rc, out = run(args)
-check(rc == 0 and "noise_base_rgba.bin" in out and "noise_detail_rgba.bin" in out,
-      "nimbus export-glsl (rgba noise) exits 0 and writes its textures: " + out.strip())
-image = view("rgba", rgba_export, [])
-if image is not None:
-    p = psnr(image, rt_reference("rt_rgba", rgba_sets))
-    print(f"PSNR rgba noise textures: {p:.2f} dB")
-    check(p >= 45.0, f"rgba noise textures: PSNR {p:.2f} dB >= 45")
+data_export_against_rt("rgba", "rgba noise textures",
+                       ["camera.width=64", "camera.height=36", 'field.evaluation="rgba"'],
+                       ["noise_base_rgba.bin", "noise_detail_rgba.bin"])
 
 # 4. bad export folders: exit 2 before any window, the file and the problem named
 def broken(tag, edit, expect, want=2):

@@ -14,9 +14,9 @@ inline int wrapIndex(int i, int n) {
     return r < 0 ? r + n : r;
 }
 
-} // namespace
-
-float NoiseVolume::sample(vec3 u) const {
+/// The trilinear lookup of a periodic res^3 tile at u (voxel units), the node values from
+/// at(x, y, z): float for one channel, vec4 for four (each interpolated apart).
+template <class At> auto trilinear(int res, vec3 u, At&& at) {
     const float n = float(res);
     vec3 w = u - glm::floor(u / n) * n; // [0, res)
     vec3 f0 = glm::floor(w);
@@ -24,35 +24,27 @@ float NoiseVolume::sample(vec3 u) const {
     int x0 = wrapIndex(int(f0.x), res), y0 = wrapIndex(int(f0.y), res),
         z0 = wrapIndex(int(f0.z), res);
     int x1 = wrapIndex(x0 + 1, res), y1 = wrapIndex(y0 + 1, res), z1 = wrapIndex(z0 + 1, res);
-    auto at = [&](int x, int y, int z) { return values[(size_t(z) * res + y) * res + x]; };
-    float c00 = at(x0, y0, z0) + f.x * (at(x1, y0, z0) - at(x0, y0, z0));
-    float c10 = at(x0, y1, z0) + f.x * (at(x1, y1, z0) - at(x0, y1, z0));
-    float c01 = at(x0, y0, z1) + f.x * (at(x1, y0, z1) - at(x0, y0, z1));
-    float c11 = at(x0, y1, z1) + f.x * (at(x1, y1, z1) - at(x0, y1, z1));
-    float c0 = c00 + f.y * (c10 - c00);
-    float c1 = c01 + f.y * (c11 - c01);
+    auto c00 = at(x0, y0, z0) + f.x * (at(x1, y0, z0) - at(x0, y0, z0));
+    auto c10 = at(x0, y1, z0) + f.x * (at(x1, y1, z0) - at(x0, y1, z0));
+    auto c01 = at(x0, y0, z1) + f.x * (at(x1, y0, z1) - at(x0, y0, z1));
+    auto c11 = at(x0, y1, z1) + f.x * (at(x1, y1, z1) - at(x0, y1, z1));
+    auto c0 = c00 + f.y * (c10 - c00);
+    auto c1 = c01 + f.y * (c11 - c01);
     return c0 + f.z * (c1 - c0);
 }
 
+} // namespace
+
+float NoiseVolume::sample(vec3 u) const {
+    return trilinear(res, u,
+                     [&](int x, int y, int z) { return values[(size_t(z) * res + y) * res + x]; });
+}
+
 vec4 NoiseVolume::sample4(vec3 u) const {
-    const float n = float(res);
-    vec3 w = u - glm::floor(u / n) * n; // [0, res)
-    vec3 f0 = glm::floor(w);
-    vec3 f = w - f0;
-    int x0 = wrapIndex(int(f0.x), res), y0 = wrapIndex(int(f0.y), res),
-        z0 = wrapIndex(int(f0.z), res);
-    int x1 = wrapIndex(x0 + 1, res), y1 = wrapIndex(y0 + 1, res), z1 = wrapIndex(z0 + 1, res);
-    auto at = [&](int x, int y, int z) {
+    return trilinear(res, u, [&](int x, int y, int z) {
         const std::uint8_t* c = &rgba[4 * ((size_t(z) * res + y) * res + x)];
         return vec4(float(c[0]), float(c[1]), float(c[2]), float(c[3])) / 255.0f;
-    };
-    vec4 c00 = at(x0, y0, z0) + f.x * (at(x1, y0, z0) - at(x0, y0, z0));
-    vec4 c10 = at(x0, y1, z0) + f.x * (at(x1, y1, z0) - at(x0, y1, z0));
-    vec4 c01 = at(x0, y0, z1) + f.x * (at(x1, y0, z1) - at(x0, y0, z1));
-    vec4 c11 = at(x0, y1, z1) + f.x * (at(x1, y1, z1) - at(x0, y1, z1));
-    vec4 c0 = c00 + f.y * (c10 - c00);
-    vec4 c1 = c01 + f.y * (c11 - c01);
-    return c0 + f.z * (c1 - c0);
+    });
 }
 
 void NoiseVolume::rangeOver(vec3 lo, vec3 hi, vec4& lowest, vec4& highest) const {

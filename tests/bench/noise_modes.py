@@ -15,7 +15,6 @@ same mode. Times: `nimbus render`'s bake and march seconds of the frame (its std
 march on the GPU's clock as `nimbus rt` prints it (its shader compile, context and the CPU's
 bake apart). Medians over the rounds, min-max in brackets. Pixels read by oiiotool.
 """
-import math
 import os
 import re
 import statistics
@@ -23,7 +22,8 @@ import subprocess
 import sys
 import tempfile
 
-import numpy as np
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from image_compare import errors, exr  # noqa: E402
 
 NIMBUS = sys.argv[1]
 W, H = (sys.argv[2] if len(sys.argv) > 2 else "320x180").split("x")
@@ -51,20 +51,6 @@ def run(command, mode):
         m = re.search(r"the march ([0-9.]+) ms on its clock", text)
         times = (float(m.group(1)) / 1e3,)
     return times, out.replace("####", f"{int(FRAME):04d}")
-
-
-def exr(path):
-    out = subprocess.run(["oiiotool", "--dumpdata", path], capture_output=True, text=True,
-                         check=True).stdout
-    w, h, n = map(int, re.search(r":\s+(\d+) x\s+(\d+), (\d+) channel", out).groups())
-    v = [line.split(":", 1)[1].split() for line in out.splitlines() if "Pixel (" in line]
-    return np.array(v, dtype=np.float64).reshape(h, w, n)[:, :, :3]
-
-
-def errors(image, ref):
-    se = float(np.sum((image - ref) ** 2))
-    psnr = math.inf if se == 0 else 10 * math.log10(float(ref.max()) ** 2 / (se / ref.size))
-    return psnr, math.sqrt(se / float(np.sum(ref ** 2)))
 
 
 times = {(c, m): [] for c in ("render", "rt") for m in MODES}

@@ -18,14 +18,15 @@ References (`nimbus render`, the CPU `march`), 480x270, frame 1:
 Errors over RGB (ACEScg, the working space); PSNR with the reference's largest value as the
 peak; relative RMSE = sqrt(sum d^2 / sum ref^2). Pixels of EXR files are read by oiiotool.
 """
-import math
 import os
-import re
 import subprocess
 import sys
 import tempfile
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from image_compare import errors, exr  # noqa: E402
 
 NIMBUS, GPU = sys.argv[1], sys.argv[2]
 SCRATCH = sys.argv[3] if len(sys.argv) > 3 else tempfile.mkdtemp()
@@ -55,14 +56,6 @@ def render(scene, name, sets):
     return exr(path)
 
 
-def exr(path):
-    out = subprocess.run(["oiiotool", "--dumpdata", path], capture_output=True, text=True,
-                         check=True).stdout
-    w, h, n = map(int, re.search(r":\s+(\d+) x\s+(\d+), (\d+) channel", out).groups())
-    v = [line.split(":", 1)[1].split() for line in out.splitlines() if "Pixel (" in line]
-    return np.array(v, dtype=np.float64).reshape(h, w, n)[:, :, :3]
-
-
 def pfm(path):
     with open(path, "rb") as f:
         assert f.readline().strip() == b"PF"
@@ -70,12 +63,6 @@ def pfm(path):
         f.readline()
         a = np.frombuffer(f.read(), dtype="<f4").reshape(h, w, 3)[::-1]
     return a.astype(np.float64)
-
-
-def errors(image, ref):
-    se = float(np.sum((image - ref) ** 2))
-    psnr = math.inf if se == 0 else 10 * math.log10(float(ref.max()) ** 2 / (se / ref.size))
-    return psnr, math.sqrt(se / float(np.sum(ref ** 2)))
 
 
 def mean_ref(name, scene, sets):

@@ -1,0 +1,23 @@
+"""image_compare.py: what the Python benchmarks share to compare images (imported by
+rt_gpu_accuracy.py and noise_modes.py): an EXR's RGB read by oiiotool, and the errors over RGB
+(PSNR with the reference's largest value as the peak; relative RMSE = sqrt(sum d^2 / sum
+ref^2))."""
+import math
+import re
+import subprocess
+
+import numpy as np
+
+
+def exr(path):
+    out = subprocess.run(["oiiotool", "--dumpdata", path], capture_output=True, text=True,
+                         check=True).stdout
+    w, h, n = map(int, re.search(r":\s+(\d+) x\s+(\d+), (\d+) channel", out).groups())
+    v = [line.split(":", 1)[1].split() for line in out.splitlines() if "Pixel (" in line]
+    return np.array(v, dtype=np.float64).reshape(h, w, n)[:, :, :3]
+
+
+def errors(image, ref):
+    se = float(np.sum((image - ref) ** 2))
+    psnr = math.inf if se == 0 else 10 * math.log10(float(ref.max()) ** 2 / (se / ref.size))
+    return psnr, math.sqrt(se / float(np.sum(ref ** 2)))
