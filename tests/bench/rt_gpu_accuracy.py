@@ -14,7 +14,9 @@ References (`nimbus render`, the CPU `march`), 480x270, frame 1:
     mean of 4 seeds;
   - cumulus_480x270, smoke1_480x270 and their _volume variants: the CPU image at equal settings;
   - rt_cumulus.0001.exr, rt_smoke1.0001.exr, rt_cumulus_rgba.0001.exr (`nimbus rt` itself,
-    tests/bench/rt_gpu_nimbus.sh's machine): the CPU image at equal settings.
+    tests/bench/rt_gpu_nimbus.sh's machine): the CPU image at equal settings;
+  - goal_<baked|rgba>_n<N>.0001.exr (`nimbus rt` itself: the light volume at step x1.5, N
+    passes): the acc_volume reference, and the same reference with field.evaluation = "rgba".
 Errors over RGB (ACEScg, the working space); PSNR with the reference's largest value as the
 peak; relative RMSE = sqrt(sum d^2 / sum ref^2). Pixels of EXR files are read by oiiotool.
 """
@@ -102,6 +104,22 @@ for name, scene, sets in (("rt_cumulus", CUMULUS, []), ("rt_smoke1", SMOKE1, [])
         continue
     psnr, rel = errors(exr(p), render(scene, "cpu_" + name[3:] + "_480x270", sets))
     print(f"| {name} (`nimbus rt` EXR) | CPU, equal settings | {psnr:.2f} | {rel:.4f} |")
+# the issue's goal configuration through `nimbus rt` itself (goal_<baked|rgba>_n<N>.0001.exr:
+# 480x270, the light volume at step x1.5, N accumulated passes) against the converged CPU
+# image of the scene (float tiles) and of the "rgba" field
+goal_refs = {"baked": refs["acc_volume"],
+             "rgba": mean_ref("ref_volume_rgba", CUMULUS,
+                              VOLUME_SET + steps(0.25) + ['field.evaluation="rgba"'])}
+for mode in ("baked", "rgba"):
+    for n in (4, 16):
+        p = os.path.join(GPU, f"goal_{mode}_n{n}.0001.exr")
+        if not os.path.exists(p):
+            continue
+        image = exr(p)
+        for ref_mode, ref in goal_refs.items():
+            psnr, rel = errors(image, ref)
+            print(f"| goal_{mode}_n{n} (`nimbus rt` EXR) | CPU m = 0.25, 4 seeds, {ref_mode} | "
+                  f"{psnr:.2f} | {rel:.4f} |")
 # what the light volume changes against the shadow marches (CPU only, equal settings)
 for name in ("cumulus", "smoke1"):
     a = render(CUMULUS if name == "cumulus" else SMOKE1, f"cpu_{name}_volume_480x270",

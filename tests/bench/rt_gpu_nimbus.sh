@@ -18,7 +18,8 @@
 # and the compile, over FRAMES: the scene, the noise bake, the grids, the GPU and the EXR
 # written). The smoke1 scene reads ../shared/data/vdb/openvdb_smoke1.vdb beside the repository.
 # Also writes OUT_DIR/rt_cumulus.0001.exr, rt_smoke1.0001.exr (480x270, frame 1, as the scenes
-# ship) and rt_cumulus_rgba.0001.exr (the same with "rgba") for tests/bench/rt_gpu_accuracy.py.
+# ship), rt_cumulus_rgba.0001.exr (the same with "rgba") and goal_<baked|rgba>_n<4|16>.0001.exr
+# (the goal configuration below) for tests/bench/rt_gpu_accuracy.py.
 set -euo pipefail
 nimbus=${1:?usage: rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]}
 out=${2:?usage: rt_gpu_nimbus.sh path/to/nimbus OUT_DIR [FRAMES] [SIZES...]}
@@ -40,6 +41,19 @@ done
 "$nimbus" rt "$here/examples/scenes/cumulus.toml" --frames 1 -q -o "$out/rt_cumulus_rgba.####.exr" \
     --set camera.width=480 --set camera.height=270 --set 'output.preview=""' \
     --set 'field.evaluation="rgba"'
+# the goal configuration (the light volume at step x1.5, the volume's voxel kept at the
+# x1 plan's, one sample per pixel), 4 and 16 passes, float tiles and "rgba", for
+# rt_gpu_accuracy.py's goal rows
+goal=(--set render.step=0.06 --set render.step_growth=0.006 --set render.shadow_step=0.075
+      --set 'render.shadow="volume"' --set render.light_volume_cell=0.234375
+      --set render.pixel_samples=1)
+for mode in baked rgba; do
+    for acc in 4 16; do
+        "$nimbus" rt "$here/examples/scenes/cumulus.toml" --frames 1 -q --accumulate "$acc" \
+            -o "$out/goal_${mode}_n$acc.####.exr" --set camera.width=480 --set camera.height=270 \
+            --set 'output.preview=""' --set "field.evaluation=\"$mode\"" "${goal[@]}"
+    done
+done
 echo "| scene | size | passes | frame on the GPU, ms: median [min-max] | the march on the GPU's clock, ms | upload / dispatches and wait / read-back, ms | CPU grids per frame, ms | wall per frame, ms |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
 run() { # LABEL SCENE WxH ACCUMULATE [--set k=v ...]
@@ -87,4 +101,8 @@ for size in "${sizes[@]}"; do
         run "smoke1 as it ships" smoke1.toml "$size" "$acc"
         run "smoke1, light volume" smoke1.toml "$size" "$acc" "${volume[@]}"
     done
+done
+for mode in baked rgba; do
+    run "goal: light volume, step x1.5, $mode" cumulus.toml "${sizes[-1]}" 4 "${goal[@]}" \
+        --set "field.evaluation=\"$mode\""
 done
