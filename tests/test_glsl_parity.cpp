@@ -948,6 +948,38 @@ std::vector<KernelCase> makeCases() {
             return std::tuple(cumulus(d), d.v3(-4.0f, 4.0f, {0.0f, 0.5f}));
         },
         noiseTol));
+    // Olajos' channel layout (field.evaluation = "rgba"): the channels and their combinations
+    auto channels = [](Draw& d) {
+        return vec4(d.v3(0.0f, 1.0f, {0.0f, 1.0f}), d.f(0.0f, 1.0f, {0.0f, 1.0f}));
+    };
+    c.push_back(kernelCase(
+        "perlinWorleyOf", "perlinWorleyOf(a0, a1)",
+        [](float perlin01, float worley) { return perlinWorleyOf(perlin01, worley); },
+        [](Draw& d) {
+            return std::tuple(d.f(0.0f, 1.0f, {0.0f, 0.5f, 1.0f}), d.f(0.0f, 1.0f, {0.0f, 1.0f}));
+        }));
+    c.push_back(kernelCase(
+        "cumulusBaseChannels", "cumulusBaseChannels(a0, a1)",
+        [](CumulusParams C, vec3 q) { return cumulusBaseChannels(C, q); },
+        [](Draw& d) {
+            return std::tuple(cumulus(d), d.v3(-4.0f, 4.0f, {0.0f, 0.5f}));
+        },
+        noiseTol));
+    c.push_back(kernelCase(
+        "cumulusBaseFromChannels", "cumulusBaseFromChannels(a0)",
+        [](vec4 ch) { return cumulusBaseFromChannels(ch); },
+        [channels](Draw& d) { return std::tuple(channels(d)); }));
+    c.push_back(kernelCase(
+        "cumulusDetailChannels", "cumulusDetailChannels(a0, a1)",
+        [](CumulusParams C, vec3 q) { return cumulusDetailChannels(C, q); },
+        [](Draw& d) {
+            return std::tuple(cumulus(d), d.v3(-4.0f, 4.0f, {0.0f, 0.5f}));
+        },
+        noiseTol));
+    c.push_back(kernelCase(
+        "cumulusDetailFromChannels", "cumulusDetailFromChannels(a0, a1)",
+        [](CumulusParams C, vec4 ch) { return cumulusDetailFromChannels(C, ch); },
+        [channels](Draw& d) { return std::tuple(cumulus(d), channels(d)); }));
     c.push_back(kernelCase(
         "cumulusBaseDomain", "cumulusBaseDomain(a0, a1)",
         [](CumulusParams C, vec3 p) { return cumulusBaseDomain(C, p); },
