@@ -14,6 +14,7 @@
 #include "core/fields/sdf_cloud.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/sky_volume.h"
+#include "core/media/phase.h"
 #include "core/tracking/volumes.h"
 
 namespace nimbus {
@@ -286,6 +287,14 @@ std::string FramePlan::explain() const {
                       "single scattering over %d directions drawn from the phase function per "
                       "sample, a shadow march toward each",
                       skyDirections);
+    if (forwardFraction > 0.0f) {
+        char fwd[200];
+        std::snprintf(fwd, sizeof fwd,
+                      "  forward scattering: %.3g of the scattering (g^2) kept in the sun's and "
+                      "the camera's beams (render.forward_scattering = \"delta\")\n",
+                      double(forwardFraction));
+        o << fwd;
+    }
     o << "  sky light: "
       << (!ambient        ? std::string("no")
           : pathtrace     ? std::string(skyNee ? "next-event estimation and phase sampling (MIS)"
@@ -466,6 +475,12 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
          (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
     p.skySingle =
         inScatter && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
+    // traced photons carry the forward-scattered light themselves
+    if (inScatter && p.shadows && !p.photons &&
+        s.render.forwardScattering == ForwardScattering::Delta) {
+        const float g = PhaseFunction::fromMedium(s.medium).meanCosine();
+        if (g > 0.0f) p.forwardFraction = g * g;
+    }
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march

@@ -51,6 +51,7 @@ DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan, const
     // source leaves the sky's part alone (which the diffusion gets right: white furnace)
     if (plan.shadows && !plan.photons) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
     p.sunDirection = s.sun.direction;
+    p.forwardFraction = plan.forwardFraction;
     if (plan.ambient) {
         const SkyMeans sky = skyMeans(s.sky);
         p.skyUp = sky.up;

@@ -317,6 +317,9 @@ enum class SkyOcclusion { Height, Column };
 /// march without multiple scattering: the sky as an ambient term standing for every order of
 /// scattering, or the sky light scattered once (core/lighting/sky_volume.h).
 enum class SkyScattering { Ambient, Single };
+/// march: the light scattered within the phase function's forward peak: kept in the sun's and
+/// the camera's beams (delta scaling) or not (core/integrators/march.h).
+enum class ForwardScattering { None, Delta };
 /// The single-scattered sky's transmittance toward its directions: a shadow march per direction
 /// and sample, or a precomputed volume per direction (core/lighting/sky_volume.h).
 enum class SkyShadow { March, Volume };
@@ -402,6 +405,10 @@ struct RenderDesc {
     SkyShadow skyShadow = SkyShadow::March;
     int skyDirections = 8;
     InScatter inScatter = InScatter::Olajos;
+    /// march: delta scaling of the phase function's forward peak (a fraction g^2 of the
+    /// scattering): the sun's single scattering is attenuated by sigma_t - g^2 sigma_s along the
+    /// sun's and the camera's paths, and the diffusion grid's source is what leaves that beam
+    ForwardScattering forwardScattering = ForwardScattering::Delta;
     float inScatterC = 2.0f;
     float inScatterStrength = 0.5f;
     Background background = Background::Sky;

@@ -28,7 +28,8 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
       skyIrradiance_(surfaces ? scene.sky : SkyDesc{SkyKind::None}, surfaces ? 65 : 2),
       camera_(scene.camera), medium_(Medium::fromDesc(scene.medium)),
       primary_(plan.step, scene.render.stepGrowth),
-      shadow_(plan.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)) {
+      shadow_(plan.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)),
+      sigmaTForward_(medium_.sigma_t - plan.forwardFraction * medium_.sigma_s) {
     // similarity relation (van de Hulst): multiply scattered light sees the medium as isotropic
     // with sigma_s' = sigma_s (1 - g); diffusion decays by sqrt(3 sigma_a' / sigma_t') per
     // transport optical depth (the effective transport coefficient, Jensen et al. 2001)
@@ -172,7 +173,11 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
     const float cosTheta = glm::dot(ray.d, sunDir);
     const RenderDesc& r = s_.render;
 
-    vec3 L(0.0f), T(1.0f);
+    // T: the camera ray's transmittance (alpha, the sky behind, every term but one); TF: the
+    // same under sigma_t - f sigma_s, which carries the sun's single scattering when the
+    // forward peak is kept in the beams (plan_.forwardFraction = f > 0)
+    vec3 L(0.0f), T(1.0f), TF(1.0f);
+    const bool forward = plan_.forwardFraction > 0.0f;
     float depth = 0.0f;
     bool depthSet = false;
     const float eps = r.epsilon;
@@ -193,7 +198,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                 ++cnt.primarySamples;
                 const float rho = rv.density(t);
                 if (rho <= 0.0f) return true;
-                vec3 S(0.0f);
+                vec3 S(0.0f), SF(0.0f); // SF: what TF carries
                 if (plan_.shadows && plan_.scatters) {
                     const float tau = sunOpticalDepth(
                         p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt, scratch.shadow);
@@ -203,16 +208,25 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         PhaseFunction octavePhase = medium_.phase;
                         // traced photons carry every higher order: the octaves stand down
                         const int octaves = volumes_.photons ? 1 : r.octaves;
+                        vec3 sunForward(0.0f);
                         for (int i = 0; i < octaves; ++i) {
-                            sun += kern::octaveSun(octavePhase.eval(cosTheta), medium_.sigma_t, tau,
-                                                   weight, extinction);
+                            const vec3 ph = octavePhase.eval(cosTheta);
+                            // the single scattering (octave 0) in the beams' extinction
+                            if (i == 0 && forward)
+                                sunForward = kern::octaveSun(ph, sigmaTForward_, tau, 1.0f, 1.0f);
+                            else
+                                sun +=
+                                    kern::octaveSun(ph, medium_.sigma_t, tau, weight, extinction);
                             weight *= r.octaveContribution;
                             extinction *= r.octaveExtinction;
                             octavePhase = octavePhase.octave(r.octaveEccentricity);
                         }
-                        S += s_.sun.irradiance * sun *
-                             kern::inScatterFactor(int(r.inScatter), rho, tau, medium_.sigma_t,
-                                                   r.inScatterC, r.inScatterStrength);
+                        const vec3 in =
+                            s_.sun.irradiance * kern::inScatterFactor(int(r.inScatter), rho, tau,
+                                                                      medium_.sigma_t, r.inScatterC,
+                                                                      r.inScatterStrength);
+                        S += in * sun;
+                        SF = in * sunForward;
                     }
                     // the sun light scattered more than once (core/lighting/photons.h)
                     if (volumes_.photons) S += volumes_.photons->sample(p);
@@ -242,11 +256,13 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                     S += skyInScatter(p);
                 }
                 kern::marchStep(S, medium_.sigma_s, medium_.sigma_t, rho, dt, L, T);
+                if (forward) kern::marchStep(SF, medium_.sigma_s, sigmaTForward_, rho, dt, L, TF);
                 if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
                     depth = t;
                     depthSet = true;
                 }
-                return maxComponent(T) >= eps;
+                // the forward beam reaches further: it alone decides where the march may stop
+                return maxComponent(forward ? TF : T) >= eps;
             });
     }
 

@@ -111,7 +111,10 @@ class MarchContext {
     Camera camera_;
     Medium medium_;
     StepSchedule primary_, shadow_;
-    SkyMeans sky_;              ///< mean sky radiance over the sphere and hemispheres, x ambient
+    SkyMeans sky_; ///< mean sky radiance over the sphere and hemispheres, x ambient
+    /// sigma_t - f sigma_s: the extinction of the sun's and the camera's beams with the forward
+    /// peak kept in them (f = plan.forwardFraction; sigma_t when it is 0)
+    vec3 sigmaTForward_;
     std::vector<vec3> skyDirs_; ///< single-scattered sky: the directions (fibonacciDirection)
     std::vector<vec3> skyL_;    ///< the sky radiance toward each of them, x ambient
     vec3 kappa_; ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))

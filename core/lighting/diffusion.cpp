@@ -136,7 +136,10 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
         const vec3 sTr = sigmaTr * rho[i];
         vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f), sunQ(0.0f);
         if (sun) {
-            sunQ = p.sunIrradiance * sunSource(p.sigma_s, sigmaT, rho[i], tauSun[i], sunPath) * V;
+            sunQ = p.sunIrradiance *
+                   sunSource(p.sigma_s * (1.0f - p.forwardFraction),
+                             sigmaT - p.forwardFraction * p.sigma_s, rho[i], tauSun[i], sunPath) *
+                   V;
             rhs += sunQ;
         }
         const ivec3 q(x, y, z);

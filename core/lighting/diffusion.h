@@ -55,8 +55,12 @@ constexpr float kDiffusionMaxBoundaryResistance = 3.0f;
 constexpr float kDiffusionMinResistance = 1e-3f;
 
 struct DiffusionParams {
-    vec3 sigma_s{1.0f}, sigma_a{0.0f};   ///< per unit density, density scale folded in
-    float g = 0.0f;                      ///< mean cosine of the phase function
+    vec3 sigma_s{1.0f}, sigma_a{0.0f}; ///< per unit density, density scale folded in
+    float g = 0.0f;                    ///< mean cosine of the phase function
+    /// the fraction of scattering that stays in the sun's beam (march's forward peak,
+    /// render.forward_scattering): the source is the light leaving a beam attenuated by
+    /// sigma_t - f sigma_s, sigma_s (1 - f) of it per unit length; 0 = every first scattering
+    float forwardFraction = 0.0f;
     vec3 sunIrradiance{0.0f};            ///< 0 = no sun
     vec3 sunDirection{0.0f, 1.0f, 0.0f}; ///< toward the sun (unit)
     /// Sky radiance seen through a face of a voxel, by the face's outward normal: up, down,

@@ -268,6 +268,7 @@ std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string
                                             "render.inscatter",
                                             "render.inscatter_c",
                                             "render.inscatter_strength",
+                                            "render.forward_scattering",
                                             "render.threads",
                                             "render.tile_size",
                                             "sky.ambient",

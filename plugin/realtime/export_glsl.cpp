@@ -36,6 +36,7 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_SKIP", f.skip},
             {"RT_SDF", f.sdf},
             {"RT_LIGHT_VOLUME", f.lightVolume},
+            {"RT_FORWARD_DELTA", f.forwardDelta},
             {"RT_RESUMABLE", f.resumable}};
 }
 

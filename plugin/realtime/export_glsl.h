@@ -36,7 +36,8 @@ namespace nimbus::rt {
 
 /// The RT_* feature macros of `features` and their values (RT_SUN, RT_AMBIENT,
 /// RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-/// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_SKIP).
+/// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_RGBA_NOISE, RT_SKIP, RT_SDF, RT_LIGHT_VOLUME,
+/// RT_FORWARD_DELTA, RT_RESUMABLE).
 std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& features);
 
 /// Preprocesses the conditionals on the given macros out of GLSL `text`: `#if`, `#ifdef`,

@@ -46,6 +46,7 @@ const int RT_MAX_STEPS = 1048576; // a bound on any loop over steps (a GPU must 
 struct RtRayState {
     vec4 L;       // radiance so far (w 0)
     vec4 T;       // transmittance so far (w 0)
+    vec4 TF;      // the forward beam's transmittance so far (RT_FORWARD_DELTA; w 0)
     float depth;
     int depthSet;
     int n;        // the next step of the camera schedule
@@ -272,6 +273,7 @@ struct RtSample {
 struct RtRay {
     vec3 L;
     vec3 T;
+    vec3 TF; // under sigma_t - g^2 sigma_s: carries the sun's single scattering (RT_FORWARD_DELTA)
     float depth;
     bool depthSet;
     bool started; // n is set (the first step is known once the box is hit)
@@ -283,6 +285,7 @@ RtRay rtRayStart() {
     RtRay r;
     r.L = vec3(0.0f);
     r.T = vec3(1.0f);
+    r.TF = vec3(1.0f);
     r.depth = 0.0f;
     r.depthSet = false;
     r.started = false;
@@ -302,6 +305,12 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
     vec3 sigmaT = rtXyz(P.sigmaT);
     vec3 L = r.L;
     vec3 T = r.T;
+    vec3 TF = r.TF;
+#if RT_FORWARD_DELTA
+    // the forward peak's share g^2 of scattering stays in the beams (PlanFrame's forwardFraction)
+    float forwardFraction = P.mediumG * P.mediumG;
+    vec3 sigmaTF = sigmaT - forwardFraction * sigmaS;
+#endif
     float depth = r.depth;
     bool depthSet = r.depthSet;
     vec3 lo = rtXyz(P.boundsLo);
@@ -342,6 +351,7 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
 #endif
                 if (rho > 0.0f) {
                     vec3 S = vec3(0.0f);
+                    vec3 SF = vec3(0.0f);
 #if RT_SUN
 #if RT_LIGHT_VOLUME
                     // MarchContext::sunOpticalDepth: the light volume where it holds p
@@ -354,6 +364,7 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                                                   pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
 #endif
                     vec3 sun = vec3(0.0f);
+                    vec3 sunForward = vec3(0.0f);
                     float weight = 1.0f;
                     float extinction = 1.0f;
                     PhaseParams octavePhase = phase;
@@ -375,14 +386,24 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
 #else
                         vec3 ph = vec3(phaseEval(octavePhase, cosTheta));
 #endif
+#if RT_FORWARD_DELTA
+                        // the single scattering (octave 0) in the beams' extinction
+                        if (i == 0)
+                            sunForward = octaveSun(ph, sigmaTF, tau, 1.0f, 1.0f);
+                        else
+                            sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+#else
                         sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+#endif
                         weight *= P.octaveContribution;
                         extinction *= P.octaveExtinction;
                         octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
                     }
-                    S += rtXyz(P.sunIrradiance) * sun *
-                         inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
-                                         P.inScatterStrength);
+                    vec3 sunIn = rtXyz(P.sunIrradiance) *
+                                 inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
+                                                 P.inScatterStrength);
+                    S += sunIn * sun;
+                    SF = sunIn * sunForward;
 #if RT_MS_PHOTONS
                     // the sun light scattered more than once (core/lighting/photons.h)
                     S += rtPhotonSample(p);
@@ -407,11 +428,19 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                     S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
 #endif
                     marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
+#if RT_FORWARD_DELTA
+                    marchStep(SF, sigmaS, sigmaTF, rho, dt, L, TF);
+#endif
                     if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
                         depth = t;
                         depthSet = true;
                     }
+#if RT_FORWARD_DELTA
+                    // the forward beam reaches further: it alone decides where the march stops
+                    marching = rtMaxComponent(TF) >= P.epsilon;
+#else
                     marching = rtMaxComponent(T) >= P.epsilon;
+#endif
                 }
             }
         }
@@ -420,6 +449,7 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
     }
     r.L = L;
     r.T = T;
+    r.TF = TF;
     r.depth = depth;
     r.depthSet = depthSet;
     r.started = true;
@@ -500,6 +530,7 @@ void main() {
         RtRayState st = rtRayState[j];
         ray.L = rtXyz(st.L);
         ray.T = rtXyz(st.T);
+        ray.TF = rtXyz(st.TF);
         ray.depth = st.depth;
         ray.depthSet = st.depthSet != 0;
         ray.started = true;
@@ -514,6 +545,7 @@ void main() {
     RtRayState st;
     st.L = vec4(ray.L, 0.0f);
     st.T = vec4(ray.T, 0.0f);
+    st.TF = vec4(ray.TF, 0.0f);
     st.depth = ray.depth;
     st.depthSet = ray.depthSet ? 1 : 0;
     st.n = ray.n;

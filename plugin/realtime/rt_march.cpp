@@ -138,6 +138,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.skip = skipsWith(p, majorant);
     f.sdf = s.field.kind == FieldKind::Sdf;
     f.lightVolume = f.sun && p.lightVolume;
+    f.forwardDelta = f.sun && p.forwardFraction > 0.0f;
     return f;
 }
 
@@ -157,6 +158,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
     d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
     d += std::string("#define RT_LIGHT_VOLUME ") + (lightVolume ? "1" : "0") + "\n";
+    d += std::string("#define RT_FORWARD_DELTA ") + (forwardDelta ? "1" : "0") + "\n";
     d += std::string("#define RT_RESUMABLE ") + (resumable ? "1" : "0") + "\n";
     return d;
 }
@@ -675,7 +677,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     } stamps;
     for (;;) {
         // zeros: the pixels' sums (12 floats a pixel), the non-finite counter, the rays' state
-        // between slices (RtSlices: 4 counters, then 48 bytes per pixel)
+        // between slices (RtSlices: 4 counters, then 64 bytes per pixel)
         const auto zeros = [](std::unique_ptr<gl::StorageBuffer>& b, std::size_t bytes) {
             if (b && b->size() == bytes)
                 b->clear();
@@ -684,7 +686,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         };
         zeros(pixels_, n * 12 * sizeof(float));
         zeros(counters_, sizeof(std::uint32_t));
-        zeros(slices_, 16 + n * 48);
+        zeros(slices_, 16 + n * 64);
         gl::StorageBuffer& pixels = *pixels_;
         gl::StorageBuffer& slices = *slices_;
         pixels.bind(1);

@@ -83,6 +83,10 @@ struct MarchFeatures {
     /// from the CPU's light-attenuation volume (binding 15) inside its bounds, as MarchContext
     /// reads it; a shadow march outside
     bool lightVolume = false;
+    /// RT_FORWARD_DELTA: render.forward_scattering = "delta" in effect (plan.forwardFraction
+    /// > 0): the sun's single scattering carried by a second transmittance under
+    /// sigma_t - g^2 sigma_s, as MarchContext::traceRay carries it
+    bool forwardDelta = false;
     /// RT_RESUMABLE: the march in slices of camera steps with the loop-budget check
     /// (march_pass.glsl, "The loop budget"); MarchPass sets it, marchFeatures and the export
     /// leave it off

@@ -321,6 +321,20 @@ void addRenderParams(std::vector<Param>& t) {
             .usedWhen("render.inscatter = \"olajos\"", [](const SceneFile& f) {
                 return f.scene.render.inScatter == InScatter::Olajos;
             }));
+    t.push_back(
+        ren.param("forward_scattering",
+                  WordTable<ForwardScattering>{{"delta", ForwardScattering::Delta},
+                                               {"none", ForwardScattering::None}},
+                  "march: the light scattered into the phase function's forward peak (a "
+                  "fraction g^2 of all scattering, delta-M) stays in the beam it came from: the "
+                  "sun's single scattering is attenuated by sigma_t - g^2 sigma_s toward the sun "
+                  "and toward the camera, and the diffusion grid's source is the light that "
+                  "leaves that beam (docs/accuracy.md, \"Forward scattering\"); none = plain "
+                  "single scattering. No effect at g <= 0, with photons or without the sun.",
+                  &RenderDesc::forwardScattering)
+            .usedWhen("render.integrator = \"march\"", [](const SceneFile& f) {
+                return f.scene.render.integrator == Integrator::March;
+            }));
     t.push_back(ren.param("inscatter_strength", closed(0, 1),
                           "Blend weight of the in-scatter term.", &RenderDesc::inScatterStrength)
                     .usedWhen("render.inscatter != \"none\"", inscatterOn));
