@@ -475,8 +475,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
          (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
     p.skySingle =
         inScatter && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
-    // traced photons carry the forward-scattered light themselves
-    if (inScatter && p.shadows && !p.photons &&
+    // part of the diffusion grid's model of the sun's multiple scattering (its source is what
+    // leaves the beams): not with render.multiple_scattering = "none" (single scattering, which
+    // pathtrace at max_depth = 1 checks) nor with photons (which trace that light themselves)
+    if (p.diffusion && p.shadows && !p.photons &&
         s.render.forwardScattering == ForwardScattering::Delta) {
         const float g = PhaseFunction::fromMedium(s.medium).meanCosine();
         if (g > 0.0f) p.forwardFraction = g * g;

@@ -49,8 +49,8 @@ struct FramePlan {
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
-    /// march: the fraction g^2 of scattering in the phase function's forward peak kept in the
-    /// sun's and the camera's beams (render.forward_scattering; 0: off)
+    /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
+    /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;
     /// march: the sky single-scattered over `skyDirections` directions
     /// (core/lighting/sky_volume.h), their transmittance from shadow marches or (skyVolume) from

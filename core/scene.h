@@ -405,9 +405,10 @@ struct RenderDesc {
     SkyShadow skyShadow = SkyShadow::March;
     int skyDirections = 8;
     InScatter inScatter = InScatter::Olajos;
-    /// march: delta scaling of the phase function's forward peak (a fraction g^2 of the
-    /// scattering): the sun's single scattering is attenuated by sigma_t - g^2 sigma_s along the
-    /// sun's and the camera's paths, and the diffusion grid's source is what leaves that beam
+    /// march with the diffusion grid: delta scaling of the phase function's forward peak (a
+    /// fraction g^2 of the scattering): the sun's single scattering is attenuated by
+    /// sigma_t - g^2 sigma_s along the sun's and the camera's paths, and the diffusion grid's
+    /// source is what leaves that beam
     ForwardScattering forwardScattering = ForwardScattering::Delta;
     float inScatterC = 2.0f;
     float inScatterStrength = 0.5f;

@@ -67,39 +67,43 @@ BASE = ["--set", "camera.width=32", "--set", "camera.height=18"]
 # name -> (extra --set values, expected features); features not named are off
 NONE = 'render.multiple_scattering="none"'
 VARIANTS = {
-    "all": ([NONE], dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
+    "all": ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
     "no_sun": ([NONE, "sun.enabled=false"], dict(RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
-    "no_ambient": ([NONE, "sky.ambient=0"], dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
+    "no_ambient": ([NONE, "sky.ambient=0"], dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
     "transparent_4spp": ([NONE, 'render.background="transparent"', "render.pixel_samples=4"],
-                         dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_MULTISAMPLE=1, RT_SKIP=1)),
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_MULTISAMPLE=1, RT_SKIP=1)),
     "none": ([NONE, "sun.enabled=false", "sky.ambient=0", 'render.background="transparent"'],
              dict(RT_SKIP=1)),
     "all_4spp": ([NONE, "render.pixel_samples=4"],
-                 dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=1, RT_SKIP=1)),
+                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_MULTISAMPLE=1, RT_SKIP=1)),
     # the scene as it ships (the diffusion grid, which carries the sky: no ambient) with the
     # Lorenz-Mie table; then the photon grid (the sun) with its skin profile
     "grid_mie": (['medium.phase="mie_table"'],
-                 dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_MIE_TABLE=1, RT_MS_DIFFUSION=1, RT_SKIP=1)),
+                 dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_MIE_TABLE=1,
+                      RT_MS_DIFFUSION=1, RT_SKIP=1)),
     "photons_skin": (['render.multiple_scattering="photons"', "render.photons=20000",
                       "render.photon_skin=0.2"],
                      dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_MS_PHOTONS=1,
                           RT_PHOTON_SKIN=1, RT_SKIP=1)),
     # the noise from the tiles the CPU bakes
     "baked": ([NONE, 'field.evaluation="baked"'],
-              dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_SKIP=1)),
+              dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_SKIP=1)),
     # Olajos' layout: the tiles as RGBA8 3D textures (params.json's "textures")
     "rgba": ([NONE, 'field.evaluation="rgba"'],
-             dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_RGBA_NOISE=1,
+             dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_BAKED_NOISE=1, RT_RGBA_NOISE=1,
                   RT_SKIP=1)),
     # render.skip_empty = false: no majorant grid, no RT_SKIP (its code and majorant.bin absent)
     "no_skip": ([NONE, "render.skip_empty=false"],
-                dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
-    # render.forward_scattering = "none": no forward beam (its transmittance and march step absent)
-    "no_forward": ([NONE, 'render.forward_scattering="none"'],
-                   dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1)),
+                dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
+    # the diffusion grid as it ships keeps the forward peak in the beams (RT_FORWARD_DELTA);
+    # render.forward_scattering = "none": no forward beam (its transmittance and step absent)
+    "grid": ([], dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1,
+                      RT_SKIP=1)),
+    "no_forward": (['render.forward_scattering="none"'],
+                   dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_SKIP=1)),
     # render.shadow = "volume": the sun's light-attenuation volume instead of shadow marches
     "light_volume": ([NONE, 'render.shadow="volume"'],
-                     dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1,
+                     dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1,
                           RT_LIGHT_VOLUME=1)),
 }
 # a VDB field (RT_VDB): smoke1 (examples/scenes/smoke1.toml) when the shared data folder beside
@@ -108,7 +112,7 @@ SMOKE1 = os.path.join(ROOT, "examples", "scenes", "smoke1.toml")
 SMOKE1_VDB = os.path.join(ROOT, "..", "shared", "data", "vdb", "openvdb_smoke1.vdb")
 SCENES = {}
 if os.path.isfile(SMOKE1_VDB):
-    VARIANTS["vdb_smoke1"] = ([NONE], dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_VDB=1,
+    VARIANTS["vdb_smoke1"] = ([NONE], dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_VDB=1,
                                            RT_SKIP=1))
     SCENES["vdb_smoke1"] = SMOKE1
 else:
@@ -116,7 +120,7 @@ else:
 # an SDF cloud (RT_SDF): examples/scenes/sdf_cloud.toml as it ships (the sun through its light
 # volume)
 VARIANTS["sdf_cloud"] = ([NONE],
-                         dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1, RT_SKIP=1,
+                         dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SDF=1, RT_SKIP=1,
                               RT_LIGHT_VOLUME=1))
 SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",

@@ -37,6 +37,22 @@ inline nimbus::Framebuffer renderScene(const nimbus::SceneDesc& s,
     return renderScene(s, nimbus::FrameBindings{}, statsOut, aovs, frame);
 }
 
+/// pathtrace through the pixel centres (as march samples them) as two independent halves of
+/// spp / 2 samples: their mean, and the noise of that mean (an RMSE over the cloud's pixels,
+/// core/image_error.h).
+inline nimbus::Framebuffer pathtraceHalves(nimbus::SceneDesc s, int spp, double& noise) {
+    s.render.integrator = nimbus::Integrator::PathTrace;
+    s.render.spp = spp / 2;
+    s.render.jitter = false;
+    const nimbus::Framebuffer a = renderScene(s);
+    s.render.seed ^= 0x9e3779b9u;
+    const nimbus::Framebuffer b = renderScene(s);
+    nimbus::Framebuffer mean = a;
+    for (size_t i = 0; i < mean.rgba.size(); ++i) mean.rgba[i] = 0.5f * (a.rgba[i] + b.rgba[i]);
+    noise = nimbus::halvesNoise(a, b, mean);
+    return mean;
+}
+
 /// Renders `s` on one thread and on two with tiles of `tileSize` pixels and expects the same
 /// image: every pixel's random stream is keyed by the pixel, not the thread.
 inline void expectSameImageOnOneAndTwoThreads(nimbus::SceneDesc s, int tileSize = 8) {

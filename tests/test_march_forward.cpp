@@ -38,19 +38,6 @@ SceneDesc forwardBox(float sigmaS, float g, float angle, int size = 32) {
     return s;
 }
 
-Framebuffer reference(SceneDesc s, int spp, double& noise) {
-    s.render.integrator = Integrator::PathTrace;
-    s.render.spp = spp / 2;
-    s.render.jitter = false; // pixel centres, as march samples them
-    const Framebuffer a = renderScene(s);
-    s.render.seed ^= 0x9e3779b9u;
-    const Framebuffer b = renderScene(s);
-    Framebuffer mean = a;
-    for (size_t i = 0; i < mean.rgba.size(); ++i) mean.rgba[i] = 0.5f * (a.rgba[i] + b.rgba[i]);
-    noise = halvesNoise(a, b, mean);
-    return mean;
-}
-
 struct Compared {
     double error = 0.0; ///< relative RMSE over the box's pixels, the reference's noise taken out
     double ratio = 0.0; ///< march's mean over those pixels / the reference's
@@ -72,7 +59,7 @@ TEST(ForwardScattering, BacklitBoxCloserToPathtrace) {
     // the camera sees has mostly been scattered forward once or twice
     const SceneDesc s = forwardBox(1.0f, 0.8f, 30.0f);
     double noise = 0.0;
-    const Framebuffer ref = reference(s, 2048, noise);
+    const Framebuffer ref = pathtraceHalves(s, 2048, noise);
     const Compared plain = compare(s, ForwardScattering::None, ref, noise);
     const Compared delta = compare(s, ForwardScattering::Delta, ref, noise);
     std::printf("backlit box: none %.1f%% (mean ratio %.3f), delta %.1f%% (%.3f); reference "
@@ -91,7 +78,7 @@ TEST(ForwardScattering, FrontLitBoxNoWorse) {
     // overestimates; that is the grid's error, not the beams'.)
     const SceneDesc s = forwardBox(1.0f, 0.8f, 160.0f);
     double noise = 0.0;
-    const Framebuffer ref = reference(s, 2048, noise);
+    const Framebuffer ref = pathtraceHalves(s, 2048, noise);
     const Compared plain = compare(s, ForwardScattering::None, ref, noise);
     const Compared delta = compare(s, ForwardScattering::Delta, ref, noise);
     std::printf("front-lit box: none %.1f%% (mean ratio %.3f), delta %.1f%% (%.3f)\n",
@@ -123,6 +110,9 @@ TEST(ForwardScattering, PlanKeepsTheForwardPeakOnlyWhereUsed) {
     SceneDesc photons = s; // traced photons carry the forward-scattered light themselves
     photons.render.multipleScattering = MultipleScattering::Photons;
     EXPECT_EQ(planFrame(photons, 1).forwardFraction, 0.0f);
+    SceneDesc single = s; // single scattering alone: nothing forward-scattered is added
+    single.render.multipleScattering = MultipleScattering::None;
+    EXPECT_EQ(planFrame(single, 1).forwardFraction, 0.0f);
     SceneDesc noSun = s;
     noSun.sun.enabled = false;
     EXPECT_EQ(planFrame(noSun, 1).forwardFraction, 0.0f);

@@ -41,21 +41,6 @@ SceneDesc withSky(SceneDesc s, SkyScattering mode, SkyShadow shadow = SkyShadow:
     return s;
 }
 
-/// pathtrace with max_depth = 1 as two independent halves of `spp` samples: their mean, and the
-/// noise of that mean (RMSE over the cloud's pixels, core/image_error.h).
-Framebuffer pathtraceReference(SceneDesc s, int spp, double& noise) {
-    s.render.integrator = Integrator::PathTrace;
-    s.render.spp = spp / 2;
-    s.render.jitter = false; // pixel centres, as march samples them
-    const Framebuffer a = renderScene(s);
-    s.render.seed ^= 0x9e3779b9u;
-    const Framebuffer b = renderScene(s);
-    Framebuffer mean = a;
-    for (size_t i = 0; i < mean.rgba.size(); ++i) mean.rgba[i] = 0.5f * (a.rgba[i] + b.rgba[i]);
-    noise = halvesNoise(a, b, mean);
-    return mean;
-}
-
 double seconds(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -81,7 +66,7 @@ TEST(MarchSky, SingleScatteredSkyMatchesPathtraceDepthOne) {
     const SceneDesc base = singleScattering(smallCumulusLayer(), false);
     double noise = 0.0;
     auto t0 = std::chrono::steady_clock::now();
-    const Framebuffer ref = pathtraceReference(base, 2048, noise);
+    const Framebuffer ref = pathtraceHalves(base, 2048, noise);
     const double tRef = seconds(t0);
     const double mRef = meanRgb(ref);
     t0 = std::chrono::steady_clock::now();
@@ -107,7 +92,7 @@ TEST(MarchSky, SunAndSkySingleScatteringMatchesPathtraceDepthOne) {
     base.sun.direction = glm::normalize(vec3(-0.6f, 0.5f, 0.4f));
     base.sun.irradiance = vec3(3.0f);
     double noise = 0.0;
-    const Framebuffer ref = pathtraceReference(base, 2048, noise);
+    const Framebuffer ref = pathtraceHalves(base, 2048, noise);
     const Framebuffer single = renderScene(withSky(base, SkyScattering::Single));
     const Framebuffer ambient = renderScene(withSky(base, SkyScattering::Ambient));
     const ImageError e = imageError(single, ref);
@@ -153,7 +138,7 @@ TEST(MarchSky, VolumeOnAFineGridMatchesPathtrace) {
     // paths it darkens the cloud's skin (measured 48%: docs/accuracy.md)
     const SceneDesc base = skyBox(3.0f, 24);
     double noise = 0.0;
-    const Framebuffer ref = pathtraceReference(base, 2048, noise);
+    const Framebuffer ref = pathtraceHalves(base, 2048, noise);
     SceneDesc fine = withSky(base, SkyScattering::Single, SkyShadow::Volume, 32);
     fine.render.lightVolumeCell = 0.05f;
     const Framebuffer volume = renderScene(fine);

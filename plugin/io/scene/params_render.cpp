@@ -330,7 +330,9 @@ void addRenderParams(std::vector<Param>& t) {
                   "sun's single scattering is attenuated by sigma_t - g^2 sigma_s toward the sun "
                   "and toward the camera, and the diffusion grid's source is the light that "
                   "leaves that beam (docs/accuracy.md, \"Forward scattering\"); none = plain "
-                  "single scattering. No effect at g <= 0, with photons or without the sun.",
+                  "single scattering. Part of the diffusion grid's model "
+                  "(render.multiple_scattering = \"grid\", one untransformed volume): none "
+                  "with \"none\" (single scattering) or photons, at g <= 0 or without the sun.",
                   &RenderDesc::forwardScattering)
             .usedWhen("render.integrator = \"march\"", [](const SceneFile& f) {
                 return f.scene.render.integrator == Integrator::March;
