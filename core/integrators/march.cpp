@@ -199,6 +199,9 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                 const float rho = rv.density(t);
                 if (rho <= 0.0f) return true;
                 vec3 S(0.0f), SF(0.0f); // SF: what TF carries
+                // past the point where T has fallen below eps (only the forward beam goes on),
+                // every term T carries is dropped, as the march itself would stop there
+                const bool beamT = !forward || maxComponent(T) >= eps;
                 if (plan_.shadows && plan_.scatters) {
                     const float tau = sunOpticalDepth(
                         p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt, scratch.shadow);
@@ -207,7 +210,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         float weight = 1.0f, extinction = 1.0f;
                         PhaseFunction octavePhase = medium_.phase;
                         // traced photons carry every higher order: the octaves stand down
-                        const int octaves = volumes_.photons ? 1 : r.octaves;
+                        const int octaves = volumes_.photons || !beamT ? 1 : r.octaves;
                         vec3 sunForward(0.0f);
                         for (int i = 0; i < octaves; ++i) {
                             const vec3 ph = octavePhase.eval(cosTheta);
@@ -229,9 +232,11 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         SF = in * sunForward;
                     }
                     // the sun light scattered more than once (core/lighting/photons.h)
-                    if (volumes_.photons) S += volumes_.photons->sample(p);
+                    if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
                 }
-                if (volumes_.diffusion) {
+                if (!beamT) {
+                    // T's terms are below the march's tolerance: none is evaluated
+                } else if (volumes_.diffusion) {
                     // sun light scattered more than once and all sky light (diffusion.h): the P1
                     // radiance scattered toward the camera by the phase function
                     vec3 grad[3];

@@ -352,6 +352,12 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                 if (rho > 0.0f) {
                     vec3 S = vec3(0.0f);
                     vec3 SF = vec3(0.0f);
+#if RT_FORWARD_DELTA
+                    // past T's tolerance only the forward beam goes on: T's terms are dropped
+                    bool beamT = rtMaxComponent(T) >= P.epsilon;
+#else
+                    bool beamT = true;
+#endif
 #if RT_SUN
 #if RT_LIGHT_VOLUME
                     // MarchContext::sunOpticalDepth: the light volume where it holds p
@@ -377,7 +383,7 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                     // traced photons carry every higher order: the octaves stand down
                     int octaves = 1;
 #else
-                    int octaves = P.octaves;
+                    int octaves = beamT ? P.octaves : 1;
 #endif
                     for (int i = 0; i < octaves; i++) {
 #if RT_MIE_TABLE
@@ -412,20 +418,22 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
 #if RT_MS_DIFFUSION
                     // sun light scattered more than once and all sky light (diffusion.h): the P1
                     // radiance scattered toward the camera by the phase function
-                    vec3 gradR, gradG, gradB;
-                    vec3 phi = rtDiffusionSample(p, gradR, gradG, gradB);
-                    vec3 sigmaTr = rtXyz(P.sigmaTr);
-                    vec3 ms = vec3(
-                        p1Radiance(phi.x, gradR, sigmaTr.x, rho, P.mediumG, P.msP1, -d),
-                        p1Radiance(phi.y, gradG, sigmaTr.y, rho, P.mediumG, P.msP1, -d),
-                        p1Radiance(phi.z, gradB, sigmaTr.z, rho, P.mediumG, P.msP1, -d));
-                    S += ms * NB_INV_4PI;
+                    if (beamT) {
+                        vec3 gradR, gradG, gradB;
+                        vec3 phi = rtDiffusionSample(p, gradR, gradG, gradB);
+                        vec3 sigmaTr = rtXyz(P.sigmaTr);
+                        vec3 ms = vec3(
+                            p1Radiance(phi.x, gradR, sigmaTr.x, rho, P.mediumG, P.msP1, -d),
+                            p1Radiance(phi.y, gradG, sigmaTr.y, rho, P.mediumG, P.msP1, -d),
+                            p1Radiance(phi.z, gradB, sigmaTr.z, rho, P.mediumG, P.msP1, -d));
+                        S += ms * NB_INV_4PI;
+                    }
 #endif
 #if RT_AMBIENT
                     // the sky ambient, occluded by height (MarchContext::skyInScatter)
                     float span = max(hi.y - lo.y, 1e-20f);
                     float h = clamp((p.y - lo.y) / span, 0.0f, 1.0f);
-                    S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
+                    if (beamT) S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
 #endif
                     marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
 #if RT_FORWARD_DELTA
