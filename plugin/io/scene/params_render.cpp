@@ -334,9 +334,11 @@ void addRenderParams(std::vector<Param>& t) {
                   "(render.multiple_scattering = \"grid\", one untransformed volume): none "
                   "with \"none\" (single scattering) or photons, at g <= 0 or without the sun.",
                   &RenderDesc::forwardScattering)
-            .usedWhen("render.integrator = \"march\"", [](const SceneFile& f) {
-                return f.scene.render.integrator == Integrator::March;
-            }));
+            .usedWhen("render.integrator = \"march\" and render.multiple_scattering = \"grid\"",
+                      [](const SceneFile& f) {
+                          return f.scene.render.integrator == Integrator::March &&
+                                 f.scene.render.multipleScattering == MultipleScattering::Grid;
+                      }));
     t.push_back(ren.param("inscatter_strength", closed(0, 1),
                           "Blend weight of the in-scatter term.", &RenderDesc::inScatterStrength)
                     .usedWhen("render.inscatter != \"none\"", inscatterOn));
