@@ -78,7 +78,7 @@ refs = {"acc": mean_ref("ref_march", CUMULUS, MARCH_SET + steps(0.25)),
 print("| GPU image | reference | PSNR (dB) | relative RMSE |")
 print("| --- | --- | --- | --- |")
 for kind in ("acc", "acc_volume"):
-    for m in (1, 1.5, 2, 4):
+    for m in (1, 1.5, 1.75, 2, 4):
         for n in (1, 4, 16):
             name = f"{kind}_m{m}_n{n}"
             p = os.path.join(GPU, name + ".pfm")

@@ -4,14 +4,17 @@
 # copied there: a GPU server needs only nimbus_headless (EGL + libOpenGL) and this folder.
 # Data files shared by several exports (noise textures, majorant grids) are stored once under
 # store/ and listed in links.txt; rt_gpu_run.sh links them back.
-#   tests/bench/rt_gpu_exports.sh build/nimbus OUT_DIR
+#   [ONLY=REGEX] tests/bench/rt_gpu_exports.sh build/nimbus OUT_DIR
 # The set: the default scene as shipped (diffusion grid) and with multiple scattering off, at
 # 1280x720 and 1920x1080; at 1920x1080 also the noise evaluated directly, empty-space skipping
 # off, and the step schedule x2 and x4 (what temporal accumulation renders per frame); smoke1 as
 # shipped at both sizes; the same with render.shadow = "volume" (the light-attenuation volume)
 # and its step multiples; the SDF cloud and the dragon; at 480x270 the accuracy set (one sample
 # per pixel, step x1 to x4, shadow marches and the light volume) that rt_gpu_accuracy.py
-# compares with the CPU. The dragon needs the shared data folder beside the repository.
+# compares with the CPU; the default scene and smoke1 with render.forward_scattering = "none"
+# (what the forward peak kept in the beams costs). The dragon needs the shared data folder
+# beside the repository. ONLY=REGEX: only the exports whose name matches (the folder stays
+# small enough for one transfer).
 set -euo pipefail
 nimbus=${1:?usage: rt_gpu_exports.sh path/to/nimbus OUT_DIR}
 out=${2:?usage: rt_gpu_exports.sh path/to/nimbus OUT_DIR}
@@ -26,6 +29,7 @@ steps() { # the step schedule scaled by $1 (as rt_accumulate.sh)
 export_one() { # NAME SCENE WxH [--set k=v ...]
     local name=$1 scene=$2 size=$3
     shift 3
+    [[ -z ${ONLY:-} || $name =~ $ONLY ]] || return 0
     "$nimbus" export-glsl "$scene" -o "$out/$name" --set "camera.width=${size%x*}" \
         --set "camera.height=${size#*x}" --set 'output.preview=""' "$@" >/dev/null 2>"$out/$name.log" ||
         { cat "$out/$name.log" >&2; exit 1; }
@@ -33,11 +37,14 @@ export_one() { # NAME SCENE WxH [--set k=v ...]
     echo "$name: $(du -sh "$out/$name" | cut -f1)"
 }
 nomS=(--set 'render.multiple_scattering="none"')
+nofwd=(--set 'render.forward_scattering="none"')
 direct=(--set 'field.evaluation="direct"' --set 'render.pixel_samples=1')
 for size in 1280x720 1920x1080; do
     export_one "cumulus_${size}" "$cumulus" "$size"
     export_one "cumulus_noms_${size}" "$cumulus" "$size" "${nomS[@]}"
     export_one "smoke1_${size}" "$smoke1" "$size"
+    export_one "cumulus_nofwd_${size}" "$cumulus" "$size" "${nofwd[@]}"
+    export_one "smoke1_nofwd_${size}" "$smoke1" "$size" "${nofwd[@]}"
 done
 export_one cumulus_noms_direct_1920x1080 "$cumulus" 1920x1080 "${nomS[@]}" --set 'field.evaluation="direct"'
 export_one cumulus_noms_noskip_1920x1080 "$cumulus" 1920x1080 "${nomS[@]}" --set 'render.skip_empty=false'
@@ -61,13 +68,15 @@ done
 # the step multiples keep the light volume's voxel (which the diffusion grid shares) at the
 # m = 1 plan's 0.234375: the plan would otherwise coarsen it with the step
 cell=(--set render.light_volume_cell=0.234375)
-for m in 1 1.5 2 4; do
+for m in 1 1.5 1.75 2 4; do
     sets=()
     for kv in $(steps "$m"); do sets+=(--set "$kv"); done
     if [ "$m" != 1 ]; then
         export_one "cumulus_volume_m${m}_1920x1080" "$cumulus" 1920x1080 "${volume[@]}" "${cell[@]}" "${sets[@]}"
         export_one "cumulus_m${m}_1920x1080" "$cumulus" 1920x1080 "${sets[@]}"
     fi
+    [ "$m" != 1.5 ] || export_one "cumulus_volume_nofwd_m${m}_1920x1080" "$cumulus" 1920x1080 \
+        "${volume[@]}" "${cell[@]}" "${nofwd[@]}" "${sets[@]}"
     export_one "acc_volume_m${m}_480x270" "$cumulus" 480x270 "${volume[@]}" "${cell[@]}" --set 'render.pixel_samples=1' "${sets[@]}"
 done
 export_one cumulus_volume_480x270 "$cumulus" 480x270 "${volume[@]}"

@@ -19,7 +19,9 @@ while read -r file sum; do
     [ -e "$dir/$file" ] || ln "$dir/store/$sum" "$dir/$file"
 done <"$dir/links.txt"
 
-"$headless" "$dir/cumulus_noms_1280x720" --frames 1 --warmup 0 | head -1
+# the GL renderer and platform, from the first export there is (ONLY may have left some out)
+first=$(find "$dir" -mindepth 2 -maxdepth 2 -name params.json | sort | head -1)
+"$headless" "$(dirname "$first")" --frames 1 --warmup 0 | head -1
 echo
 echo "| export | accumulate | frame GPU ms median [min-max] | pass GPU ms median [min-max] | frame wall ms median |"
 echo "| --- | --- | --- | --- | --- |"
@@ -45,7 +47,7 @@ print(f"| {name} | {acc} | {float(f[0]):.3f} [{float(f[1]):.3f}-{float(f[2]):.3f
 PY
 }
 for size in 1280x720 1920x1080; do
-    for scene in cumulus cumulus_noms smoke1; do
+    for scene in cumulus cumulus_nofwd cumulus_noms smoke1 smoke1_nofwd; do
         run "${scene}_${size}" 1
         run "${scene}_${size}" 4
     done
@@ -62,11 +64,12 @@ for size in 1280x720 1920x1080; do
     run "cumulus_volume_${size}" 4
     run "smoke1_volume_${size}" 1
 done
-for m in 1.5 2 4; do
+for m in 1.5 1.75 2 4; do
     run "cumulus_m${m}_1920x1080" 1
     run "cumulus_volume_m${m}_1920x1080" 1
     run "cumulus_volume_m${m}_1920x1080" 8
 done
+run cumulus_volume_nofwd_m1.5_1920x1080 1
 # the SDF cloud and the dragon
 for size in 1280x720 1920x1080; do
     run "sdf_cloud_${size}" 1
@@ -80,7 +83,7 @@ for m in 1 2 4; do
         frames=2 run "acc_m${m}_480x270" "$n" --pfm "$out/acc_m${m}_n${n}.pfm"
     done
 done
-for m in 1 1.5 2 4; do
+for m in 1 1.5 1.75 2 4; do
     for n in 1 4 16; do
         frames=2 run "acc_volume_m${m}_480x270" "$n" --pfm "$out/acc_volume_m${m}_n${n}.pfm"
     done
