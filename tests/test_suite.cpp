@@ -5,6 +5,7 @@
 
 #include "test_util.h"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -176,6 +177,53 @@ TEST_F(Suite, TableCsvThicknessAndCache) {
     const auto rows3 = readCsv(dir / "suite.csv");
     ASSERT_EQ(rows3.size(), 1u);
     EXPECT_EQ(num(rows3[0], "reference_spp"), 48.0);
+}
+
+// The cache follows what the path tracer sees: a VDB file copied again with the same bytes (new
+// modification time, as a data folder copied to another machine) keeps its references, and so
+// do settings that only `march` reads; a setting the path tracer reads does not.
+TEST_F(Suite, CacheKeyFollowsContentNotTime) {
+    TempDir data{"suite_data"};
+    const fs::path src = kData / (std::string(kSphere) + ".vdb");
+    const fs::path copy = data.path() / (std::string(kSphere) + ".vdb");
+    fs::copy_file(src, copy);
+    auto run = [&](const std::string& extra) {
+        return runNimbus("converge --suite --suite-data " + data.path().string() + " --suite-dir " +
+                         dir.string() + " --suite-filter " + kSphere +
+                         "/thin/front/a1 --suite-size 32x18 --suite-spp 16 --suite-max-depth 256 "
+                         "--suite-seconds 0 " +
+                         extra);
+    };
+    auto renderedNow = [&]() {
+        const auto rows = readCsv(dir / "suite.csv");
+        return rows.size() == 1 && num(rows[0], "reference_seconds_this_run") > 0.0;
+    };
+    CliRun first = run("");
+    ASSERT_EQ(first.exitCode, 0) << first.output;
+    EXPECT_TRUE(renderedNow());
+
+    // the same bytes written again an hour later
+    fs::remove(copy);
+    fs::copy_file(src, copy);
+    fs::last_write_time(copy, fs::last_write_time(src) + std::chrono::hours(1));
+    CliRun again = run("");
+    ASSERT_EQ(again.exitCode, 0) << again.output;
+    EXPECT_FALSE(renderedNow()) << again.output;
+    EXPECT_FALSE(contains(again.output, "stale")) << again.output;
+
+    // march's own settings, the single-scattered sky's among them
+    CliRun marchOnly = run("--set render.multiple_scattering='\"none\"' --set "
+                           "render.sky_scattering='\"single\"' --set render.sky_directions=4 "
+                           "--set render.sky_shadow='\"volume\"' --set "
+                           "render.forward_scattering='\"none\"' --set render.octaves=1");
+    ASSERT_EQ(marchOnly.exitCode, 0) << marchOnly.output;
+    EXPECT_FALSE(renderedNow()) << marchOnly.output;
+
+    // a setting of the path tracer's: rendered again
+    CliRun other = run("--set render.rr_depth=5");
+    ASSERT_EQ(other.exitCode, 0) << other.output;
+    EXPECT_TRUE(renderedNow());
+    EXPECT_TRUE(contains(other.output, "stale: now \"render.rr_depth = 5")) << other.output;
 }
 
 // needs no VDB file: every one of these is refused before anything is read

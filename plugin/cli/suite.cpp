@@ -9,6 +9,7 @@
 /// core/image_error.h with the reference noise taken out in quadrature, the ratio of the means
 /// and the times, worst case first (docs/accuracy.md, "The validation matrix").
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,9 +23,9 @@
 #include <string>
 #include <vector>
 
-#include <sys/stat.h>
 #include <unistd.h>
 
+#include <OpenImageIO/hash.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -150,12 +151,25 @@ std::string findRepository() {
     return {};
 }
 
-/// size and modification time of a file, for the cache key.
+/// Size and SHA-1 of a file's contents, for the cache key: a copy of the same file (another
+/// checkout, the data folder copied to a farm, which sets new modification times) keeps its
+/// references; any change of a byte drops them.
 std::string fileStamp(const std::string& path) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0) return "missing";
-    return "size " + std::to_string(st.st_size) + ", mtime " + std::to_string(st.st_mtim.tv_sec) +
-           "." + std::to_string(st.st_mtim.tv_nsec);
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return "missing";
+    OIIO::SHA1 sha;
+    std::vector<char> buf(std::size_t(1) << 20);
+    std::uint64_t size = 0;
+    for (std::size_t got; (got = std::fread(buf.data(), 1, buf.size(), f)) > 0;) {
+        sha.append(buf.data(), got);
+        size += got;
+    }
+    const bool failed = std::ferror(f) != 0;
+    std::fclose(f);
+    if (failed) return "unreadable";
+    std::string hex = sha.digest(); // as sha1sum prints it
+    for (char& ch : hex) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    return "size " + std::to_string(size) + ", sha1 " + hex;
 }
 
 /// Direction toward the sun for camera `cam` (see SunPosition).
@@ -269,6 +283,9 @@ std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string
                                             "render.inscatter_c",
                                             "render.inscatter_strength",
                                             "render.forward_scattering",
+                                            "render.sky_scattering",
+                                            "render.sky_directions",
+                                            "render.sky_shadow",
                                             "render.threads",
                                             "render.tile_size",
                                             "sky.ambient",
