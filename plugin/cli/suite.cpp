@@ -254,44 +254,59 @@ int loadVdbCloud(Cloud& c, const ConvergeOptions& o, int w, int h, std::string& 
     return report(st);
 }
 
+/// The settings only `march` reads: left out of a reference's cache key.
+const char* const kMarchOnly[] = {"render.shadow",
+                                  "render.light_volume_cell",
+                                  "render.step_growth",
+                                  "render.pixel_samples",
+                                  "render.epsilon",
+                                  "render.shadow_step",
+                                  "render.shadow_growth",
+                                  "render.octaves",
+                                  "render.octave_extinction",
+                                  "render.octave_contribution",
+                                  "render.octave_eccentricity",
+                                  "render.multiple_scattering",
+                                  "render.photons",
+                                  "render.photon_skin",
+                                  "render.ms_strength",
+                                  "render.ms_p1",
+                                  "render.sky_occlusion",
+                                  "render.sky_openness",
+                                  "render.inscatter",
+                                  "render.inscatter_c",
+                                  "render.inscatter_strength",
+                                  "render.forward_scattering",
+                                  "render.sky_scattering",
+                                  "render.sky_directions",
+                                  "render.sky_shadow",
+                                  "render.threads",
+                                  "render.tile_size",
+                                  "sky.ambient",
+                                  "frames",
+                                  "color_space"};
+
+/// A cached key without the lines of settings that are now known to be march's alone: adding
+/// one to kMarchOnly keeps the references cached before.
+std::string withoutMarchOnly(const std::string& key) {
+    std::istringstream in(key);
+    std::string out, line;
+    while (std::getline(in, line)) {
+        bool drop = false;
+        for (const char* k : kMarchOnly) drop = drop || line.rfind(std::string(k) + " = ", 0) == 0;
+        if (!drop) out += line + "\n";
+    }
+    return out;
+}
+
 /// The settings a path-traced reference depends on, one "key = value" a line: every scene
 /// setting (io::sceneSettings) except those only march reads and the output's, plus the frame,
-/// a VDB file's size and modification time, the Nimbus version and the suite's format.
+/// a VDB file's size and SHA-1, the Nimbus version and the suite's format.
 std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string& caseName) {
     io::SceneFile f = c.ls->file();
     f.scene = ref;
     std::map<std::string, std::string> m = io::sceneSettings(f);
-    static const char* const marchOnly[] = {"render.shadow",
-                                            "render.light_volume_cell",
-                                            "render.step_growth",
-                                            "render.pixel_samples",
-                                            "render.epsilon",
-                                            "render.shadow_step",
-                                            "render.shadow_growth",
-                                            "render.octaves",
-                                            "render.octave_extinction",
-                                            "render.octave_contribution",
-                                            "render.octave_eccentricity",
-                                            "render.multiple_scattering",
-                                            "render.photons",
-                                            "render.photon_skin",
-                                            "render.ms_strength",
-                                            "render.ms_p1",
-                                            "render.sky_occlusion",
-                                            "render.sky_openness",
-                                            "render.inscatter",
-                                            "render.inscatter_c",
-                                            "render.inscatter_strength",
-                                            "render.forward_scattering",
-                                            "render.sky_scattering",
-                                            "render.sky_directions",
-                                            "render.sky_shadow",
-                                            "render.threads",
-                                            "render.tile_size",
-                                            "sky.ambient",
-                                            "frames",
-                                            "color_space"};
-    for (const char* k : marchOnly) m.erase(k);
+    for (const char* k : kMarchOnly) m.erase(k);
     std::ostringstream key;
     key << "suite format = " << kSuiteFormat << "\nnimbus = " << NIMBUS_VERSION
         << "\ncase = " << caseName << "\nframe = " << c.frame << "\n";
@@ -356,7 +371,7 @@ std::string readHalf(const std::string& path, const std::string& key, int w, int
         auto it = img.attributes.find(k);
         return it == img.attributes.end() ? std::string() : it->second;
     };
-    const std::string have = attr("nimbus/settings/suite_key");
+    const std::string have = withoutMarchOnly(attr("nimbus/settings/suite_key"));
     if (have.empty()) return path + " is not a suite reference (no suite_key header)";
     if (have != key) return "stale: " + firstDifference(key, have);
     int ch[4];
