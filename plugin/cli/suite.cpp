@@ -19,6 +19,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -154,7 +155,7 @@ std::string findRepository() {
 /// Size and SHA-1 of a file's contents, for the cache key: a copy of the same file (another
 /// checkout, the data folder copied to a farm, which sets new modification times) keeps its
 /// references; any change of a byte drops them.
-std::string fileStamp(const std::string& path) {
+std::string hashFile(const std::string& path) {
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) return "missing";
     OIIO::SHA1 sha;
@@ -170,6 +171,17 @@ std::string fileStamp(const std::string& path) {
     std::string hex = sha.digest(); // as sha1sum prints it
     for (char& ch : hex) ch = char(std::tolower(static_cast<unsigned char>(ch)));
     return "size " + std::to_string(size) + ", sha1 " + hex;
+}
+
+/// hashFile, computed once per file and run: every case of a cloud asks (a VDB may be gigabytes).
+std::string fileStamp(const std::string& path) {
+    static std::mutex lock;
+    static std::map<std::string, std::string> known;
+    const std::lock_guard<std::mutex> hold(lock);
+    if (auto it = known.find(path); it != known.end()) return it->second;
+    std::string stamp = hashFile(path);
+    known.emplace(path, stamp);
+    return stamp;
 }
 
 /// Direction toward the sun for camera `cam` (see SunPosition).
