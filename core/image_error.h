@@ -53,6 +53,14 @@ inline ImageError imageError(const Framebuffer& a, const Framebuffer& ref,
     return e;
 }
 
+/// The mean of two independent halves of a reference (every channel, alpha included): the
+/// reference itself.
+inline Framebuffer halvesMean(const Framebuffer& a, const Framebuffer& b) {
+    Framebuffer m = a;
+    for (size_t i = 0; i < m.rgba.size(); ++i) m.rgba[i] = 0.5f * (a.rgba[i] + b.rgba[i]);
+    return m;
+}
+
 /// The noise of the mean of two independent halves of a reference, as an RMSE over the cloud's
 /// pixels (the cloud taken from `mask`, normally the mean): each half has noise sigma, their
 /// difference 2 sigma^2, their mean sigma^2 / 2, so the mean's noise is half the halves' RMSE.

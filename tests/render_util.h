@@ -47,8 +47,7 @@ inline nimbus::Framebuffer pathtraceHalves(nimbus::SceneDesc s, int spp, double&
     const nimbus::Framebuffer a = renderScene(s);
     s.render.seed ^= 0x9e3779b9u;
     const nimbus::Framebuffer b = renderScene(s);
-    nimbus::Framebuffer mean = a;
-    for (size_t i = 0; i < mean.rgba.size(); ++i) mean.rgba[i] = 0.5f * (a.rgba[i] + b.rgba[i]);
+    const nimbus::Framebuffer mean = nimbus::halvesMean(a, b);
     noise = nimbus::halvesNoise(a, b, mean);
     return mean;
 }

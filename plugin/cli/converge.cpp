@@ -74,8 +74,7 @@ bool measureReference(const SceneDesc& s, const FrameBindings& bindings, int fra
     half.render.seed = s.render.seed ^ 0x9e3779b9u;
     if (!measure(half, bindings, frame, b)) return false;
     const Framebuffer a = ref.fb;
-    for (size_t i = 0; i < ref.fb.rgba.size(); ++i)
-        ref.fb.rgba[i] = 0.5f * (a.rgba[i] + b.fb.rgba[i]);
+    ref.fb = halvesMean(a, b.fb);
     noise = halvesNoise(a, b.fb, ref.fb);
     ref.seconds += b.seconds;
     return true;

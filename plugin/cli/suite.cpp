@@ -298,8 +298,9 @@ const char* const kMarchOnly[] = {"render.shadow",
                                   "frames",
                                   "color_space"};
 
-/// A cached key without the lines of settings that are now known to be march's alone: adding
-/// one to kMarchOnly keeps the references cached before.
+/// A key without the lines of the settings only march reads: applied to the key of a case and
+/// to a cached key alike, so that adding a setting to kMarchOnly keeps the references cached
+/// before.
 std::string withoutMarchOnly(const std::string& key) {
     std::istringstream in(key);
     std::string out, line;
@@ -317,8 +318,7 @@ std::string withoutMarchOnly(const std::string& key) {
 std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string& caseName) {
     io::SceneFile f = c.ls->file();
     f.scene = ref;
-    std::map<std::string, std::string> m = io::sceneSettings(f);
-    for (const char* k : kMarchOnly) m.erase(k);
+    const std::map<std::string, std::string> m = io::sceneSettings(f);
     std::ostringstream key;
     key << "suite format = " << kSuiteFormat << "\nnimbus = " << NIMBUS_VERSION
         << "\ncase = " << caseName << "\nframe = " << c.frame << "\n";
@@ -326,7 +326,7 @@ std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string
     if (c.vdb) key << "vdb file = " << fileStamp(c.source) << "\n";
     for (const auto& [k, v] : m)
         if (k.rfind("output.", 0) != 0) key << k << " = " << v << "\n";
-    return key.str();
+    return withoutMarchOnly(key.str());
 }
 
 /// The first line where two keys differ, for the message about a stale cache file.
@@ -354,16 +354,10 @@ struct Halves {
     double seconds = 0.0; ///< render time of every round
 };
 
-Framebuffer meanOf(const Halves& h) {
-    Framebuffer m = h.a;
-    for (size_t i = 0; i < m.rgba.size(); ++i) m.rgba[i] = 0.5f * (h.a.rgba[i] + h.b.rgba[i]);
-    return m;
-}
-
 /// The noise of the mean of the halves relative to its mean over the cloud's pixels (NaN when
 /// it has no cloud pixels).
 double relativeNoise(const Halves& h) {
-    const Framebuffer m = meanOf(h);
+    const Framebuffer m = halvesMean(h.a, h.b);
     const double mean = imageError(m, m).mean;
     return mean > 0.0 ? halvesNoise(h.a, h.b, m) / mean : std::nan("");
 }
@@ -758,7 +752,7 @@ int runSuite(const ConvergeOptions& o) {
                 }
             }
             Measured ref;
-            ref.fb = meanOf(hv);
+            ref.fb = halvesMean(hv.a, hv.b);
             ref.seconds = hv.seconds;
             const double noise = halvesNoise(hv.a, hv.b, ref.fb);
             r.spp = hv.spp;
