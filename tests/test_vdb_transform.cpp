@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -159,5 +160,87 @@ TEST(VdbTransform, MajorantSegmentsCoverTheLeavesAndSkipTheGap) {
     // and the density really is zero where the segments skip
     for (float x = 8.0f + margin; x < 23.0f - margin; x += 0.25f)
         EXPECT_EQ(f.density(ray.at(x + 20.0f)), 0.0f);
+    fs::remove_all(dir);
+}
+
+// GridField keeps a dense copy of a small grid's voxels (core/fields/grid.h): lookups through it
+// must give the tree's values to the bit, inside the grid, at its borders and beyond the copy's
+// box (where the tree is read again), under a rotated, non-uniform map.
+TEST(VdbTransform, DenseCopyGivesTheTreesDensitiesBitForBit) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("nimbus_vdbdense_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    const glm::dmat4 worldFromIndex =
+        glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)), 0.7,
+                               glm::normalize(glm::dvec3(1.0, 2.0, 0.5))),
+                   glm::dvec3(0.1, 0.2, 0.15));
+    vdb::writeVdbGrids((dir / "blob.vdb").string(), {blob(worldFromIndex)});
+    FieldDesc fd;
+    fd.kind = FieldKind::Vdb;
+    fd.vdb.path = (dir / "blob.vdb").string();
+    fd.vdb.density = 1.7f;
+    std::vector<std::string> warnings;
+    const GridBinding binding = vdb::bindVdbField(fd, "", 1, warnings);
+    ASSERT_NE(binding.grid, nullptr);
+    const Field dense = makeField(fd, 0.0f, binding);
+    ASSERT_NE(dense.as<GridField>().dense, nullptr) << "a 24 x 16 x 12 grid fits the dense copy";
+    Field sparse = dense;
+    std::get<GridField>(sparse.data).dense.reset();
+    // a copy whose dense voxels are all raised by 1: every point with density must see it (the
+    // dense path is taken there, not silently the tree's)
+    Field raised = dense;
+    {
+        auto copy = std::make_shared<DenseVoxels>(*dense.as<GridField>().dense);
+        for (float& v : copy->values) v += 1.0f;
+        std::get<GridField>(raised.data).dense = copy;
+    }
+
+    std::uint32_t h = 7u;
+    auto u = [&] {
+        h = h * 747796405u + 2891336453u;
+        return float((h >> 8) & 0xffffffu) / 16777216.0f;
+    };
+    const Box b = binding.bounds;
+    const vec3 margin = 0.5f * (b.hi - b.lo); // well past the copy's 3-voxel pad
+    std::size_t nonZero = 0, differ = 0, inside = 0, unraised = 0;
+    for (int n = 0; n < 200000; ++n) {
+        const vec3 t(u(), u(), u());
+        const vec3 p = b.lo - margin + t * (b.hi - b.lo + 2.0f * margin);
+        const float a = dense.density(p), s = sparse.density(p);
+        nonZero += s > 0.0f;
+        differ += std::memcmp(&a, &s, sizeof a) != 0;
+        if (s > 0.0f) { // the stencil touches the grid's voxels: within the copy's box
+            ++inside;
+            unraised += raised.density(p) < s + 0.5f * fd.vdb.density;
+        }
+    }
+    EXPECT_EQ(differ, 0u) << "the dense copy changed densities";
+    EXPECT_GT(inside, 2000u);
+    EXPECT_EQ(unraised, 0u) << "points with density were not read from the dense copy";
+    EXPECT_GT(nonZero, 2000u) << "too few points in the blob";
+    fs::remove_all(dir);
+}
+
+// A grid whose voxels span more than kDenseVoxelsMax stays sparse (no unbounded allocation),
+// and its density is read from the tree.
+TEST(VdbTransform, FarApartVoxelsKeepTheGridSparse) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("nimbus_vdbsparse_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    vdb::VdbGridSpec g;
+    g.voxels.push_back({ivec3(0, 0, 0), 1.0, true});
+    g.voxels.push_back({ivec3(4000, 4000, 4000), 1.0, true});
+    vdb::writeVdbGrids((dir / "far.vdb").string(), {g});
+    FieldDesc fd;
+    fd.kind = FieldKind::Vdb;
+    fd.vdb.path = (dir / "far.vdb").string();
+    std::vector<std::string> warnings;
+    const GridBinding binding = vdb::bindVdbField(fd, "", 1, warnings);
+    ASSERT_NE(binding.grid, nullptr);
+    const Field f = makeField(fd, 0.0f, binding);
+    EXPECT_EQ(f.as<GridField>().dense, nullptr) << "4001^3 voxels must not be copied densely";
+    EXPECT_EQ(f.density(vec3(0.0f)), 1.0f);
+    EXPECT_EQ(f.density(vec3(4000.0f)), 1.0f);
+    EXPECT_EQ(f.density(vec3(2000.5f)), 0.0f);
     fs::remove_all(dir);
 }

@@ -4,11 +4,25 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <vector>
 
 #include "core/bindings.h"
 #include "core/scene.h"
 
 namespace nimbus {
+
+/// A dense copy of a box of a grid's voxels (x-major, z fastest, as a NanoVDB leaf): the values
+/// the grid's accessor returns there, background included. Trilinear lookups whose 2x2x2 stencil
+/// lies in the box read it instead of walking the tree.
+struct DenseVoxels {
+    std::vector<float> values;
+    std::int32_t lo[3] = {0, 0, 0}; ///< index coordinate of values[0]
+    std::int32_t size[3] = {0, 0, 0};
+};
+
+/// The most voxels a dense copy may hold (128 MiB of floats); larger grids stay sparse.
+constexpr std::int64_t kDenseVoxelsMax = std::int64_t(1) << 25;
 
 struct GridField {
     const void* grid = nullptr; ///< a nanovdb::FloatGrid, kept alive by the scene's bindings
@@ -18,6 +32,9 @@ struct GridField {
     /// (equals the map's own float translation when nothing is shifted)
     vec3 origin{0.0f};
     glm::dvec3 shift{0.0}; ///< GridBinding::shift
+    /// The grid's voxels near its density, dense (null: the grid is larger than
+    /// kDenseVoxelsMax within that box, or empty); lookups give the same values either way.
+    std::shared_ptr<const DenseVoxels> dense;
 
     /// Density at world point p (p inside the field's bounds).
     float density(vec3 p) const;
@@ -31,7 +48,8 @@ struct GridField {
 /// World size of a voxel of the loaded grid `b` along each of its index axes (0 without a grid).
 vec3 gridVoxelSize(const GridBinding& b);
 
-/// A grid field of `v` over its loaded grid `b` (null grid: no density).
+/// A grid field of `v` over its loaded grid `b` (null grid: no density), with a dense copy of
+/// its voxels when they fit kDenseVoxelsMax.
 GridField makeGridField(const VdbFieldDesc& v, const GridBinding& b);
 
 /// `b` with its world positions moved by -shift, computed in double from the grid's own map
