@@ -25,24 +25,25 @@ std::string dataPath(int i) {
     return std::string(NIMBUS_SOURCE_DIR) + "/../shared/data/vdb/" + kFiles[i];
 }
 
-/// The file's density grid bound as a scene binds it; null grid when the file is absent.
-GridBinding bind(int i, FieldDesc& fd) {
+/// The file's density grid bound as a scene binds it; when the file is absent, a null grid and
+/// the benchmark skipped with a message.
+GridBinding bind(benchmark::State& state, int i, FieldDesc& fd) {
     fd.kind = FieldKind::Vdb;
     fd.vdb.path = dataPath(i);
     fd.vdb.grid = "density";
     std::vector<std::string> warnings;
-    if (!std::filesystem::exists(fd.vdb.path)) return GridBinding{};
+    if (!std::filesystem::exists(fd.vdb.path)) {
+        state.SkipWithError(("no " + fd.vdb.path + " (../shared/data/vdb absent)").c_str());
+        return GridBinding{};
+    }
     return vdb::bindVdbField(fd, "", 1, warnings);
 }
 
 void BM_GridDensity(benchmark::State& state) {
     const int file = int(state.range(0));
     FieldDesc fd;
-    const GridBinding b = bind(file, fd);
-    if (!b.grid) {
-        state.SkipWithError(("no " + dataPath(file) + " (../shared/data/vdb absent)").c_str());
-        return;
-    }
+    const GridBinding b = bind(state, file, fd);
+    if (!b.grid) return;
     Field f = makeField(fd, 0.0f, b);
     if (state.range(1) == 0) std::get<GridField>(f.data).dense.reset();
     if (state.range(1) == 1 && !f.as<GridField>().dense) {
@@ -78,11 +79,8 @@ BENCHMARK(BM_GridDensity)->ArgsProduct({{0, 1, 2}, {0, 1}});
 void BM_GridDenseCopy(benchmark::State& state) {
     const int file = int(state.range(0));
     FieldDesc fd;
-    const GridBinding b = bind(file, fd);
-    if (!b.grid) {
-        state.SkipWithError(("no " + dataPath(file) + " (../shared/data/vdb absent)").c_str());
-        return;
-    }
+    const GridBinding b = bind(state, file, fd);
+    if (!b.grid) return;
     std::size_t bytes = 0;
     for (auto _ : state) {
         const Field f = makeField(fd, 0.0f, b);
