@@ -48,9 +48,11 @@ Box worldBoxOf(const nanovdb::FloatGrid& g, vec3 lo, vec3 hi, glm::dvec3 shift) 
     return b;
 }
 
-/// The dense copy of g's voxels over its index box grown by kPad on every side (the host's
-/// bounds reach half a voxel plus a voxel diagonal beyond that box, so every stencil of a point
-/// inside them lies in it); null when the box is empty or holds more than kDenseVoxelsMax.
+/// The dense copy of g's voxels over its index box grown by kPad on every side; null when the
+/// box is empty or holds more than kDenseVoxelsMax. The host's bounds reach half a voxel plus a
+/// voxel diagonal beyond that box, so with cubic, axis-aligned voxels every stencil of a point
+/// inside them lies in the copy; elsewhere (the corners of a rotated grid's bounds, the short
+/// axes of elongated voxels) lookups beyond it read the tree, where there is only background.
 std::shared_ptr<const DenseVoxels> denseCopy(const nanovdb::FloatGrid& g) {
     constexpr std::int32_t kPad = 3;
     const auto& ib = g.indexBBox();
