@@ -32,6 +32,24 @@ vdb::VdbGridSpec blob(const glm::dmat4& worldFromIndex) {
     return g;
 }
 
+/// A fresh folder under the temporary directory named for the test (removed by the caller).
+fs::path freshDir(const std::string& tag) {
+    const fs::path dir = fs::temp_directory_path() / (tag + "_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    return dir;
+}
+
+/// `g` written to dir/name and bound as a scene binds a [field] of kind "vdb"; `fd` becomes that
+/// field's description.
+GridBinding writeAndBind(const fs::path& dir, const std::string& name, const vdb::VdbGridSpec& g,
+                         FieldDesc& fd) {
+    vdb::writeVdbGrids((dir / name).string(), {g});
+    fd.kind = FieldKind::Vdb;
+    fd.vdb.path = (dir / name).string();
+    std::vector<std::string> warnings;
+    return vdb::bindVdbField(fd, "", 1, warnings);
+}
+
 SceneDesc sceneFor(const std::string& path, const glm::mat3& R) {
     SceneDesc s;
     s.field.kind = FieldKind::Vdb;
@@ -70,8 +88,7 @@ Framebuffer renderVdb(SceneDesc s) {
 } // namespace
 
 TEST(VdbTransform, RotatedGridAndRotatedCameraGiveTheSameImage) {
-    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbxf_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = freshDir("nimbus_vdbxf");
     // non-uniform voxels (0.1, 0.2, 0.15) placed at (1, 2, 3); then the same rotated by 35 deg
     glm::dmat4 M = glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)) *
                    glm::scale(glm::dmat4(1.0), glm::dvec3(0.1, 0.2, 0.15));
@@ -96,8 +113,7 @@ TEST(VdbTransform, RotatedGridAndRotatedCameraGiveTheSameImage) {
 }
 
 TEST(VdbTransform, NonUniformVoxelSizesAreHonoured) {
-    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbnu_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = freshDir("nimbus_vdbnu");
     const glm::dmat4 M = glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)) *
                          glm::scale(glm::dmat4(1.0), glm::dvec3(0.1, 0.2, 0.15));
     vdb::writeVdbGrids((dir / "a.vdb").string(), {blob(M)});
@@ -124,19 +140,14 @@ TEST(VdbTransform, MajorantSegmentsCoverTheLeavesAndSkipTheGap) {
     // two 8^3 leaves of density 1 at i = 0..7 and i = 24..31 (voxel size 1): trilinear density
     // is non-zero for x in (-1, 8) and (23, 32), so along a ray down the x axis the majorant
     // segments must cover those spans and skip most of the gap between them
-    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbmaj_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = freshDir("nimbus_vdbmaj");
     vdb::VdbGridSpec g;
     for (int base : {0, 24})
         for (int k = 0; k < 8; ++k)
             for (int j = 0; j < 8; ++j)
                 for (int i = 0; i < 8; ++i) g.voxels.push_back({ivec3(base + i, j, k), 1.0, true});
-    vdb::writeVdbGrids((dir / "leaves.vdb").string(), {g});
     FieldDesc fd;
-    fd.kind = FieldKind::Vdb;
-    fd.vdb.path = (dir / "leaves.vdb").string();
-    std::vector<std::string> warnings;
-    const GridBinding leaves = vdb::bindVdbField(fd, "", 1, warnings);
+    const GridBinding leaves = writeAndBind(dir, "leaves.vdb", g, fd);
     Field f = makeField(fd, 0.0f, leaves);
     const float cell = 0.5f;
     MajorantGrid grid = buildMajorantGrid(f, cell);
@@ -167,20 +178,14 @@ TEST(VdbTransform, MajorantSegmentsCoverTheLeavesAndSkipTheGap) {
 // must give the tree's values to the bit, inside the grid, at its borders and beyond the copy's
 // box (where the tree is read again), under a rotated, non-uniform map.
 TEST(VdbTransform, DenseCopyGivesTheTreesDensitiesBitForBit) {
-    const fs::path dir =
-        fs::temp_directory_path() / ("nimbus_vdbdense_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = freshDir("nimbus_vdbdense");
     const glm::dmat4 worldFromIndex =
         glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)), 0.7,
                                glm::normalize(glm::dvec3(1.0, 2.0, 0.5))),
                    glm::dvec3(0.1, 0.2, 0.15));
-    vdb::writeVdbGrids((dir / "blob.vdb").string(), {blob(worldFromIndex)});
     FieldDesc fd;
-    fd.kind = FieldKind::Vdb;
-    fd.vdb.path = (dir / "blob.vdb").string();
+    const GridBinding binding = writeAndBind(dir, "blob.vdb", blob(worldFromIndex), fd);
     fd.vdb.density = 1.7f;
-    std::vector<std::string> warnings;
-    const GridBinding binding = vdb::bindVdbField(fd, "", 1, warnings);
     ASSERT_NE(binding.grid, nullptr);
     const Field dense = makeField(fd, 0.0f, binding);
     ASSERT_NE(dense.as<GridField>().dense, nullptr) << "a 24 x 16 x 12 grid fits the dense copy";
@@ -224,18 +229,12 @@ TEST(VdbTransform, DenseCopyGivesTheTreesDensitiesBitForBit) {
 // A grid whose voxels span more than kDenseVoxelsMax stays sparse (no unbounded allocation),
 // and its density is read from the tree.
 TEST(VdbTransform, FarApartVoxelsKeepTheGridSparse) {
-    const fs::path dir =
-        fs::temp_directory_path() / ("nimbus_vdbsparse_" + std::to_string(getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = freshDir("nimbus_vdbsparse");
     vdb::VdbGridSpec g;
     g.voxels.push_back({ivec3(0, 0, 0), 1.0, true});
     g.voxels.push_back({ivec3(4000, 4000, 4000), 1.0, true});
-    vdb::writeVdbGrids((dir / "far.vdb").string(), {g});
     FieldDesc fd;
-    fd.kind = FieldKind::Vdb;
-    fd.vdb.path = (dir / "far.vdb").string();
-    std::vector<std::string> warnings;
-    const GridBinding binding = vdb::bindVdbField(fd, "", 1, warnings);
+    const GridBinding binding = writeAndBind(dir, "far.vdb", g, fd);
     ASSERT_NE(binding.grid, nullptr);
     const Field f = makeField(fd, 0.0f, binding);
     EXPECT_EQ(f.as<GridField>().dense, nullptr) << "4001^3 voxels must not be copied densely";
