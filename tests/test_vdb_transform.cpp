@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "core/render.h"
+#include "core/sampler.h"
 #include "plugin/vdb/vdb_field.h"
 #include "plugin/vdb/vdb_writer.h"
 
@@ -200,11 +201,8 @@ TEST(VdbTransform, DenseCopyGivesTheTreesDensitiesBitForBit) {
         std::get<GridField>(raised.data).dense = copy;
     }
 
-    std::uint32_t h = 7u;
-    auto u = [&] {
-        h = h * 747796405u + 2891336453u;
-        return float((h >> 8) & 0xffffffu) / 16777216.0f;
-    };
+    Sampler rng{7u, 0};
+    auto u = [&] { return rng.next(); };
     const Box b = binding.bounds;
     const vec3 margin = 0.5f * (b.hi - b.lo); // well past the copy's 3-voxel pad
     std::size_t nonZero = 0, differ = 0, inside = 0, unraised = 0;

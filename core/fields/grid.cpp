@@ -83,6 +83,69 @@ std::shared_ptr<const DenseVoxels> denseCopy(const nanovdb::FloatGrid& g) {
     return d;
 }
 
+/// The 2x2x2 stencil whose first value is at `o`, in an array laid out x-major and z fastest
+/// with strides dx (x) and dy (y): c[a][b][d] = voxel (i + a, j + b, k + d).
+void stencilAt(const float* o, std::int64_t dx, std::int64_t dy, float c[2][2][2]) {
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int d = 0; d < 2; ++d) c[a][b][d] = o[a * dx + b * dy + d];
+}
+
+/// The stencil at ijk from the dense copy `dv`; false when dv is null or does not hold it.
+bool denseStencil(const DenseVoxels* dv, const nanovdb::Coord& ijk, float c[2][2][2]) {
+    if (!dv) return false;
+    const std::int64_t i = std::int64_t(ijk[0]) - dv->lo[0], j = std::int64_t(ijk[1]) - dv->lo[1],
+                       k = std::int64_t(ijk[2]) - dv->lo[2];
+    if (i < 0 || j < 0 || k < 0 || i + 1 >= dv->size[0] || j + 1 >= dv->size[1] ||
+        k + 1 >= dv->size[2])
+        return false;
+    const std::int64_t dy = dv->size[2], dx = std::int64_t(dv->size[1]) * dy;
+    stencilAt(dv->values.data() + i * dx + j * dy + k, dx, dy, c);
+    return true;
+}
+
+/// The stencil at ijk from the tree of `g` (its field's `serial`) through a per-thread accessor.
+void treeStencil(const nanovdb::FloatGrid& g, std::uint64_t serial, const nanovdb::Coord& ijk,
+                 float c[2][2][2]) {
+    // one accessor per thread and grid: successive lookups along a ray mostly fall in the
+    // same leaf, and the accessor's cached node path skips the walk from the root
+    // (measured: getValue was 42% of a frame with a fresh accessor per lookup)
+    using Accessor = nanovdb::DefaultReadAccessor<float>;
+    using Leaf = nanovdb::NanoLeaf<float>;
+    // keyed by the field's serial, not the grid's address: a later frame's grid may be
+    // allocated where a freed one was. One trivially constructed thread_local: in a shared
+    // library each thread_local access is a __tls_get_addr call, and one with a constructor
+    // adds a call to its initialiser on every access (perf: 3.8% of a coarse-step VDB frame
+    // in __tls_get_addr with two variables, 7.7% with one std::optional in a struct)
+    static_assert(std::is_trivially_destructible_v<Accessor>);
+    struct Cache {
+        std::uint64_t serial; ///< 0: none (serials start at 1)
+        alignas(Accessor) unsigned char storage[sizeof(Accessor)];
+    };
+    static thread_local Cache cache;
+    if (cache.serial != serial) {
+        new (cache.storage) Accessor(g.getAccessor());
+        cache.serial = serial;
+    }
+    const Accessor* acc = std::launder(reinterpret_cast<const Accessor*>(cache.storage));
+    // when the 2x2x2 stencil lies in one leaf (343 of its 512 corners) it is read from the leaf
+    // the first lookup cached, instead of seven more accessor lookups (getValue was 27% of a
+    // thick-cloud pathtrace frame)
+    const float first = acc->getValue(ijk);
+    constexpr int32_t kMask = int32_t(Leaf::DIM - 1);
+    const Leaf* leaf = acc->getNode<Leaf>();
+    if ((ijk[0] & kMask) != kMask && (ijk[1] & kMask) != kMask && (ijk[2] & kMask) != kMask &&
+        leaf && leaf->origin() == (ijk & ~kMask)) {
+        stencilAt(leaf->data()->mValues + Leaf::CoordToOffset(ijk), Leaf::DIM * Leaf::DIM,
+                  Leaf::DIM, c);
+        return;
+    }
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int d = 0; d < 2; ++d)
+                c[a][b][d] = a | b | d ? acc->getValue(ijk.offsetBy(a, b, d)) : first;
+}
+
 } // namespace
 
 vec3 gridVoxelSize(const GridBinding& b) {
@@ -172,72 +235,16 @@ float GridField::density(vec3 p) const {
     const float d0 = p.x - origin.x, d1 = p.y - origin.y, d2 = p.z - origin.z;
     const nanovdb::Vec3f x(d0 * m[0] + d1 * m[1] + d2 * m[2], d0 * m[3] + d1 * m[4] + d2 * m[5],
                            d0 * m[6] + d1 * m[7] + d2 * m[8]);
-    auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
     // trilinear over the voxels floor(x) .. floor(x) + 1, the same arithmetic as NanoVDB's
     // SampleFromVoxels<1> (results bit-identical to it)
     const float fx = std::floor(x[0]), fy = std::floor(x[1]), fz = std::floor(x[2]);
     const float u = x[0] - fx, v = x[1] - fy, w = x[2] - fz;
-    float c[2][2][2];
-    if (const DenseVoxels* dv = dense.get()) {
-        // the dense copy: eight loads at fixed offsets instead of the tree's accessor (the
-        // sparse path below was 41% of a dragon march frame, 34% of a thick pathtrace)
-        const std::int64_t i = std::int64_t(fx) - dv->lo[0], j = std::int64_t(fy) - dv->lo[1],
-                           k = std::int64_t(fz) - dv->lo[2];
-        if (i >= 0 && j >= 0 && k >= 0 && i + 1 < dv->size[0] && j + 1 < dv->size[1] &&
-            k + 1 < dv->size[2]) {
-            const std::int64_t dy = dv->size[2], dx = std::int64_t(dv->size[1]) * dy;
-            const float* o = dv->values.data() + i * dx + j * dy + k;
-            const float value =
-                lerp(lerp(lerp(o[0], o[1], w), lerp(o[dy], o[dy + 1], w), v),
-                     lerp(lerp(o[dx], o[dx + 1], w), lerp(o[dx + dy], o[dx + dy + 1], w), v), u);
-            return std::max(0.0f, value) * scale;
-        }
-    }
-    // one accessor per thread and grid: successive lookups along a ray mostly fall in the
-    // same leaf, and the accessor's cached node path skips the walk from the root
-    // (measured: getValue was 42% of a frame with a fresh accessor per lookup)
-    using Accessor = nanovdb::DefaultReadAccessor<float>;
-    using Leaf = nanovdb::NanoLeaf<float>;
-    // keyed by the field's serial, not the grid's address: a later frame's grid may be
-    // allocated where a freed one was. One trivially constructed thread_local: in a shared
-    // library each thread_local access is a __tls_get_addr call, and one with a constructor
-    // adds a call to its initialiser on every access (perf: 3.8% of a coarse-step VDB frame
-    // in __tls_get_addr with two variables, 7.7% with one std::optional in a struct)
-    static_assert(std::is_trivially_destructible_v<Accessor>);
-    struct Cache {
-        std::uint64_t serial; ///< 0: none (serials start at 1)
-        alignas(Accessor) unsigned char storage[sizeof(Accessor)];
-    };
-    static thread_local Cache cache;
-    if (cache.serial != serial) {
-        new (cache.storage) Accessor(g->getAccessor());
-        cache.serial = serial;
-    }
-    const Accessor* acc = std::launder(reinterpret_cast<const Accessor*>(cache.storage));
-    // when the 2x2x2 stencil lies in one leaf (343 of its 512 corners) the seven other values
-    // are read from the leaf the first lookup cached, instead of seven more accessor lookups
-    // (getValue was 27% of a thick-cloud pathtrace frame)
     const nanovdb::Coord ijk{int32_t(fx), int32_t(fy), int32_t(fz)};
-    c[0][0][0] = acc->getValue(ijk);
-    constexpr int32_t kMask = int32_t(Leaf::DIM - 1);
-    const Leaf* leaf = acc->getNode<Leaf>();
-    if ((ijk[0] & kMask) != kMask && (ijk[1] & kMask) != kMask && (ijk[2] & kMask) != kMask &&
-        leaf && leaf->origin() == (ijk & ~kMask)) {
-        const uint32_t o = Leaf::CoordToOffset(ijk);
-        constexpr uint32_t dx = Leaf::DIM * Leaf::DIM, dy = Leaf::DIM;
-        c[0][0][1] = leaf->getValue(o + 1);
-        c[0][1][0] = leaf->getValue(o + dy);
-        c[0][1][1] = leaf->getValue(o + dy + 1);
-        c[1][0][0] = leaf->getValue(o + dx);
-        c[1][0][1] = leaf->getValue(o + dx + 1);
-        c[1][1][0] = leaf->getValue(o + dx + dy);
-        c[1][1][1] = leaf->getValue(o + dx + dy + 1);
-    } else {
-        for (int a = 0; a < 2; ++a)
-            for (int b = 0; b < 2; ++b)
-                for (int d = 0; d < 2; ++d)
-                    if (a | b | d) c[a][b][d] = acc->getValue(ijk.offsetBy(a, b, d));
-    }
+    float c[2][2][2];
+    // the dense copy where it holds the stencil (the tree's path was 41% of a dragon march
+    // frame, 34% of a thick pathtrace), else the tree
+    if (!denseStencil(dense.get(), ijk, c)) treeStencil(*g, serial, ijk, c);
+    auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
     const float value =
         lerp(lerp(lerp(c[0][0][0], c[0][0][1], w), lerp(c[0][1][0], c[0][1][1], w), v),
              lerp(lerp(c[1][0][0], c[1][0][1], w), lerp(c[1][1][0], c[1][1][1], w), v), u);

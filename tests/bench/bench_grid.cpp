@@ -13,6 +13,7 @@
 
 #include "core/fields/field.h"
 #include "core/fields/grid.h"
+#include "core/sampler.h"
 #include "plugin/vdb/vdb_field.h"
 
 using namespace nimbus;
@@ -52,11 +53,8 @@ void BM_GridDensity(benchmark::State& state) {
     }
     const vec3 voxel = gridVoxelSize(b);
     const float step = 0.5f * std::min(voxel.x, std::min(voxel.y, voxel.z));
-    std::uint32_t h = 12345u;
-    auto u = [&] {
-        h = h * 747796405u + 2891336453u;
-        return float((h >> 8) & 0xffffffu) / 16777216.0f;
-    };
+    Sampler rng{12345u, 0};
+    auto u = [&] { return rng.next(); };
     const Box box = b.bounds;
     std::int64_t lookups = 0;
     float sum = 0.0f;
