@@ -272,7 +272,8 @@ std::string FramePlan::explain() const {
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
           : photons   ? "sun: photons traced through the field, recorded on the light-volume "
-                        "grid; sky: diffusion on that grid"
+                        "grid, with the single scattering exact (no octaves, render.inscatter "
+                        "\"none\"); sky: diffusion on that grid"
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
@@ -483,6 +484,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         const float g = PhaseFunction::fromMedium(s.medium).meanCosine();
         if (g > 0.0f) p.forwardFraction = g * g;
     }
+    p.inScatter = p.photons ? InScatter::None : s.render.inScatter;
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march

@@ -52,6 +52,10 @@ struct FramePlan {
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;
+    /// march: the in-scatter model on the sun's single scattering (render.inscatter), None
+    /// with photons: they trace the light scattered more than once that the empirical models
+    /// stand for, so the single scattering they add to is kept exact (as the octaves stand down)
+    InScatter inScatter = InScatter::None;
     /// march: the sky single-scattered over `skyDirections` directions
     /// (core/lighting/sky_volume.h), their transmittance from shadow marches or (skyVolume) from
     /// density integrals on the light-volume grid

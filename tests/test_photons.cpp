@@ -89,12 +89,34 @@ TEST(Photons, FirstScatteringIsLeftToMarch) {
     const Framebuffer a = renderScene(s);
     s.render.multipleScattering = MultipleScattering::None;
     s.render.octaves = 1;
+    s.render.inScatter = InScatter::None; // single scattering exact, as photons leave it
     const Framebuffer b = renderScene(s);
     EXPECT_EQ(a.rgba, b.rgba);
     // and with more depth they add light
     s = sunBox();
     s.render.photons = 20000;
     EXPECT_GT(meanRgb(renderScene(s)), 1.5 * meanRgb(b));
+}
+
+TEST(Photons, InScatterModelsStandDown) {
+    // the empirical in-scatter terms stand for light scattered more than once, which photons
+    // trace: with photons every render.inscatter gives the image of "none"
+    SceneDesc s = smallCumulus();
+    s.render.inScatter = InScatter::None;
+    s.render.inScatterStrength = 1.0f; // the terms at full weight
+    const Framebuffer none = renderScene(s);
+    for (InScatter m : {InScatter::Olajos, InScatter::Powder}) {
+        s.render.inScatter = m;
+        EXPECT_EQ(Renderer(s).plan(1).inScatter, InScatter::None);
+        EXPECT_EQ(renderScene(s).rgba, none.rgba) << int(m);
+        // with the diffusion grid the setting is live: the same scene's images differ
+        SceneDesc g = s;
+        g.render.multipleScattering = MultipleScattering::Grid;
+        EXPECT_EQ(Renderer(g).plan(1).inScatter, m);
+        SceneDesc gNone = g;
+        gNone.render.inScatter = InScatter::None;
+        EXPECT_GT(relativeRmse(renderScene(g), renderScene(gNone)), 0.01) << int(m);
+    }
 }
 
 TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {

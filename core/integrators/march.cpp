@@ -225,9 +225,9 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                             octavePhase = octavePhase.octave(r.octaveEccentricity);
                         }
                         const vec3 in =
-                            s_.sun.irradiance * kern::inScatterFactor(int(r.inScatter), rho, tau,
-                                                                      medium_.sigma_t, r.inScatterC,
-                                                                      r.inScatterStrength);
+                            s_.sun.irradiance *
+                            kern::inScatterFactor(int(plan_.inScatter), rho, tau, medium_.sigma_t,
+                                                  r.inScatterC, r.inScatterStrength);
                         S += in * sun;
                         SF = in * sunForward;
                     }

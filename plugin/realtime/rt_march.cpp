@@ -343,7 +343,7 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
     P.octaveContribution = r.octaveContribution;
     P.octaveExtinction = r.octaveExtinction;
     P.octaveEccentricity = r.octaveEccentricity;
-    P.inScatter = int(r.inScatter);
+    P.inScatter = int(p.inScatter);
     P.inScatterC = r.inScatterC;
     P.inScatterStrength = r.inScatterStrength;
     P.pixelSamples = std::max(1, r.pixelSamples);

@@ -314,7 +314,9 @@ void addRenderParams(std::vector<Param>& t) {
                                                {"olajos", InScatter::Olajos},
                                                {"powder", InScatter::Powder}},
                           "Approximate in-scatter term: none, Olajos 1 - e^-cd, or Schneider's "
-                          "Beer-powder 2 e^-d (1 - e^-2d).",
+                          "Beer-powder 2 e^-d (1 - e^-2d). None with render.multiple_scattering "
+                          "= \"photons\": photons trace the light scattered more than once "
+                          "that these terms stand for, so the single scattering stays exact.",
                           &RenderDesc::inScatter));
     t.push_back(
         ren.param("inscatter_c", above(0), "The c of Olajos' 1 - e^-cd.", &RenderDesc::inScatterC)
