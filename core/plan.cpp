@@ -271,9 +271,14 @@ std::string FramePlan::explain() const {
     o << "  multiple scattering: "
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
-          : photons   ? "sun: photons traced through the field, recorded on the light-volume "
-                        "grid, with the single scattering exact (no octaves, render.inscatter "
-                        "\"none\"); sky: diffusion on that grid"
+          : photons
+              ? "sun: photons traced through the field, recorded on a grid of voxel " +
+                    std::to_string(photonCell) +
+                    (photonGridBytes > 0.0
+                         ? " (" + std::to_string(int(photonGridBytes / 1048576.0 + 0.5)) + " MB)"
+                         : std::string()) +
+                    ", with the single scattering exact (no octaves, render.inscatter "
+                    "\"none\"); sky: diffusion on the light-volume grid"
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
@@ -485,6 +490,12 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         if (g > 0.0f) p.forwardFraction = g * g;
     }
     p.inScatter = p.photons ? InScatter::None : s.render.inScatter;
+    // photons record on their own grid of half the majorant cell, unless the scene sets the
+    // light-volume cell (docs/accuracy.md, "Photons on the matrix": the light scattered more
+    // than once varies within a majorant cell, most near lit surfaces)
+    if (p.photons)
+        p.photonCell =
+            s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : 0.5f * p.majorantCell;
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
@@ -506,7 +517,8 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.sunDepthVolume = p.shadowRoulette || p.lightVolume ||
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
-    p.densityGrid = p.diffusion || p.photons;
+    // (photons on a grid of their own read their densities there)
+    p.densityGrid = p.diffusion || (p.photons && p.photonCell == p.lightVolumeCell);
     // what Renderer::render builds on the light-volume grid (the densities are kept for the sky
     // volume too when density integrals are built beside it)
     const int integrals = (p.sunDepthVolume ? 1 : 0) + (p.columnVolumes ? 2 : 0);
@@ -514,6 +526,13 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     if (p.lightGrids > 0 && !bounds.empty()) { // (a VDB field unread for --explain: unknown)
         const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.lightGridBytes = double(res.x) * res.y * res.z * p.lightGrids * sizeof(float);
+    }
+    if (p.photons && !bounds.empty()) {
+        // the photon grid: per voxel a density, an index, an RGB value and its filled copy
+        // (core/lighting/photons.cpp); the sums of the voxels that record, three 64-bit
+        // integers per thread, come on top
+        const ivec3 res = lightVolumeResolution(bounds, p.photonCell);
+        p.photonGridBytes = double(res.x) * res.y * res.z * (4.0 + 4.0 + 12.0 + 12.0);
     }
     checkBounds(s, bounds, p);
     // motion blur: only with the shutter open and something placed that moves

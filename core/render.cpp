@@ -387,7 +387,17 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
             pp.sunTau = towardVolume;
             pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
         }
-        out.photons = tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cancel);
+        if (plan.photonCell == plan.lightVolumeCell) {
+            out.photons =
+                tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cancel);
+        } else {
+            // a grid of their own (FramePlan::photonCell), its densities at its voxel centres
+            LightVolume geometry = lightVolumeGrid(field, plan.photonCell);
+            const std::vector<float> photonRho = densityAtCentres(
+                field, geometry.bounds, geometry.res, g, geometry.densityLookups, cancel);
+            out.photons = tracePhotons(vs, medium.phase, geometry, photonRho, pp, surfaces, cancel);
+            out.photons.lookups += geometry.densityLookups;
+        }
         out.hasPhotons = true;
         stats.photonSeconds = secondsSince(t0);
         stats.photonLookups = out.photons.lookups;

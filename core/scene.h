@@ -354,7 +354,8 @@ struct RenderDesc {
     float shadowStepVoxels = 1.0f;             ///< the same for shadowStep = 0
     float shadowGrowth = 0.3f;                 ///< shadow steps grow geometrically by this factor
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
-    float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
+    float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell (and
+                                  ///< half of it for the photons' grid)
     bool skipEmpty = true;        ///< use the majorant grid to skip empty space
     bool sdfTrace = true; ///< SDF clouds: skip by sphere tracing the distance bound (else the grid)
     /// Instanced volumes: per-instance majorant grids found through the instance boxes

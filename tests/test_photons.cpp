@@ -162,3 +162,22 @@ TEST(Photons, PlanNamesThemAndLeavesOutWhatIsNotNeeded) {
     s.render.integrator = Integrator::PathTrace;
     EXPECT_FALSE(Renderer(s).plan(1).photons);
 }
+
+TEST(Photons, RecordOnHalfTheMajorantCellUnlessTheSceneSetsOne) {
+    SceneDesc s = smallCumulus();
+    const FramePlan p = Renderer(s).plan(1);
+    ASSERT_GT(p.majorantCell, 0.0f);
+    EXPECT_FLOAT_EQ(p.photonCell, 0.5f * p.majorantCell);
+    EXPECT_FLOAT_EQ(p.lightVolumeCell, p.majorantCell) << "the other grids keep the cell";
+    EXPECT_GT(p.photonGridBytes, 0.0);
+    RenderStats st;
+    const Framebuffer fb = renderScene(s, &st);
+    EXPECT_GT(st.photonsTraced, 0u);
+    EXPECT_GT(meanRgb(fb), 0.0);
+    s.render.lightVolumeCell = 0.3f;
+    const FramePlan set = Renderer(s).plan(1);
+    EXPECT_FLOAT_EQ(set.photonCell, 0.3f);
+    EXPECT_FLOAT_EQ(set.lightVolumeCell, 0.3f);
+    s.render.multipleScattering = MultipleScattering::Grid;
+    EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.0f) << "no photons, no photon grid";
+}

@@ -59,22 +59,24 @@ void addRenderParams(std::vector<Param>& t) {
                           "(Fizimayer 2008) and read trilinearly.",
                           &RenderDesc::shadow)
                     .usedWhen("render.integrator = \"march\"", marching));
-    t.push_back(ren.param("light_volume_cell", atLeast(0),
-                          "Voxel size of the light-attenuation volumes (sun shadows, multiple "
-                          "scattering, column sky occlusion, single-scattered sky; world "
-                          "units); 0 = the majorant cell.",
-                          &RenderDesc::lightVolumeCell)
-                    .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
-                              "\"grid\" or \"photons\", render.sky_occlusion = "
-                              "\"column\" or render.sky_shadow = \"volume\"",
-                              [](const SceneFile& f) {
-                                  const RenderDesc& r = f.scene.render;
-                                  return r.shadow == ShadowMethod::Volume ||
-                                         r.multipleScattering != MultipleScattering::None ||
-                                         r.skyOcclusion == SkyOcclusion::Column ||
-                                         (r.skyScattering == SkyScattering::Single &&
-                                          r.skyShadow == SkyShadow::Volume);
-                              }));
+    t.push_back(
+        ren.param("light_volume_cell", atLeast(0),
+                  "Voxel size of the light-attenuation volumes (sun shadows, multiple "
+                  "scattering, column sky occlusion, single-scattered sky; world "
+                  "units); 0 = the majorant cell (half of it with render.multiple_scattering = "
+                  "\"photons\", whose light varies within a cell).",
+                  &RenderDesc::lightVolumeCell)
+            .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
+                      "\"grid\" or \"photons\", render.sky_occlusion = "
+                      "\"column\" or render.sky_shadow = \"volume\"",
+                      [](const SceneFile& f) {
+                          const RenderDesc& r = f.scene.render;
+                          return r.shadow == ShadowMethod::Volume ||
+                                 r.multipleScattering != MultipleScattering::None ||
+                                 r.skyOcclusion == SkyOcclusion::Column ||
+                                 (r.skyScattering == SkyScattering::Single &&
+                                  r.skyShadow == SkyShadow::Volume);
+                      }));
     auto hasVdb = [](const SceneFile& f) {
         return f.scene.field.kind == FieldKind::Vdb || !f.scene.volumes.empty();
     };
