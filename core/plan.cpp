@@ -490,12 +490,9 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         if (g > 0.0f) p.forwardFraction = g * g;
     }
     p.inScatter = p.photons ? InScatter::None : s.render.inScatter;
-    // photons record on their own grid of half the majorant cell, unless the scene sets the
-    // light-volume cell (docs/accuracy.md, "Photons on the matrix": the light scattered more
-    // than once varies within a majorant cell, most near lit surfaces)
-    if (p.photons)
-        p.photonCell =
-            s.render.lightVolumeCell > 0.0f ? s.render.lightVolumeCell : 0.5f * p.majorantCell;
+    // photons record on the light-volume grid, or on a grid of their own at
+    // render.photon_cell_scale of its cell (docs/accuracy.md, "Photons on the matrix")
+    if (p.photons) p.photonCell = p.lightVolumeCell * s.render.photonCellScale;
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march

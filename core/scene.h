@@ -354,8 +354,7 @@ struct RenderDesc {
     float shadowStepVoxels = 1.0f;             ///< the same for shadowStep = 0
     float shadowGrowth = 0.3f;                 ///< shadow steps grow geometrically by this factor
     ShadowMethod shadow = ShadowMethod::March; ///< sun transmittance: shadow marches or volume
-    float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell (and
-                                  ///< half of it for the photons' grid)
+    float lightVolumeCell = 0.0f; ///< light-attenuation voxel size; 0 = the majorant cell
     bool skipEmpty = true;        ///< use the majorant grid to skip empty space
     bool sdfTrace = true; ///< SDF clouds: skip by sphere tracing the distance bound (else the grid)
     /// Instanced volumes: per-instance majorant grids found through the instance boxes
@@ -388,6 +387,8 @@ struct RenderDesc {
     /// max(exp(-photonSkin sigma_t tau_sun), 0.1) with the density integral toward the sun
     /// (core/lighting/photons.h); 0 = flat over the voxel
     float photonSkin = 0.0f;
+    /// The photons' grid: its voxel in light-volume cells (1 = the light-volume grid itself)
+    float photonCellScale = 1.0f;
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

@@ -163,21 +163,27 @@ TEST(Photons, PlanNamesThemAndLeavesOutWhatIsNotNeeded) {
     EXPECT_FALSE(Renderer(s).plan(1).photons);
 }
 
-TEST(Photons, RecordOnHalfTheMajorantCellUnlessTheSceneSetsOne) {
+TEST(Photons, PhotonCellScaleGivesThemAGridOfTheirOwn) {
     SceneDesc s = smallCumulus();
     const FramePlan p = Renderer(s).plan(1);
     ASSERT_GT(p.majorantCell, 0.0f);
-    EXPECT_FLOAT_EQ(p.photonCell, 0.5f * p.majorantCell);
-    EXPECT_FLOAT_EQ(p.lightVolumeCell, p.majorantCell) << "the other grids keep the cell";
-    EXPECT_GT(p.photonGridBytes, 0.0);
+    EXPECT_FLOAT_EQ(p.photonCell, p.lightVolumeCell) << "by default the light-volume grid";
+    RenderStats one;
+    const Framebuffer a = renderScene(s, &one);
+    s.render.photonCellScale = 0.5f;
+    const FramePlan half = Renderer(s).plan(1);
+    EXPECT_FLOAT_EQ(half.photonCell, 0.5f * half.lightVolumeCell);
+    EXPECT_FLOAT_EQ(half.lightVolumeCell, p.lightVolumeCell) << "the other grids keep the cell";
+    EXPECT_GT(half.photonGridBytes, 4.0 * p.photonGridBytes);
     RenderStats st;
-    const Framebuffer fb = renderScene(s, &st);
-    EXPECT_GT(st.photonsTraced, 0u);
-    EXPECT_GT(meanRgb(fb), 0.0);
+    const Framebuffer b = renderScene(s, &st);
+    EXPECT_EQ(st.photonsTraced, one.photonsTraced);
+    // the grid of their own reads its densities: more lookups, the same light on average
+    EXPECT_GT(st.photonLookups, one.photonLookups);
+    EXPECT_NE(a.rgba, b.rgba);
+    EXPECT_NEAR(meanRgb(b) / meanRgb(a), 1.0, 0.05);
     s.render.lightVolumeCell = 0.3f;
-    const FramePlan set = Renderer(s).plan(1);
-    EXPECT_FLOAT_EQ(set.photonCell, 0.3f);
-    EXPECT_FLOAT_EQ(set.lightVolumeCell, 0.3f);
+    EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.15f);
     s.render.multipleScattering = MultipleScattering::Grid;
     EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.0f) << "no photons, no photon grid";
 }
