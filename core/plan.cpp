@@ -102,6 +102,14 @@ double stepsPerRay(double len, double step, double growth) {
     return tg / step + std::log(len / tg) / std::log1p(growth);
 }
 
+/// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
+std::string megabytes(double bytes) {
+    if (!(bytes > 0.0)) return "";
+    char buf[48];
+    std::snprintf(buf, sizeof buf, " (%.1f MB)", bytes / 1048576.0);
+    return buf;
+}
+
 /// The plan's refusals (grids past kMaxGridCells) and warnings (absurd steps per ray) for the
 /// field's bounds `b`.
 void checkBounds(const SceneDesc& s, const Box& b, FramePlan& p) {
@@ -138,6 +146,12 @@ void checkBounds(const SceneDesc& s, const Box& b, FramePlan& p) {
                                                    : "render.light_volume_cell or "
                                                      "render.majorant_cell",
                    key, p.lightVolumeCell, n, dirs);
+    }
+    if (p.photons && p.photonCell != p.lightVolumeCell) {
+        const double n = gridCells(b, p.photonCell, res);
+        if (n > kMaxGridCells)
+            refuse("render.photon_cell_scale", "render.photon_cell_scale x the light-volume cell",
+                   p.photonCell, n, 1.0);
     }
     {
         // float precision far from the origin: positions there are quantised to
@@ -271,14 +285,10 @@ std::string FramePlan::explain() const {
     o << "  multiple scattering: "
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
-          : photons
-              ? "sun: photons traced through the field, recorded on a grid of voxel " +
-                    std::to_string(photonCell) +
-                    (photonGridBytes > 0.0
-                         ? " (" + std::to_string(int(photonGridBytes / 1048576.0 + 0.5)) + " MB)"
-                         : std::string()) +
-                    ", with the single scattering exact (no octaves, render.inscatter "
-                    "\"none\"); sky: diffusion on the light-volume grid"
+          : photons   ? "sun: photons traced through the field, recorded on a grid of voxel " +
+                          std::to_string(photonCell) + megabytes(photonGridBytes) +
+                          ", with the single scattering exact (no octaves, render.inscatter "
+                          "\"none\"); sky: diffusion on the light-volume grid"
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";

@@ -49,8 +49,8 @@ struct FramePlan {
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
-    /// photons: the voxel of the grid they record on (world units) and its memory (with one
-    /// thread's sums; 0 while a VDB field is unread)
+    /// photons: the voxel of the grid they record on (world units) and its memory (without the
+    /// per-thread sums of the voxels that record; 0 while a VDB field is unread)
     float photonCell = 0.0f;
     double photonGridBytes = 0.0;
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's

@@ -184,6 +184,11 @@ TEST(Photons, PhotonCellScaleGivesThemAGridOfTheirOwn) {
     EXPECT_NEAR(meanRgb(b) / meanRgb(a), 1.0, 0.05);
     s.render.lightVolumeCell = 0.3f;
     EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.15f);
+    // a grid past the cell limit is refused, naming the key, before anything is allocated
+    s.render.lightVolumeCell = 0.05f; // 240 x 50 x 240 cells; the photons' 512 times that
+    s.render.photonCellScale = 0.125f;
+    const FramePlan big = Renderer(s).plan(1);
+    EXPECT_NE(big.refusal.find("render.photon_cell_scale"), std::string::npos) << big.refusal;
     s.render.multipleScattering = MultipleScattering::Grid;
     EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.0f) << "no photons, no photon grid";
 }
