@@ -754,6 +754,10 @@ TEST(RtMarchParity, PhotonGrid) {
     // with the skin profile (the density integral toward the sun from the light volume)
     EXPECT_GE(gpuAgainstCpu(1, {"render.photon_skin=0.2"}, "ms_photons_skin", &maxAbs, "photons"),
               45.0);
+    // on a grid of their own, finer than the light volume (render.photon_cell_scale)
+    EXPECT_GE(
+        gpuAgainstCpu(1, {"render.photon_cell_scale=0.5"}, "ms_photons_half", &maxAbs, "photons"),
+        45.0);
 }
 
 // --- VDB grids (field.kind = "vdb", RT_VDB): PNanoVDB in GLSL against NanoVDB on the CPU --------
