@@ -147,7 +147,7 @@ void checkBounds(const SceneDesc& s, const Box& b, FramePlan& p) {
                                                      "render.majorant_cell",
                    key, p.lightVolumeCell, n, dirs);
     }
-    if (p.photons && p.photonCell != p.lightVolumeCell) {
+    if (p.photonsOwnGrid()) {
         const double n = gridCells(b, p.photonCell, res);
         if (n > kMaxGridCells)
             refuse("render.photon_cell_scale", "render.photon_cell_scale x the light-volume cell",
@@ -525,7 +525,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
     // (photons on a grid of their own read their densities there)
-    p.densityGrid = p.diffusion || (p.photons && p.photonCell == p.lightVolumeCell);
+    p.densityGrid = p.diffusion || (p.photons && !p.photonsOwnGrid());
     // what Renderer::render builds on the light-volume grid (the densities are kept for the sky
     // volume too when density integrals are built beside it)
     const int integrals = (p.sunDepthVolume ? 1 : 0) + (p.columnVolumes ? 2 : 0);

@@ -53,6 +53,8 @@ struct FramePlan {
     /// per-thread sums of the voxels that record; 0 while a VDB field is unread)
     float photonCell = 0.0f;
     double photonGridBytes = 0.0;
+    /// photons record on a grid of their own, not on the light-volume grid
+    bool photonsOwnGrid() const { return photons && photonCell != lightVolumeCell; }
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;

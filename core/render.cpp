@@ -336,10 +336,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
                                         needRho ? &rho : nullptr, cancel);
         } else {
             // the densities alone, on the grid's geometry: no density integral is needed
-            LightVolume geometry = lightVolumeGrid(field, plan.lightVolumeCell);
-            rho = densityAtCentres(field, geometry.bounds, geometry.res, g, geometry.densityLookups,
-                                   cancel);
-            volumes.push_back(std::move(geometry));
+            volumes.push_back(densityGrid(field, plan.lightVolumeCell, g, rho, cancel));
         }
         stats.lightVolumeSeconds = secondsSince(t0);
         stats.lightVolumeLookups = volumes.front().densityLookups;
@@ -387,16 +384,15 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
             pp.sunTau = towardVolume;
             pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
         }
-        if (plan.photonCell == plan.lightVolumeCell) {
+        if (plan.photonsOwnGrid()) {
+            // a grid of their own (FramePlan::photonCell), its densities at its voxel centres
+            std::vector<float> photonRho;
+            const LightVolume own = densityGrid(field, plan.photonCell, g, photonRho, cancel);
+            out.photons = tracePhotons(vs, medium.phase, own, photonRho, pp, surfaces, cancel);
+            out.photons.lookups += own.densityLookups;
+        } else {
             out.photons =
                 tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cancel);
-        } else {
-            // a grid of their own (FramePlan::photonCell), its densities at its voxel centres
-            LightVolume geometry = lightVolumeGrid(field, plan.photonCell);
-            const std::vector<float> photonRho = densityAtCentres(
-                field, geometry.bounds, geometry.res, g, geometry.densityLookups, cancel);
-            out.photons = tracePhotons(vs, medium.phase, geometry, photonRho, pp, surfaces, cancel);
-            out.photons.lookups += geometry.densityLookups;
         }
         out.hasPhotons = true;
         stats.photonSeconds = secondsSince(t0);

@@ -141,13 +141,19 @@ LightVolume lightVolumeGrid(const Field& field, float cell) {
     return lv;
 }
 
+LightVolume densityGrid(const Field& field, float cell, const MajorantGrid* grid,
+                        std::vector<float>& rho, const std::atomic<bool>* cancel) {
+    LightVolume lv = lightVolumeGrid(field, cell);
+    rho = densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups, cancel);
+    return lv;
+}
+
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid,
                                            std::vector<float>* rhoOut,
                                            const std::atomic<bool>* cancel) {
-    LightVolume lv = lightVolumeGrid(field, cell);
-    std::vector<float> rho =
-        densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups, cancel);
+    std::vector<float> rho;
+    const LightVolume lv = densityGrid(field, cell, grid, rho, cancel);
 
     std::vector<LightVolume> out;
     for (const vec3& d : dirs) {

@@ -48,6 +48,11 @@ ivec3 lightVolumeResolution(const Box& bounds, float cell);
 /// field's bounds, at least 2 voxels per axis; `tau` left empty.
 LightVolume lightVolumeGrid(const Field& field, float cell);
 
+/// lightVolumeGrid(field, cell) with the densities at its voxel centres in `rho`
+/// (densityAtCentres; its lookups counted in the grid's densityLookups).
+LightVolume densityGrid(const Field& field, float cell, const MajorantGrid* grid,
+                        std::vector<float>& rho, const std::atomic<bool>* cancel = nullptr);
+
 /// Fills lv.tau with the density integral toward `direction` from the densities `rho` at its
 /// voxel centres (the slice-by-slice propagation described above). Stops early once `cancel`
 /// is set.
