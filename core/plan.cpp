@@ -285,10 +285,16 @@ std::string FramePlan::explain() const {
     o << "  multiple scattering: "
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
-          : photons   ? "sun: photons traced through the field, recorded on a grid of voxel " +
-                          std::to_string(photonCell) + megabytes(photonGridBytes) +
-                          ", with the single scattering exact (no octaves, render.inscatter "
-                          "\"none\"); sky: diffusion on the light-volume grid"
+          : photons
+              ? "sun: photons traced through the field, recorded on a grid of voxel " +
+                    std::to_string(photonCell) + megabytes(photonGridBytes) +
+                    ", with the single scattering exact (no octaves, render.inscatter "
+                    "\"none\")" +
+                    (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
+                                             " scatterings, the higher orders from their light "
+                                             "diffused on the light-volume grid"
+                                       : std::string()) +
+                    "; sky: diffusion on the light-volume grid"
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
@@ -484,11 +490,13 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     const bool inScatter = marching && p.scatters;
     p.photons = inScatter && oneVolume && p.shadows &&
                 s.render.multipleScattering == MultipleScattering::Photons;
+    if (p.photons) p.photonBounces = std::max(0, s.render.photonBounces);
     // the sky's multiple scattering is the diffusion grid's in either model
     p.diffusion =
         inScatter && oneVolume &&
         ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
-         (s.render.multipleScattering == MultipleScattering::Photons && p.ambient));
+         (s.render.multipleScattering == MultipleScattering::Photons &&
+          (p.ambient || p.photonBounces > 0)));
     p.skySingle =
         inScatter && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
     // part of the diffusion grid's model of the sun's multiple scattering (its source is what

@@ -55,6 +55,10 @@ struct FramePlan {
     double photonGridBytes = 0.0;
     /// photons record on a grid of their own, not on the light-volume grid
     bool photonsOwnGrid() const { return photons && photonCell != lightVolumeCell; }
+    /// photons: the scatterings they are traced through before the diffusion grid takes their
+    /// light as its source (render.photon_bounces; 0 = traced to render.max_depth, the grid
+    /// carries only the sky)
+    int photonBounces = 0;
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;

@@ -359,16 +359,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
     }
     if (cancelRequested(cancel)) return out;
     const Medium medium = Medium::fromDesc(s.medium);
-    if (diffusion) {
-        t0 = std::chrono::steady_clock::now();
-        DiffusionParams dp = diffusionParams(s, plan, medium);
-        dp.cancel = cancel;
-        out.diffusion = solveDiffusion(volumes.front(), rho,
-                                       towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
-        out.hasDiffusion = true;
-        stats.diffusionSeconds = secondsSince(t0);
-        stats.diffusionIterations = out.diffusion.iterations;
-    }
+    // photons first: with a hand-off they give the diffusion grid its source
     if (photons) {
         t0 = std::chrono::steady_clock::now();
         PhotonParams pp;
@@ -380,6 +371,11 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.photons = s.render.photons;
         pp.maxDepth = s.render.maxDepth;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
+        if (plan.photonBounces > 0 && diffusion) {
+            // the higher orders go on in the diffusion grid (its source, below)
+            pp.handOff = plan.photonBounces;
+            pp.handOffGrid = &volumes.front();
+        }
         if (s.render.photonSkin > 0.0f) {
             pp.sunTau = towardVolume;
             pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
@@ -398,6 +394,18 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         stats.photonSeconds = secondsSince(t0);
         stats.photonLookups = out.photons.lookups;
         stats.photonsTraced = out.photons.traced;
+        stats.photonsHandedOff = out.photons.handedOff;
+    }
+    if (diffusion) {
+        t0 = std::chrono::steady_clock::now();
+        DiffusionParams dp = diffusionParams(s, plan, medium);
+        dp.cancel = cancel;
+        if (out.hasPhotons && !out.photons.source.empty()) dp.source = &out.photons.source;
+        out.diffusion = solveDiffusion(volumes.front(), rho,
+                                       towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
+        out.hasDiffusion = true;
+        stats.diffusionSeconds = secondsSince(t0);
+        stats.diffusionIterations = out.diffusion.iterations;
     }
     return out;
 }

@@ -59,6 +59,8 @@ struct RenderStats {
     int diffusionIterations = 0;
     double photonSeconds = 0.0;      ///< march: tracing the photons of the sun
     std::uint64_t photonsTraced = 0; ///< photons that left the sun
+    /// photons whose light went on in the diffusion grid (render.photon_bounces)
+    std::uint64_t photonsHandedOff = 0;
     std::uint64_t photonLookups = 0; ///< density lookups spent on them
     double skyVolumeSeconds = 0.0;   ///< march: the single-scattered sky's density integrals
     std::size_t skyVolumeBytes = 0;

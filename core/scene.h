@@ -389,6 +389,9 @@ struct RenderDesc {
     float photonSkin = 0.0f;
     /// The photons' grid: its voxel in light-volume cells (1 = the light-volume grid itself)
     float photonCellScale = 1.0f;
+    /// Photons: the scatterings a photon is traced through; at the next one its light goes to
+    /// the diffusion grid as a source (core/lighting/photons.h); 0 = traced to maxDepth
+    int photonBounces = 0;
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

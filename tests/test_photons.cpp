@@ -192,3 +192,38 @@ TEST(Photons, PhotonCellScaleGivesThemAGridOfTheirOwn) {
     s.render.multipleScattering = MultipleScattering::Grid;
     EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.0f) << "no photons, no photon grid";
 }
+
+TEST(Photons, HandOffToTheDiffusionGridKeepsTheirLight) {
+    // render.photon_bounces: photons are traced through that many scatterings and their light
+    // goes on in the diffusion grid. On the albedo-1 box (optical depth 16) most of the image is
+    // light scattered more than once; the hand-off must keep it, where photons cut off at the
+    // same depth without it lose a visible part.
+    SceneDesc s = sunBox();
+    s.render.photons = 100000;
+    const Framebuffer full = renderScene(s);
+    RenderStats none;
+    s.render.photonBounces = 1 << 20; // never reached: nothing handed off
+    EXPECT_EQ(renderScene(s, &none).rgba, full.rgba);
+    EXPECT_EQ(none.photonsHandedOff, 0u);
+
+    s.render.photonBounces = 4;
+    const FramePlan p = Renderer(s).plan(1);
+    EXPECT_TRUE(p.diffusion) << "the hand-off's grid, with no sky";
+    EXPECT_EQ(p.photonBounces, 4);
+    EXPECT_NE(p.explain().find("4 scatterings"), std::string::npos) << p.explain();
+    RenderStats st;
+    const Framebuffer handOff = renderScene(s, &st);
+    EXPECT_GT(st.photonsHandedOff, st.photonsTraced / 10) << st.photonsTraced;
+
+    SceneDesc cut = sunBox();
+    cut.render.photons = 100000;
+    cut.render.maxDepth = 5; // the same photons' walks, ended without a hand-off
+    const Framebuffer truncated = renderScene(cut);
+    const double mFull = meanRgb(full);
+    RecordProperty("mean_ratio_hand_off", std::to_string(meanRgb(handOff) / mFull));
+    RecordProperty("mean_ratio_truncated", std::to_string(meanRgb(truncated) / mFull));
+    RecordProperty("relative_rmse_hand_off", std::to_string(relativeRmse(handOff, full)));
+    EXPECT_NEAR(meanRgb(handOff) / mFull, 1.0, 0.05);
+    EXPECT_LT(meanRgb(truncated) / mFull, 0.9);
+    EXPECT_LT(relativeRmse(handOff, full), 0.5 * relativeRmse(truncated, full));
+}

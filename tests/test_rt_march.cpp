@@ -758,6 +758,11 @@ TEST(RtMarchParity, PhotonGrid) {
     EXPECT_GE(
         gpuAgainstCpu(1, {"render.photon_cell_scale=0.5"}, "ms_photons_half", &maxAbs, "photons"),
         45.0);
+    // traced through 4 scatterings, the higher orders diffused from their light
+    // (render.photon_bounces: the diffusion grid the GPU reads carries them)
+    EXPECT_GE(
+        gpuAgainstCpu(1, {"render.photon_bounces=4"}, "ms_photons_hand_off", &maxAbs, "photons"),
+        45.0);
 }
 
 // --- VDB grids (field.kind = "vdb", RT_VDB): PNanoVDB in GLSL against NanoVDB on the CPU --------

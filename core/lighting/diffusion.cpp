@@ -127,6 +127,31 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                 }
             }
     dv.activeVoxels = cells.size();
+    // an external source (the photons' hand-off) per active voxel, the share of an inactive
+    // voxel split among its active face neighbours (lost where it has none)
+    std::vector<vec3> extra;
+    if (p.source && p.source->size() == n) {
+        extra.assign(cells.size(), vec3(0.0f));
+        for (size_t i = 0; i < n; ++i) {
+            const vec3 q = (*p.source)[i];
+            if (maxComponent(q) <= 0.0f) continue;
+            if (active[i] >= 0) {
+                extra[size_t(active[i])] += q * V;
+                continue;
+            }
+            const ivec3 c(int(i % res.x), int((i / res.x) % res.y),
+                          int(i / (size_t(res.x) * res.y)));
+            int nb[6], count = 0;
+            for (int f = 0; f < 6; ++f) {
+                ivec3 qn = c;
+                qn[f / 2] += (f & 1) ? 1 : -1;
+                if (qn[f / 2] < 0 || qn[f / 2] >= res[f / 2]) continue;
+                const int j = active[index(res, qn.x, qn.y, qn.z)];
+                if (j >= 0) nb[count++] = j;
+            }
+            for (int m = 0; m < count; ++m) extra[size_t(nb[m])] += q * V / float(count);
+        }
+    }
     tbb::parallel_for(size_t(0), cells.size(), [&](size_t k) {
         Cell& c = cells[k];
         const size_t i = c.idx;
@@ -168,6 +193,7 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
         // the first-scattered sun light, limited to what raises the voxel's own fluence by
         // kSunFluenceLimit E (subtracting 0 where the limit is not reached keeps rhs exact)
         if (sun) rhs -= glm::max(vec3(0.0f), sunQ - kSunFluenceLimit * p.sunIrradiance * diag);
+        if (!extra.empty()) rhs += extra[k];
         c.invDiag = 1.0f / diag;
         c.rhs = rhs;
     });

@@ -61,7 +61,11 @@ struct DiffusionParams {
     /// render.forward_scattering): the source is the light leaving a beam attenuated by
     /// sigma_t - f sigma_s, sigma_s (1 - f) of it per unit length; 0 = every first scattering
     float forwardFraction = 0.0f;
-    vec3 sunIrradiance{0.0f};            ///< 0 = no sun
+    vec3 sunIrradiance{0.0f}; ///< 0 = no sun
+    /// Emitted power per unit volume at each voxel of the grid, added to the sun's source (the
+    /// photons' hand-off, core/lighting/photons.h); null or of another size = none. What falls
+    /// in a voxel that takes no part in the solve goes to its neighbours that do.
+    const std::vector<vec3>* source = nullptr;
     vec3 sunDirection{0.0f, 1.0f, 0.0f}; ///< toward the sun (unit)
     /// Sky radiance seen through a face of a voxel, by the face's outward normal: up, down,
     /// sideways (the means over those hemispheres); 0 = no sky.

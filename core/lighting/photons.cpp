@@ -1,6 +1,7 @@
 #include "core/lighting/photons.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -139,6 +140,13 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         t.sum.assign(3 * cells.size(), 0);
         return t;
     });
+    // the hand-off's sums: one shared array of 64-bit integers (a photon adds to it once, at
+    // the end of its walk; integer sums are the same in any order)
+    const LightVolume* hg = p.handOff > 0 ? p.handOffGrid : nullptr;
+    const size_t nh = hg ? size_t(hg->res.x) * hg->res.y * hg->res.z : 0;
+    std::vector<std::atomic<std::int64_t>> handOffSum(3 * nh);
+    for (auto& v : handOffSum) v.store(0, std::memory_order_relaxed);
+    std::atomic<std::uint64_t> handedOff{0};
     const std::uint32_t key = kern::pcg(p.seed ^ 0x7f4a7c15u);
     tbb::parallel_for(
         tbb::blocked_range<std::int64_t>(0, p.photons, 256),
@@ -211,6 +219,22 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                             return true;
                         });
                     if (!collided) break; // left the volume (or hit a surface)
+                    if (hg && depth == p.handOff) {
+                        // its (handOff + 1)-th scattering: the light it sends on is the
+                        // diffusion grid's from here
+                        const vec3 q = ray.at(tHit);
+                        const ivec3 c =
+                            glm::clamp(ivec3(glm::floor((q - hg->bounds.lo) / hg->voxel)), ivec3(0),
+                                       hg->res - ivec3(1));
+                        const size_t k = index(hg->res, c.x, c.y, c.z);
+                        const vec3 val = glm::min(w, vec3(kMaxDeposit));
+                        for (int ch = 0; ch < 3; ++ch)
+                            handOffSum[3 * k + ch].fetch_add(
+                                std::int64_t(std::llround(double(val[ch]) * kFixed)),
+                                std::memory_order_relaxed);
+                        handedOff.fetch_add(1, std::memory_order_relaxed);
+                        break;
+                    }
                     // Russian roulette once absorption has taken weight
                     const float m = maxComponent(w);
                     if (m < 1.0f) {
@@ -241,6 +265,17 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
             flux * invVolume *
             vec3(float(double(sum[3 * k]) / kFixed), float(double(sum[3 * k + 1]) / kFixed),
                  float(double(sum[3 * k + 2]) / kFixed));
+
+    if (hg) {
+        const float invHandOffVolume = 1.0f / (hg->voxel.x * hg->voxel.y * hg->voxel.z);
+        pv.source.assign(nh, vec3(0.0f));
+        for (size_t k = 0; k < nh; ++k)
+            for (int ch = 0; ch < 3; ++ch)
+                pv.source[k][ch] =
+                    flux[ch] * invHandOffVolume *
+                    float(double(handOffSum[3 * k + ch].load(std::memory_order_relaxed)) / kFixed);
+        pv.handedOff = handedOff.load();
+    }
 
     // voxels that do not record take the mean of their recording face neighbours, so that
     // trilinear lookups near the edge of the cloud do not blend toward zero

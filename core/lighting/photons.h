@@ -56,6 +56,11 @@ struct PhotonParams {
     const LightVolume* sunTau = nullptr;
     float skinK = 0.0f;
     float skinFloor = 0.1f; ///< the profile's lower bound
+    /// Hand-off to the diffusion grid (render.photon_bounces): a photon is traced through this
+    /// many scatterings and recorded; at its next scattering the light it carries is added to
+    /// `handOffGrid`'s voxel as emitted power (PhotonVolume::source) and its walk ends. 0 = none.
+    int handOff = 0;
+    const LightVolume* handOffGrid = nullptr;
 };
 
 struct PhotonVolume {
@@ -72,8 +77,12 @@ struct PhotonVolume {
         return sunTau && skinK > 0.0f ? std::max(std::exp(-skinK * sunTau->sample(p)), skinFloor)
                                       : 1.0f;
     }
-    std::uint64_t lookups = 0; ///< density lookups spent (filling its density grid, tracking)
-    std::uint64_t traced = 0;  ///< photons that left the sun (fewer than asked when cancelled)
+    /// With a hand-off: the power the photons' next scatterings emit per unit volume, at the
+    /// voxels of PhotonParams::handOffGrid (the diffusion grid's source); else empty
+    std::vector<vec3> source;
+    std::uint64_t handedOff = 0; ///< photons whose walk went on in the diffusion grid
+    std::uint64_t lookups = 0;   ///< density lookups spent (filling its density grid, tracking)
+    std::uint64_t traced = 0;    ///< photons that left the sun (fewer than asked when cancelled)
 
     /// Trilinear lookup at world point p, times the skin profile there.
     vec3 sample(vec3 p) const;

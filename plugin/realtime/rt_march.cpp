@@ -459,10 +459,14 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
       << (f.ambient ? ", sky ambient (height occlusion)" : ", no sky ambient")
       << (f.backgroundSky ? ", sky background" : ", transparent background")
       << "; multiple-scattering grids: "
-      << (f.diffusion && f.photons ? "photons (sun) and diffusion (sky)"
-          : f.diffusion            ? "diffusion"
-          : f.photons              ? "photons"
-                                   : "none")
+      << (f.diffusion && f.photons
+              ? (p.photonBounces > 0
+                     ? "photons (the sun's first " + std::to_string(p.photonBounces) +
+                           " scatterings) and diffusion (the higher orders, the sky)"
+                     : std::string("photons (sun) and diffusion (sky)"))
+          : f.diffusion ? std::string("diffusion")
+          : f.photons   ? std::string("photons")
+                        : std::string("none"))
       << (f.photonSkin ? ", the photons' skin profile" : "")
       << (f.diffusion || f.photons ? " (computed on the CPU, read from buffers)" : "") << "\n";
     o << "  GPU pixels: " << s.render.pixelSamples << " sample(s) per pixel\n";

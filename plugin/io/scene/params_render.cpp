@@ -233,6 +233,14 @@ void addRenderParams(std::vector<Param>& t) {
                           "where it doubled the flicker (docs/accuracy.md).",
                           &RenderDesc::photonCellScale)
                     .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+    t.push_back(ren.param("photon_bounces", closed(0, 1 << 20),
+                          "Photons: the scatterings each photon is traced through; at its next "
+                          "one the light it carries becomes a source of the diffusion grid, "
+                          "which carries the higher orders (smooth deep inside a thick cloud, "
+                          "where a photon's walk is long). 0 = photons are traced to "
+                          "render.max_depth and the grid carries only the sky.",
+                          &RenderDesc::photonBounces)
+                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
     t.push_back(ren.param("ms_strength", atLeast(0),
                           "Scale of the grid's multiply scattered sun light (1 = the diffusion "
                           "solution, which loses light in moderately thick, porous cloud; the "
