@@ -43,6 +43,26 @@ struct Tally {
     std::uint64_t traced = 0;
 };
 
+/// A photon's tentative collisions in one voxel along one straight flight, added up before they
+/// go to the voxel's sum: the phase function toward the camera is evaluated once per run, and
+/// the fixed-point rounding done once (the same for a seed whatever the thread count).
+struct Run {
+    int voxel = -1; ///< the recording voxel's index among those that record; -1 = none
+    vec3 phase{0.0f};
+    glm::dvec3 sum{0.0};
+    void add(vec3 v) { sum += glm::dvec3(v); }
+    void flush(Tally& t) {
+        if (voxel >= 0) {
+            const glm::dvec3 val =
+                glm::min(sum * glm::dvec3(phase), glm::dvec3(double(kMaxDeposit)));
+            std::int64_t* s = &t.sum[3 * size_t(voxel)];
+            for (int ch = 0; ch < 3; ++ch) s[ch] += std::int64_t(std::llround(val[ch] * kFixed));
+        }
+        voxel = -1;
+        sum = glm::dvec3(0.0);
+    }
+};
+
 } // namespace
 
 vec3 PhotonVolume::sample(vec3 p) const {
@@ -175,49 +195,51 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     // delta tracking; the mean channel chooses the events, every channel keeps
                     // its own weight (for grey media the weight changes only by the albedo)
                     ScaledSegments segments{walk, placement, poll};
+                    Run run;
                     bool collided = false;
                     float tHit = 0.0f;
-                    sampleTmaj(
-                        segments, sigmaTMax, rng,
-                        [&](float t, const MajorantSegment& seg, float sigmaMaj) {
-                            const float density = std::min(
-                                seg.sigma_maj, sampleVoxelCentres(fine, geo.bounds.lo, fineRes,
-                                                                  fineVoxel, ray.at(t)));
-                            ++tally.lookups;
-                            if (depth > 0) {
-                                // light scattered at least once: record it toward the camera
-                                const vec3 q = ray.at(t);
-                                const ivec3 c =
-                                    glm::clamp(ivec3(glm::floor((q - geo.bounds.lo) / geo.voxel)),
-                                               ivec3(0), res - ivec3(1));
-                                const int k = active[index(res, c.x, c.y, c.z)];
-                                if (k >= 0) {
-                                    const vec3 toEye =
-                                        glm::normalize(p.eye - (cellCentre0 + vec3(c) * geo.voxel));
-                                    // weighted by the density here: the voxel keeps int rho S dV,
-                                    // what march's samples scatter
-                                    const vec3 val =
-                                        glm::min(w * phase.eval(glm::dot(ray.d, toEye)) /
-                                                     (sigmaMaj * pv.skin(q)),
-                                                 vec3(kMaxDeposit));
-                                    std::int64_t* s = &tally.sum[3 * size_t(k)];
-                                    for (int ch = 0; ch < 3; ++ch)
-                                        s[ch] +=
-                                            std::int64_t(std::llround(double(val[ch]) * kFixed));
-                                }
-                            }
-                            const float pReal = sigmaTMean * density / sigmaMaj;
-                            if (rng.next() < pReal) {
-                                w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
-                                tHit = t;
-                                collided = true;
-                                return false;
-                            }
-                            if (pReal < 1.0f)
-                                w *= (vec3(sigmaMaj) - sigmaT * density) /
-                                     (sigmaMaj * (1.0f - pReal));
-                            return true;
-                        });
+                    sampleTmaj(segments, sigmaTMax, rng,
+                               [&](float t, const MajorantSegment& seg, float sigmaMaj) {
+                                   const float density =
+                                       std::min(seg.sigma_maj,
+                                                sampleVoxelCentres(fine, geo.bounds.lo, fineRes,
+                                                                   fineVoxel, ray.at(t)));
+                                   ++tally.lookups;
+                                   if (depth > 0) {
+                                       // light scattered at least once: record it toward the camera
+                                       const vec3 q = ray.at(t);
+                                       const ivec3 c = glm::clamp(
+                                           ivec3(glm::floor((q - geo.bounds.lo) / geo.voxel)),
+                                           ivec3(0), res - ivec3(1));
+                                       const int k = active[index(res, c.x, c.y, c.z)];
+                                       if (k != run.voxel) run.flush(tally);
+                                       if (k >= 0) {
+                                           if (run.voxel < 0) {
+                                               // the direction to the camera, and so the phase
+                                               // function's value, is the voxel's for the whole run
+                                               const vec3 toEye = glm::normalize(
+                                                   p.eye - (cellCentre0 + vec3(c) * geo.voxel));
+                                               run.voxel = k;
+                                               run.phase = phase.eval(glm::dot(ray.d, toEye));
+                                           }
+                                           // weighted by the density here: the voxel keeps int rho
+                                           // S dV, what march's samples scatter
+                                           run.add(w / (sigmaMaj * pv.skin(q)));
+                                       }
+                                   }
+                                   const float pReal = sigmaTMean * density / sigmaMaj;
+                                   if (rng.next() < pReal) {
+                                       w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
+                                       tHit = t;
+                                       collided = true;
+                                       return false;
+                                   }
+                                   if (pReal < 1.0f)
+                                       w *= (vec3(sigmaMaj) - sigmaT * density) /
+                                            (sigmaMaj * (1.0f - pReal));
+                                   return true;
+                               });
+                    run.flush(tally);
                     if (!collided) break; // left the volume (or hit a surface)
                     if (hg && depth == p.handOff) {
                         // its (handOff + 1)-th scattering: the light it sends on is the
