@@ -548,6 +548,12 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         // integers per thread, come on top
         const ivec3 res = lightVolumeResolution(bounds, p.photonCell);
         p.photonGridBytes = double(res.x) * res.y * res.z * (4.0 + 4.0 + 12.0 + 12.0);
+        // with a hand-off: its sums (three 64-bit integers) and the source (RGB) per voxel of
+        // the light-volume grid
+        if (p.photonBounces > 0) {
+            const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
+            p.photonGridBytes += double(lr.x) * lr.y * lr.z * (24.0 + 12.0);
+        }
     }
     checkBounds(s, bounds, p);
     // motion blur: only with the shutter open and something placed that moves

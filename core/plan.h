@@ -50,7 +50,8 @@ struct FramePlan {
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
     /// photons: the voxel of the grid they record on (world units) and its memory (without the
-    /// per-thread sums of the voxels that record; 0 while a VDB field is unread)
+    /// per-thread sums of the voxels that record; with the hand-off its sums and source on the
+    /// light-volume grid too; 0 while a VDB field is unread)
     float photonCell = 0.0f;
     double photonGridBytes = 0.0;
     /// photons record on a grid of their own, not on the light-volume grid

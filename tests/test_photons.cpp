@@ -210,6 +210,7 @@ TEST(Photons, HandOffToTheDiffusionGridKeepsTheirLight) {
     const FramePlan p = Renderer(s).plan(1);
     EXPECT_TRUE(p.diffusion) << "the hand-off's grid, with no sky";
     EXPECT_EQ(p.photonBounces, 4);
+    EXPECT_GT(p.photonGridBytes, Renderer(sunBox()).plan(1).photonGridBytes) << "its sums";
     EXPECT_NE(p.explain().find("4 scatterings"), std::string::npos) << p.explain();
     RenderStats st;
     const Framebuffer handOff = renderScene(s, &st);

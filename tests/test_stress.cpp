@@ -251,3 +251,33 @@ TEST(StressChecks, TrackingLeavesASegmentWhoseFlightsAreBelowFloatResolution) {
     }));
     EXPECT_NEAR(double(flights), 1000.0, 5.0 * std::sqrt(1000.0));
 }
+
+TEST(StressChecks, PhotonHandOffStaysBoundedFrom1e2To1e6MeanFreePaths) {
+    // photons handing their light to the diffusion grid (render.photon_bounces) in the lit cube
+    // made 100 to 1,000,000 mean free paths across at albedo 1: every walk ends in the first
+    // voxel under the lit faces, whose diffusion resistance grows with the density. No bad
+    // value, the light handed off, and no pixel brighter than the sun's irradiance (a white
+    // diffuser returns E / pi; the history's blow-up was 2,000 E, docs/stress.md).
+    for (float sigma : {100.0f, 1e4f, 1e6f}) {
+        SceneDesc s = litCube(Integrator::March);
+        s.medium.sigma_s = vec3(sigma);
+        s.medium.sigma_a = vec3(0.0f);
+        s.render.multipleScattering = MultipleScattering::Photons;
+        s.render.photons = 20000;
+        s.render.photonBounces = 8;
+        s.render.maxDepth = 1 << 20;
+        s.render.lightVolumeCell = 0.25f;
+        RenderStats st;
+        const Framebuffer fb = renderScene(s, &st);
+        const stress::FrameCheck c = stress::checkFrame(fb);
+        EXPECT_TRUE(c.ok()) << sigma << ": " << c.nonFinite << " non-finite, " << c.negative
+                            << " negative";
+        EXPECT_GT(st.photonsHandedOff, 0u) << sigma;
+        EXPECT_LT(c.maxRgb, double(s.sun.irradiance.x)) << sigma;
+        EXPECT_GT(c.meanRgb, 0.0) << sigma;
+        RecordProperty("max_rgb_" + std::to_string(int(std::log10(sigma))),
+                       std::to_string(c.maxRgb));
+        RecordProperty("handed_off_" + std::to_string(int(std::log10(sigma))),
+                       std::to_string(st.photonsHandedOff));
+    }
+}
