@@ -23,6 +23,11 @@ inline size_t index(const ivec3& res, int x, int y, int z) {
     return (size_t(z) * res.y + y) * res.x + x;
 }
 
+/// The voxel of a grid (corner lo, voxel size, res) that holds q, clamped to the grid.
+inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
+    return glm::clamp(ivec3(glm::floor((q - lo) / voxel)), ivec3(0), res - ivec3(1));
+}
+
 /// The majorant segments of a walk with every bound scaled (an instance's density scale).
 struct ScaledSegments {
     MajorantIterator& walk;
@@ -208,9 +213,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                    if (depth > 0) {
                                        // light scattered at least once: record it toward the camera
                                        const vec3 q = ray.at(t);
-                                       const ivec3 c = glm::clamp(
-                                           ivec3(glm::floor((q - geo.bounds.lo) / geo.voxel)),
-                                           ivec3(0), res - ivec3(1));
+                                       const ivec3 c = cellAt(geo.bounds.lo, geo.voxel, res, q);
                                        const int k = active[index(res, c.x, c.y, c.z)];
                                        if (k != run.voxel) run.flush(tally);
                                        if (k >= 0) {
@@ -244,10 +247,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     if (hg && depth == p.handOff) {
                         // its (handOff + 1)-th scattering: the light it sends on is the
                         // diffusion grid's from here
-                        const vec3 q = ray.at(tHit);
-                        const ivec3 c =
-                            glm::clamp(ivec3(glm::floor((q - hg->bounds.lo) / hg->voxel)), ivec3(0),
-                                       hg->res - ivec3(1));
+                        const ivec3 c = cellAt(hg->bounds.lo, hg->voxel, hg->res, ray.at(tHit));
                         const size_t k = index(hg->res, c.x, c.y, c.z);
                         const vec3 val = glm::min(w, vec3(kMaxDeposit));
                         for (int ch = 0; ch < 3; ++ch)
