@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
@@ -226,6 +227,68 @@ TEST_F(Suite, CacheKeyFollowsContentNotTime) {
     EXPECT_TRUE(contains(other.output, "stale: now \"render.rr_depth = 5")) << other.output;
 }
 
+// --suite-light: each light alone, cached apart from both lights' references, and the path
+// tracer's references add up: sun alone + sky alone = both, to within their noise (a Z-test
+// on the mean over the cloud's pixels, each image's noise from its two halves)
+TEST_F(Suite, OneLightAtATimeIsCachedApartAndAddsUp) {
+    const std::string filter = std::string(kSphere) + "/thin/side/a1";
+    const std::string stem = (dir / (std::string(kSphere) + ".thin.side.a1")).string();
+    auto bytes = [](const std::string& path) {
+        std::ifstream in(path, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    CliRun both = suite(filter);
+    ASSERT_EQ(both.exitCode, 0) << both.output;
+    const std::string bothA = bytes(stem + ".a.exr");
+    ASSERT_FALSE(bothA.empty());
+    for (const char* light : {"sun", "sky"}) {
+        CliRun r = suite(filter, std::string("--suite-light ") + light);
+        ASSERT_EQ(r.exitCode, 0) << r.output;
+        EXPECT_TRUE(contains(r.output, std::string("light: the ") + light + " alone")) << r.output;
+        EXPECT_TRUE(contains(r.output, "reference not cached")) << r.output; // not both's files
+        EXPECT_TRUE(fs::exists(stem + "." + light + ".a.exr"));
+        EXPECT_TRUE(fs::exists(stem + "." + light + ".march.exr"));
+        EXPECT_EQ(readCsv(dir / ("suite." + std::string(light) + ".csv")).size(), 1u);
+        // read back from its own cache the second time
+        CliRun again = suite(filter, std::string("--suite-light ") + light);
+        ASSERT_EQ(again.exitCode, 0) << again.output;
+        EXPECT_TRUE(contains(again.output, "reference cached 16 spp")) << again.output;
+    }
+    EXPECT_EQ(bytes(stem + ".a.exr"), bothA); // both lights' reference untouched
+    EXPECT_EQ(readCsv(dir / "suite.csv").size(), 1u);
+
+    // mean over the pixels where both lights' reference has cloud, and its standard error
+    // from the halves' per-pixel difference
+    const auto refA = nimbus::io::readExr(stem + ".a.exr");
+    const int alpha = refA.channelIndex("A");
+    ASSERT_GE(alpha, 0);
+    auto meanAndError = [&](const std::string& s) {
+        const auto a = nimbus::io::readExr(s + ".a.exr"), b = nimbus::io::readExr(s + ".b.exr");
+        double sum = 0.0, d2 = 0.0;
+        int n = 0;
+        for (int y = 0; y < a.height; ++y)
+            for (int x = 0; x < a.width; ++x) {
+                if (refA.at(x, y, alpha) <= 0.01) continue;
+                for (int c = 0; c < 3; ++c) {
+                    const double va = a.at(x, y, c), vb = b.at(x, y, c);
+                    sum += 0.5 * (va + vb);
+                    d2 += (va - vb) * (va - vb);
+                    ++n;
+                }
+            }
+        // var(mean of the halves' average) = var(a - b) / 4 / n
+        return std::pair<double, double>{sum / n, std::sqrt(d2 / n / 4.0 / n)};
+    };
+    const auto [mBoth, eBoth] = meanAndError(stem);
+    const auto [mSun, eSun] = meanAndError(stem + ".sun");
+    const auto [mSky, eSky] = meanAndError(stem + ".sky");
+    EXPECT_GT(mSun, 0.05 * mBoth);
+    EXPECT_GT(mSky, 0.05 * mBoth);
+    const double z = (mBoth - mSun - mSky) / std::sqrt(eBoth * eBoth + eSun * eSun + eSky * eSky);
+    EXPECT_LT(std::abs(z), 3.29) << "both " << mBoth << " +- " << eBoth << ", sun " << mSun
+                                 << " +- " << eSun << ", sky " << mSky << " +- " << eSky;
+}
+
 // needs no VDB file: every one of these is refused before anything is read
 TEST(SuiteOptions, BadOptionsAreErrors) {
     TempDir dir("suite_options");
@@ -238,6 +301,7 @@ TEST(SuiteOptions, BadOptionsAreErrors) {
         {"--suite-filter x --suite-size 0x36", "expected WIDTHxHEIGHT"},
         {"--suite-filter x --ladder 1,2", "--ladder does not apply to --suite"},
         {"--suite-filter x --suite-spp 1", "--suite-spp"},
+        {"--suite-filter x --suite-light moon", "--suite-light"},
         {"--suite-data /nonexistent/folder", "--suite-data /nonexistent/folder: not a directory"},
     };
     for (const Bad& b : bad) {

@@ -66,6 +66,9 @@ struct ConvergeOptions {
     /// converged reference must be (the default 256 loses 14% of thick albedo-1 smoke's light)
     int suiteMaxDepth = 65536;
     bool suiteRerender = false; ///< render every reference again, ignoring the cache
+    /// the suite's lights: "both" (the sun and the sky), "sun" or "sky" alone, to tell which
+    /// light a case's error comes from; cached apart (<case>.sun.a.exr, <case>.sky.a.exr)
+    std::string suiteLight = "both";
 };
 
 struct CalibrateOptions {

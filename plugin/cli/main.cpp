@@ -258,6 +258,12 @@ int mainImpl(int argc, char** argv) {
                      "256 by default, which loses light in thick albedo-1 media)")
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
+    converge
+        ->add_option("--suite-light", co.suiteLight,
+                     "--suite: the light of every case: both (the sun and the sky), sun or sky "
+                     "alone, to tell which light an error comes from (references cached apart)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"both", "sun", "sky"}));
     converge->add_flag("--suite-rerender", co.suiteRerender,
                        "--suite: render every selected reference again instead of reading the "
                        "cache (e.g. after a change to pathtrace)");

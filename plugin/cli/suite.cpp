@@ -473,6 +473,13 @@ std::string fileNameOf(const std::string& caseName) {
     return s;
 }
 
+/// The cache files of a run with one light alone (--suite-light) are kept apart from those of
+/// both lights: a key that differs would otherwise mark the other run's files stale and render
+/// them again in their place.
+std::string lightSuffix(const ConvergeOptions& o) {
+    return o.suiteLight == "both" ? "" : "." + o.suiteLight;
+}
+
 bool parseSize(const std::string& s, int& w, int& h) {
     const size_t x = s.find('x');
     if (x == std::string::npos) return false;
@@ -629,11 +636,12 @@ int runSuite(const ConvergeOptions& o) {
     std::fprintf(stderr,
                  "suite: %zu cases at %dx%d; references: pathtrace at pixel centres, two halves, "
                  "max_depth %s, first round %d spp, refined to a noise of %s or %d spp or %g s; "
-                 "cache %s\n",
+                 "cache %s%s\n",
                  cases.size(), w, h,
                  o.suiteMaxDepth > 0 ? std::to_string(o.suiteMaxDepth).c_str() : "of the scene",
                  o.suiteSpp, percent(o.suiteNoise).c_str(), o.suiteMaxSpp, o.suiteSeconds,
-                 o.suiteDir.c_str());
+                 o.suiteDir.c_str(),
+                 o.suiteLight == "both" ? "" : ("; light: the " + o.suiteLight + " alone").c_str());
     for (const std::string& n : notes) std::fprintf(stderr, "suite: %s\n", n.c_str());
 
     std::vector<Result> results;
@@ -671,6 +679,9 @@ int runSuite(const ConvergeOptions& o) {
         c.base.sky.kind = SkyKind::Gradient;
         c.base.sky.zenith = glm::max(cs.convert(kSkyZenith, kLightSpace, ws), vec3(0.0f));
         c.base.sky.horizon = glm::max(cs.convert(kSkyHorizon, kLightSpace, ws), vec3(0.0f));
+        // --suite-light: one light alone (the references' keys say which)
+        if (o.suiteLight == "sun") c.base.sky.kind = SkyKind::None;
+        if (o.suiteLight == "sky") c.base.sun.irradiance = vec3(0.0f);
 
         const double columnStep = 0.5 * (c.vdb ? c.voxel : double(c.base.render.step));
         if (!measureColumns(c, columnStep)) return kExitInterrupted;
@@ -710,7 +721,8 @@ int runSuite(const ConvergeOptions& o) {
             refScene.render.jitter = false; // pixel centres, as march samples them
             if (o.suiteMaxDepth > 0) refScene.render.maxDepth = o.suiteMaxDepth;
             const std::string key = referenceKey(c, refScene, k->name);
-            const std::string stem = (fs::path(o.suiteDir) / fileNameOf(k->name)).string();
+            const std::string stem =
+                (fs::path(o.suiteDir) / fileNameOf(k->name)).string() + lightSuffix(o);
             std::fprintf(stderr, "[%zu/%zu] %s: tau %.3g (density_scale %.4g), reference ", done,
                          cases.size(), k->name.c_str(), r.tau, double(r.densityScale));
             Halves hv;
@@ -808,6 +820,7 @@ int runSuite(const ConvergeOptions& o) {
        << ", references at pixel centres, refined to a noise of " << percent(o.suiteNoise) << " or "
        << o.suiteMaxSpp << " spp or " << o.suiteSeconds << " s"
        << (o.suiteMaxDepth > 0 ? ", max_depth " + std::to_string(o.suiteMaxDepth) : "")
+       << (o.suiteLight == "both" ? "" : "; light: the " + o.suiteLight + " alone")
        << "; ref. s = its render time over every round (* = read whole from the cache)\n\n";
     int sw = 5;
     for (const Result& r : results) sw = std::max(sw, int(r.c->cloud->name.size()));
@@ -871,11 +884,13 @@ int runSuite(const ConvergeOptions& o) {
     for (const std::string& n : notes) md << "note: " << n << "\n";
     std::cout << md.str();
     const std::string csvPath =
-        o.csv.empty() ? (fs::path(o.suiteDir) / "suite.csv").string() : o.csv;
+        o.csv.empty() ? (fs::path(o.suiteDir) / ("suite" + lightSuffix(o) + ".csv")).string()
+                      : o.csv;
     if (!writeText(csvPath, csv.str())) return kExitIo;
-    if (!writeText((fs::path(o.suiteDir) / "suite.md").string(), md.str())) return kExitIo;
+    if (!writeText((fs::path(o.suiteDir) / ("suite" + lightSuffix(o) + ".md")).string(), md.str()))
+        return kExitIo;
     std::fprintf(stderr, "wrote %s and %s\n", csvPath.c_str(),
-                 (fs::path(o.suiteDir) / "suite.md").string().c_str());
+                 (fs::path(o.suiteDir) / ("suite" + lightSuffix(o) + ".md")).string().c_str());
     return kExitOk;
 }
 
