@@ -45,6 +45,11 @@ std::vector<std::map<std::string, std::string>> readCsv(const fs::path& p) {
     return rows;
 }
 
+std::string fileBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 double num(const std::map<std::string, std::string>& row, const std::string& key) {
     auto it = row.find(key);
     return it == row.end() ? std::nan("") : std::strtod(it->second.c_str(), nullptr);
@@ -165,10 +170,19 @@ TEST_F(Suite, TableCsvThicknessAndCache) {
     EXPECT_NO_THROW(nimbus::io::readExr(bad.string())); // rewritten
 
     // a reference of other settings is stale: rendered again, saying what differs
+    const std::string staleA =
+        fileBytes((dir / (std::string(kSphere) + ".medium.side.a0.9.a.exr")).string());
+    ASSERT_FALSE(staleA.empty());
     CliRun stale = suite(std::string(kSphere) + "/medium/side/a0.9", "--set medium.g=0.5");
     ASSERT_EQ(stale.exitCode, 0) << stale.output;
     EXPECT_TRUE(contains(stale.output, "stale: now \"medium.g = 0.5"));
     EXPECT_TRUE(contains(stale.output, "+16 spp"));
+    // the stale one kept beside the new one, byte for byte, both halves
+    const std::string staleStem = (dir / (std::string(kSphere) + ".medium.side.a0.9")).string();
+    EXPECT_TRUE(contains(stale.output, "kept as")) << stale.output;
+    EXPECT_EQ(fileBytes(staleStem + ".a.stale.exr"), staleA);
+    EXPECT_TRUE(fs::exists(staleStem + ".b.stale.exr"));
+    EXPECT_NE(fileBytes(staleStem + ".a.exr"), staleA);
 
     // a larger sample budget refines the cached reference instead of starting again
     CliRun more = suite(std::string(kSphere) + "/thin/front/a0.9",
@@ -233,13 +247,9 @@ TEST_F(Suite, CacheKeyFollowsContentNotTime) {
 TEST_F(Suite, OneLightAtATimeIsCachedApartAndAddsUp) {
     const std::string filter = std::string(kSphere) + "/thin/side/a1";
     const std::string stem = (dir / (std::string(kSphere) + ".thin.side.a1")).string();
-    auto bytes = [](const std::string& path) {
-        std::ifstream in(path, std::ios::binary);
-        return std::string(std::istreambuf_iterator<char>(in), {});
-    };
     CliRun both = suite(filter);
     ASSERT_EQ(both.exitCode, 0) << both.output;
-    const std::string bothA = bytes(stem + ".a.exr");
+    const std::string bothA = fileBytes(stem + ".a.exr");
     ASSERT_FALSE(bothA.empty());
     for (const char* light : {"sun", "sky"}) {
         CliRun r = suite(filter, std::string("--suite-light ") + light);
@@ -254,7 +264,7 @@ TEST_F(Suite, OneLightAtATimeIsCachedApartAndAddsUp) {
         ASSERT_EQ(again.exitCode, 0) << again.output;
         EXPECT_TRUE(contains(again.output, "reference cached 16 spp")) << again.output;
     }
-    EXPECT_EQ(bytes(stem + ".a.exr"), bothA); // both lights' reference untouched
+    EXPECT_EQ(fileBytes(stem + ".a.exr"), bothA); // both lights' reference untouched
     EXPECT_EQ(readCsv(dir / "suite.csv").size(), 1u);
 
     // mean over the pixels where both lights' reference has cloud, and its standard error

@@ -734,6 +734,16 @@ int runSuite(const ConvergeOptions& o) {
             } else {
                 hv = Halves{};
                 std::fprintf(stderr, "%s", why.c_str());
+                // a stale reference may have cost hours (and a --set of a setting the path
+                // tracer reads makes every selected one stale): kept beside, not overwritten
+                if (why.rfind("stale: ", 0) == 0) {
+                    for (const char* half : {".a", ".b"}) {
+                        std::error_code rec;
+                        fs::rename(stem + half + ".exr", stem + half + ".stale.exr", rec);
+                    }
+                    std::fprintf(stderr, " (the old one kept as %s.a/b.stale.exr)",
+                                 fs::path(stem).filename().string().c_str());
+                }
             }
             // refine until the noise, the samples or the time say enough
             while (true) {
