@@ -58,6 +58,20 @@ inline bool intersectBox(const Ray& r, const Box& b, float tmin, float tmax, flo
     return true;
 }
 
+/// Index of voxel (x, y, z) of a grid of `res` voxels stored x fastest.
+inline size_t voxelIndex(const ivec3& res, int x, int y, int z) {
+    return (size_t(z) * res.y + y) * res.x + x;
+}
+
+/// Voxel q's neighbour across face f (0..5: -x, +x, -y, +y, -z, +z; axis f / 2, the + side
+/// when f is odd) in `out`; false when it lies outside a grid of `res` voxels.
+inline bool faceNeighbour(const ivec3& res, ivec3 q, int f, ivec3& out) {
+    const int a = f / 2;
+    q[a] += (f & 1) ? 1 : -1;
+    out = q;
+    return q[a] >= 0 && q[a] < res[a];
+}
+
 /// Trilinear interpolation of values at the voxel centres lo + (i + 0.5) voxel of a grid of
 /// `res` voxels (x fastest), clamped to the outermost centres.
 template <class T>

@@ -15,10 +15,6 @@ namespace {
 
 constexpr float kFourPi = 12.5663706144f;
 
-inline size_t index(const ivec3& res, int x, int y, int z) {
-    return (size_t(z) * res.y + y) * res.x + x;
-}
-
 /// One voxel with density: its neighbours (-1 = empty space, folded into rhs and diagonal),
 /// the conductances to them, 1 / diagonal and the constant part of its balance.
 struct Cell {
@@ -40,7 +36,7 @@ vec3 DiffusionVolume::sample(vec3 p, vec3 grad[3]) const {
     const ivec3 i0 = glm::min(ivec3(u), res - ivec3(1));
     const ivec3 i1 = glm::min(i0 + ivec3(1), res - ivec3(1));
     const vec3 f = u - vec3(i0);
-    auto at = [&](int x, int y, int z) { return phi[index(res, x, y, z)]; };
+    auto at = [&](int x, int y, int z) { return phi[voxelIndex(res, x, y, z)]; };
     const vec3 c000 = at(i0.x, i0.y, i0.z), c100 = at(i1.x, i0.y, i0.z);
     const vec3 c010 = at(i0.x, i1.y, i0.z), c110 = at(i1.x, i1.y, i0.z);
     const vec3 c001 = at(i0.x, i0.y, i1.z), c101 = at(i1.x, i0.y, i1.z);
@@ -120,7 +116,7 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     for (int z = 0; z < res.z; ++z)
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {
-                const size_t i = index(res, x, y, z);
+                const size_t i = voxelIndex(res, x, y, z);
                 if (rho[i] > 0.0f && rho[i] >= thinRho) {
                     active[i] = int(cells.size());
                     cells.push_back(Cell{std::uint32_t(i), {}, {}, vec3(0.0f), vec3(0.0f)});
@@ -143,10 +139,9 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                           int(i / (size_t(res.x) * res.y)));
             int nb[6], count = 0;
             for (int f = 0; f < 6; ++f) {
-                ivec3 qn = c;
-                qn[f / 2] += (f & 1) ? 1 : -1;
-                if (qn[f / 2] < 0 || qn[f / 2] >= res[f / 2]) continue;
-                const int j = active[index(res, qn.x, qn.y, qn.z)];
+                ivec3 qn;
+                if (!faceNeighbour(res, c, f, qn)) continue;
+                const int j = active[voxelIndex(res, qn.x, qn.y, qn.z)];
                 if (j >= 0) nb[count++] = j;
             }
             for (int m = 0; m < count; ++m) extra[size_t(nb[m])] += q * V / float(count);
@@ -171,10 +166,9 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
         for (int f = 0; f < 6; ++f) {
             const int a = f / 2, b = (a + 1) % 3, cc = (a + 2) % 3;
             const float h = geo.voxel[a], A = geo.voxel[b] * geo.voxel[cc];
-            ivec3 qn = q;
-            qn[a] += (f & 1) ? 1 : -1;
-            const bool inside = qn[a] >= 0 && qn[a] < res[a];
-            const int j = inside ? active[index(res, qn.x, qn.y, qn.z)] : -1;
+            ivec3 qn;
+            const bool inside = faceNeighbour(res, q, f, qn);
+            const int j = inside ? active[voxelIndex(res, qn.x, qn.y, qn.z)] : -1;
             const vec3 ri = 1.5f * h * sTr;
             if (j >= 0) {
                 const vec3 rj = 1.5f * h * sigmaTr * rho[cells[j].idx];
@@ -245,7 +239,7 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     tbb::parallel_for(0, res.z, [&](int z) {
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {
-                const size_t i = index(res, x, y, z);
+                const size_t i = voxelIndex(res, x, y, z);
                 if (active[i] >= 0) {
                     dv.phi[i] = phi[active[i]];
                     continue;
@@ -255,10 +249,9 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                 const ivec3 q(x, y, z);
                 for (int f = 0; f < 6; ++f) {
                     const int a = f / 2;
-                    ivec3 qn = q;
-                    qn[a] += (f & 1) ? 1 : -1;
-                    if (qn[a] < 0 || qn[a] >= res[a]) continue;
-                    const int j = active[index(res, qn.x, qn.y, qn.z)];
+                    ivec3 qn;
+                    if (!faceNeighbour(res, q, f, qn)) continue;
+                    const int j = active[voxelIndex(res, qn.x, qn.y, qn.z)];
                     if (j < 0) continue;
                     // the neighbour's face toward this voxel has the opposite normal
                     const vec3 L = skyFace[f ^ 1];

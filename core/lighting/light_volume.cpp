@@ -12,10 +12,6 @@ namespace nimbus {
 
 namespace {
 
-inline size_t index(const ivec3& res, int x, int y, int z) {
-    return (size_t(z) * res.y + y) * res.x + x;
-}
-
 /// 1 inside [0, n - 1] (voxel-centre units), falling linearly to 0 at the faces -0.5 and n - 0.5.
 inline float rimFactor(float u, int n) {
     if (u < 0.0f) return std::max(0.0f, 1.0f + 2.0f * u);
@@ -47,7 +43,7 @@ void propagateDensityIntegral(LightVolume& lv, const std::vector<float>& rho, ve
         v[a] = ia;
         v[b] = ib;
         v[c] = ic;
-        return index(lv.res, v.x, v.y, v.z);
+        return voxelIndex(lv.res, v.x, v.y, v.z);
     };
     // first slice: light crossed half a voxel of the entry face to reach the centres
     for (int ic = 0; ic < lv.res[c]; ++ic)
@@ -116,7 +112,7 @@ std::vector<float> densityAtCentres(const Field& field, const Box& bounds, ivec3
                                          grid->res - ivec3(1));
                     if (grid->at(c) <= 0.0f) continue;
                 }
-                rho[index(res, x, y, z)] = field.density(p);
+                rho[voxelIndex(res, x, y, z)] = field.density(p);
                 ++local;
             }
         }

@@ -19,10 +19,6 @@ namespace {
 constexpr double kFixed = 1048576.0; // 2^20: fixed-point scale of the sums
 constexpr float kMaxDeposit = 1e12f; // one deposit at most (keeps the sums far from overflow)
 
-inline size_t index(const ivec3& res, int x, int y, int z) {
-    return (size_t(z) * res.y + y) * res.x + x;
-}
-
 /// The voxel of a grid (corner lo, voxel size, res) that holds q, clamped to the grid.
 inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
     return glm::clamp(ivec3(glm::floor((q - lo) / voxel)), ivec3(0), res - ivec3(1));
@@ -109,11 +105,11 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                             if (xx < 0 || yy < 0 || zz < 0 || xx >= res.x || yy >= res.y ||
                                 zz >= res.z)
                                 continue;
-                            any = rho[index(res, xx, yy, zz)] > 0.0f;
+                            any = rho[voxelIndex(res, xx, yy, zz)] > 0.0f;
                         }
                 if (!any) continue;
-                active[index(res, x, y, z)] = int(cells.size());
-                cells.push_back(std::uint32_t(index(res, x, y, z)));
+                active[voxelIndex(res, x, y, z)] = int(cells.size());
+                cells.push_back(std::uint32_t(voxelIndex(res, x, y, z)));
             }
     if (cells.empty()) return pv;
 
@@ -214,7 +210,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                        // light scattered at least once: record it toward the camera
                                        const vec3 q = ray.at(t);
                                        const ivec3 c = cellAt(geo.bounds.lo, geo.voxel, res, q);
-                                       const int k = active[index(res, c.x, c.y, c.z)];
+                                       const int k = active[voxelIndex(res, c.x, c.y, c.z)];
                                        if (k != run.voxel) run.flush(tally);
                                        if (k >= 0) {
                                            if (run.voxel < 0) {
@@ -248,7 +244,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                         // its (handOff + 1)-th scattering: the light it sends on is the
                         // diffusion grid's from here
                         const ivec3 c = cellAt(hg->bounds.lo, hg->voxel, hg->res, ray.at(tHit));
-                        const size_t k = index(hg->res, c.x, c.y, c.z);
+                        const size_t k = voxelIndex(hg->res, c.x, c.y, c.z);
                         const vec3 val = glm::min(w, vec3(kMaxDeposit));
                         for (int ch = 0; ch < 3; ++ch)
                             handOffSum[3 * k + ch].fetch_add(
@@ -305,16 +301,15 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     tbb::parallel_for(0, res.z, [&](int z) {
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {
-                const size_t i = index(res, x, y, z);
+                const size_t i = voxelIndex(res, x, y, z);
                 if (active[i] >= 0) continue;
                 vec3 acc(0.0f);
                 int count = 0;
                 const ivec3 q(x, y, z);
                 for (int f = 0; f < 6; ++f) {
-                    ivec3 qn = q;
-                    qn[f / 2] += (f & 1) ? 1 : -1;
-                    if (qn[f / 2] < 0 || qn[f / 2] >= res[f / 2]) continue;
-                    const size_t j = index(res, qn.x, qn.y, qn.z);
+                    ivec3 qn;
+                    if (!faceNeighbour(res, q, f, qn)) continue;
+                    const size_t j = voxelIndex(res, qn.x, qn.y, qn.z);
                     if (active[j] < 0) continue;
                     acc += pv.radiance[j];
                     ++count;
