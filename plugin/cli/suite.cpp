@@ -893,14 +893,11 @@ int runSuite(const ConvergeOptions& o) {
        << fmt("%.1f", secondsSince(start)) << " s\n";
     for (const std::string& n : notes) md << "note: " << n << "\n";
     std::cout << md.str();
-    const std::string csvPath =
-        o.csv.empty() ? (fs::path(o.suiteDir) / ("suite" + lightSuffix(o) + ".csv")).string()
-                      : o.csv;
+    const std::string stemOut = (fs::path(o.suiteDir) / ("suite" + lightSuffix(o))).string();
+    const std::string csvPath = o.csv.empty() ? stemOut + ".csv" : o.csv;
     if (!writeText(csvPath, csv.str())) return kExitIo;
-    if (!writeText((fs::path(o.suiteDir) / ("suite" + lightSuffix(o) + ".md")).string(), md.str()))
-        return kExitIo;
-    std::fprintf(stderr, "wrote %s and %s\n", csvPath.c_str(),
-                 (fs::path(o.suiteDir) / ("suite" + lightSuffix(o) + ".md")).string().c_str());
+    if (!writeText(stemOut + ".md", md.str())) return kExitIo;
+    std::fprintf(stderr, "wrote %s and %s.md\n", csvPath.c_str(), stemOut.c_str());
     return kExitOk;
 }
 
