@@ -714,15 +714,23 @@ int runSuite(const ConvergeOptions& o) {
             s.medium.sigma_a = vec3(float(1.0 - k->albedo) * c.sigmaT0);
             s.medium.densityScale = r.densityScale;
             s.sun.direction = sunDirection(cam, *k->sun);
+            // the sky alone does not depend on the sun's position: one reference per cloud,
+            // thickness and albedo, named with the sun "any" and keyed with the first sun's
+            // direction, serves the three suns
+            const bool skyAlone = o.suiteLight == "sky";
+            if (skyAlone) s.sun.direction = sunDirection(cam, kSuns[0]);
+            const std::string cacheName =
+                skyAlone ? c.name + "/" + k->thickness->name + "/any/a" + albedoName(k->albedo)
+                         : k->name;
 
             // the reference: cached or rendered
             SceneDesc refScene = s;
             refScene.render.integrator = Integrator::PathTrace;
             refScene.render.jitter = false; // pixel centres, as march samples them
             if (o.suiteMaxDepth > 0) refScene.render.maxDepth = o.suiteMaxDepth;
-            const std::string key = referenceKey(c, refScene, k->name);
+            const std::string key = referenceKey(c, refScene, cacheName);
             const std::string stem =
-                (fs::path(o.suiteDir) / fileNameOf(k->name)).string() + lightSuffix(o);
+                (fs::path(o.suiteDir) / fileNameOf(cacheName)).string() + lightSuffix(o);
             std::fprintf(stderr, "[%zu/%zu] %s: tau %.3g (density_scale %.4g), reference ", done,
                          cases.size(), k->name.c_str(), r.tau, double(r.densityScale));
             Halves hv;
