@@ -124,6 +124,12 @@ std::string albedoName(double a) {
     return a >= 1.0 ? "1" : "0.9";
 }
 
+/// A case's name, CLOUD/THICKNESS/SUN/aALBEDO (also the stem of its cache files).
+std::string caseName(const std::string& cloud, const std::string& thickness, const std::string& sun,
+                     double albedo) {
+    return cloud + "/" + thickness + "/" + sun + "/a" + albedoName(albedo);
+}
+
 std::string fmt(const char* f, double v) {
     char buf[64];
     std::snprintf(buf, sizeof buf, f, v);
@@ -473,6 +479,11 @@ std::string fileNameOf(const std::string& caseName) {
     return s;
 }
 
+/// "; light: the sun alone" (or the sky's) for the progress header and the table; "" for both.
+std::string lightNote(const ConvergeOptions& o) {
+    return o.suiteLight == "both" ? "" : "; light: the " + o.suiteLight + " alone";
+}
+
 /// The cache files of a run with one light alone (--suite-light) are kept apart from those of
 /// both lights: a key that differs would otherwise mark the other run's files stale and render
 /// them again in their place.
@@ -607,8 +618,7 @@ int runSuite(const ConvergeOptions& o) {
         for (const Thickness& t : kThicknesses)
             for (const SunPosition& s : kSuns)
                 for (double a : kAlbedos) {
-                    Case k{c.get(), &t, &s, a,
-                           c->name + "/" + t.name + "/" + s.name + "/a" + albedoName(a)};
+                    Case k{c.get(), &t, &s, a, caseName(c->name, t.name, s.name, a)};
                     bool take = o.suiteFilter.empty();
                     for (const std::string& f : o.suiteFilter)
                         take = take || k.name.find(f) != std::string::npos;
@@ -640,8 +650,7 @@ int runSuite(const ConvergeOptions& o) {
                  cases.size(), w, h,
                  o.suiteMaxDepth > 0 ? std::to_string(o.suiteMaxDepth).c_str() : "of the scene",
                  o.suiteSpp, percent(o.suiteNoise).c_str(), o.suiteMaxSpp, o.suiteSeconds,
-                 o.suiteDir.c_str(),
-                 o.suiteLight == "both" ? "" : ("; light: the " + o.suiteLight + " alone").c_str());
+                 o.suiteDir.c_str(), lightNote(o).c_str());
     for (const std::string& n : notes) std::fprintf(stderr, "suite: %s\n", n.c_str());
 
     std::vector<Result> results;
@@ -713,15 +722,13 @@ int runSuite(const ConvergeOptions& o) {
             s.medium.sigma_s = vec3(float(k->albedo) * c.sigmaT0);
             s.medium.sigma_a = vec3(float(1.0 - k->albedo) * c.sigmaT0);
             s.medium.densityScale = r.densityScale;
-            s.sun.direction = sunDirection(cam, *k->sun);
             // the sky alone does not depend on the sun's position: one reference per cloud,
             // thickness and albedo, named with the sun "any" and keyed with the first sun's
             // direction, serves the three suns
             const bool skyAlone = o.suiteLight == "sky";
-            if (skyAlone) s.sun.direction = sunDirection(cam, kSuns[0]);
+            s.sun.direction = sunDirection(cam, skyAlone ? kSuns[0] : *k->sun);
             const std::string cacheName =
-                skyAlone ? c.name + "/" + k->thickness->name + "/any/a" + albedoName(k->albedo)
-                         : k->name;
+                skyAlone ? caseName(c.name, k->thickness->name, "any", k->albedo) : k->name;
 
             // the reference: cached or rendered
             SceneDesc refScene = s;
@@ -838,7 +845,7 @@ int runSuite(const ConvergeOptions& o) {
        << ", references at pixel centres, refined to a noise of " << percent(o.suiteNoise) << " or "
        << o.suiteMaxSpp << " spp or " << o.suiteSeconds << " s"
        << (o.suiteMaxDepth > 0 ? ", max_depth " + std::to_string(o.suiteMaxDepth) : "")
-       << (o.suiteLight == "both" ? "" : "; light: the " + o.suiteLight + " alone")
+       << lightNote(o)
        << "; ref. s = its render time over every round (* = read whole from the cache)\n\n";
     int sw = 5;
     for (const Result& r : results) sw = std::max(sw, int(r.c->cloud->name.size()));
