@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include "core/fields/advected_field.h"
@@ -13,6 +14,7 @@
 #include "core/fields/grid.h"
 #include "core/fields/sdf_cloud.h"
 #include "core/lighting/light_volume.h"
+#include "core/lighting/photons.h"
 #include "core/lighting/sky_volume.h"
 #include "core/media/phase.h"
 #include "core/tracking/volumes.h"
@@ -543,17 +545,19 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.lightGridBytes = double(res.x) * res.y * res.z * p.lightGrids * sizeof(float);
     }
     if (p.photons && !bounds.empty()) {
-        // the photon grid: per voxel a density, an index, an RGB value and its filled copy
-        // (core/lighting/photons.cpp); the sums of the voxels that record, three 64-bit
-        // integers per thread, come on top
-        const ivec3 res = lightVolumeResolution(bounds, p.photonCell);
-        p.photonGridBytes = double(res.x) * res.y * res.z * (4.0 + 4.0 + 12.0 + 12.0);
-        // with a hand-off: its sums (three 64-bit integers) and the source (RGB) per voxel of
-        // the light-volume grid
-        if (p.photonBounces > 0) {
-            const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
-            p.photonGridBytes += double(lr.x) * lr.y * lr.z * (24.0 + 12.0);
-        }
+        // the photon grid, the density grid they are tracked through (cells of half the
+        // majorant grid's smallest, as buildMajorantGrid sizes them) and the hand-off's sums
+        // (core/lighting/photons.h); the light-volume grid's densities they share are counted
+        // with the light grids
+        const vec3 ext = bounds.extent();
+        float majorantMin = std::numeric_limits<float>::max();
+        for (int a = 0; a < 3; ++a)
+            majorantMin = std::min(
+                majorantMin, ext[a] / float(std::max(1, int(std::ceil(ext[a] / p.majorantCell)))));
+        const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
+        p.photonGridBytes =
+            photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), majorantMin,
+                        p.photonsOwnGrid(), p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
     }
     checkBounds(s, bounds, p);
     // motion blur: only with the shutter open and something placed that moves

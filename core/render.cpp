@@ -386,6 +386,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
             const LightVolume own = densityGrid(field, plan.photonCell, g, photonRho, cancel);
             out.photons = tracePhotons(vs, medium.phase, own, photonRho, pp, surfaces, cancel);
             out.photons.lookups += own.densityLookups;
+            out.photons.bytes += double(photonRho.size() * sizeof(float));
         } else {
             out.photons =
                 tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cancel);
@@ -395,6 +396,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         stats.photonLookups = out.photons.lookups;
         stats.photonsTraced = out.photons.traced;
         stats.photonsHandedOff = out.photons.handedOff;
+        stats.photonBytes = out.photons.bytes;
     }
     if (diffusion) {
         t0 = std::chrono::steady_clock::now();

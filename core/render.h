@@ -61,6 +61,9 @@ struct RenderStats {
     std::uint64_t photonsTraced = 0; ///< photons that left the sun
     /// photons whose light went on in the diffusion grid (render.photon_bounces)
     std::uint64_t photonsHandedOff = 0;
+    /// bytes the photons held beyond the light-volume grid (PhotonVolume::bytes, with a
+    /// density grid of their own): what FramePlan::photonGridBytes estimates
+    double photonBytes = 0.0;
     std::uint64_t photonLookups = 0; ///< density lookups spent on them
     double skyVolumeSeconds = 0.0;   ///< march: the single-scattered sky's density integrals
     std::size_t skyVolumeBytes = 0;

@@ -163,6 +163,26 @@ TEST(Photons, PlanNamesThemAndLeavesOutWhatIsNotNeeded) {
     EXPECT_FALSE(Renderer(s).plan(1).photons);
 }
 
+TEST(Photons, ExplainedMemoryIsWhatTheTraceHolds) {
+    // --explain's photon-grid size: on the light-volume grid (its densities counted with the
+    // light grids, not again), on a grid of their own, and with the hand-off's sums; against the
+    // bytes the trace held, from its arrays' sizes
+    for (const auto& [scale, bounces] : {std::pair{1.0f, 0}, {0.5f, 0}, {1.0f, 4}}) {
+        SceneDesc s = smallCumulus();
+        s.render.photons = 20000;
+        s.render.photonCellScale = scale;
+        s.render.photonBounces = bounces;
+        const FramePlan p = Renderer(s).plan(1);
+        ASSERT_TRUE(p.photons);
+        RenderStats st;
+        renderScene(s, &st);
+        ASSERT_GT(st.photonBytes, 0.0);
+        EXPECT_NEAR(p.photonGridBytes / st.photonBytes, 1.0, 0.02)
+            << "cell scale " << scale << ", bounces " << bounces << ": plan " << p.photonGridBytes
+            << " B, trace " << st.photonBytes << " B";
+    }
+}
+
 TEST(Photons, PhotonCellScaleGivesThemAGridOfTheirOwn) {
     SceneDesc s = smallCumulus();
     const FramePlan p = Renderer(s).plan(1);

@@ -70,6 +70,23 @@ vec3 PhotonVolume::sample(vec3 p) const {
     return sampleVoxelCentres(radiance, bounds.lo, res, voxel, p) * skin(p);
 }
 
+ivec3 photonTrackingResolution(const Box& bounds, float cell) {
+    const vec3 ext = bounds.extent();
+    const float target = 0.5f * cell;
+    ivec3 res;
+    for (int a = 0; a < 3; ++a) res[a] = std::max(2, int(std::ceil(ext[a] / target)));
+    return res;
+}
+
+double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
+                   double handOffVoxels) {
+    const ivec3 fine = photonTrackingResolution(bounds, trackingCell);
+    const double voxels = double(res.x) * res.y * res.z;
+    return voxels * (sizeof(int) + 2 * sizeof(vec3) + (ownDensity ? sizeof(float) : 0)) +
+           double(fine.x) * fine.y * fine.z * sizeof(float) +
+           handOffVoxels * (3 * sizeof(std::int64_t) + sizeof(vec3));
+}
+
 PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const LightVolume& geo,
                           const std::vector<float>& rho, const PhotonParams& p,
                           const SurfaceQuery* surfaces, const std::atomic<bool>* cancel) {
@@ -142,9 +159,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // but tracking always gains from the tighter bounds, as pathtrace does)
     const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
     const vec3 ext = geo.bounds.extent();
-    const float target = 0.5f * (mg ? minComponent(mg->cellSize) : minComponent(geo.voxel));
-    ivec3 fineRes;
-    for (int a = 0; a < 3; ++a) fineRes[a] = std::max(2, int(std::ceil(ext[a] / target)));
+    const ivec3 fineRes = photonTrackingResolution(geo.bounds, mg ? minComponent(mg->cellSize)
+                                                                  : minComponent(geo.voxel));
     const vec3 fineVoxel = ext / vec3(fineRes);
     std::size_t fineLookups = 0;
     std::vector<float> fine =
@@ -298,6 +314,10 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // voxels that do not record take the mean of their recording face neighbours, so that
     // trilinear lookups near the edge of the cloud do not blend toward zero
     std::vector<vec3> filled = pv.radiance;
+    // what this trace held at its peak beyond the light-volume grid (photonBytes' parts)
+    pv.bytes = double(active.size() * sizeof(int) + pv.radiance.size() * sizeof(vec3) +
+                      filled.size() * sizeof(vec3) + fine.size() * sizeof(float) +
+                      handOffSum.size() * sizeof(std::int64_t) + pv.source.size() * sizeof(vec3));
     tbb::parallel_for(0, res.z, [&](int z) {
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {

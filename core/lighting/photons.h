@@ -83,10 +83,27 @@ struct PhotonVolume {
     std::uint64_t handedOff = 0; ///< photons whose walk went on in the diffusion grid
     std::uint64_t lookups = 0;   ///< density lookups spent (filling its density grid, tracking)
     std::uint64_t traced = 0;    ///< photons that left the sun (fewer than asked when cancelled)
+    /// Bytes the trace held beyond the light-volume grid's (photonBytes' parts, from the arrays'
+    /// sizes; the sums of the voxels that record excepted); the caller adds a density grid of
+    /// their own. 0 when it returned before tracking (nothing to trace).
+    double bytes = 0.0;
 
     /// Trilinear lookup at world point p, times the skin profile there.
     vec3 sample(vec3 p) const;
 };
+
+/// The voxels per axis of the density grid photons are tracked through over `bounds`: cells of
+/// half `cell` (the majorant grid's smallest cell; the photon grid's voxel without one).
+ivec3 photonTrackingResolution(const Box& bounds, float cell);
+
+/// What FramePlan::photonGridBytes counts for photons on a grid of `res` voxels over `bounds`,
+/// tracked through cells of half `trackingCell`, with a density grid of their own or not and a
+/// hand-off grid of `handOffVoxels` voxels (0: none): per photon-grid voxel an index, the
+/// radiance and its filled copy (and a density), per tracking cell a density, per hand-off voxel
+/// its sums (three 64-bit integers) and its source (RGB). The sums of the voxels that record
+/// (three 64-bit integers each, per thread and merged) come on top.
+double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
+                   double handOffVoxels);
 
 /// Traces p.photons photons through `volumes` (one untransformed volume: its grid is `geometry`,
 /// the light-volume grid, with densities rho at its voxel centres, which mark the voxels that
