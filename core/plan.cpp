@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <sstream>
 
 #include "core/fields/advected_field.h"
@@ -550,10 +549,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         // (core/lighting/photons.h); the light-volume grid's densities they share are counted
         // with the light grids
         const vec3 ext = bounds.extent();
-        float majorantMin = std::numeric_limits<float>::max();
-        for (int a = 0; a < 3; ++a)
-            majorantMin = std::min(
-                majorantMin, ext[a] / float(std::max(1, int(std::ceil(ext[a] / p.majorantCell)))));
+        const float majorantMin = minComponent(ext / vec3(majorantResolution(ext, p.majorantCell)));
         const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.photonGridBytes =
             photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), majorantMin,

@@ -71,11 +71,7 @@ vec3 PhotonVolume::sample(vec3 p) const {
 }
 
 ivec3 photonTrackingResolution(const Box& bounds, float cell) {
-    const vec3 ext = bounds.extent();
-    const float target = 0.5f * cell;
-    ivec3 res;
-    for (int a = 0; a < 3; ++a) res[a] = std::max(2, int(std::ceil(ext[a] / target)));
-    return res;
+    return lightVolumeResolution(bounds, 0.5f * cell);
 }
 
 double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,

@@ -54,13 +54,19 @@ void MajorantGrid::buildBlocks() {
     for (size_t i = 0; i < n; ++i) blockDistance[i] = std::uint8_t(std::min(dist[i], 255));
 }
 
+ivec3 majorantResolution(vec3 ext, float cell) {
+    ivec3 res;
+    for (int a = 0; a < 3; ++a) res[a] = std::max(1, int(std::ceil(ext[a] / cell)));
+    return res;
+}
+
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
                                const std::atomic<bool>* cancel, const Shutter& shutter) {
     MajorantGrid g;
     const MotionSweep sweep(field, shutter);
     g.bounds = sweep.bounds();
     const vec3 ext = g.bounds.extent();
-    for (int a = 0; a < 3; ++a) g.res[a] = std::max(1, int(std::ceil(ext[a] / cell)));
+    g.res = majorantResolution(ext, cell);
     g.cellSize = ext / vec3(g.res);
     g.maj.assign(size_t(g.res.x) * g.res.y * g.res.z, 0.0f);
     const vec3 pad = g.cellSize * padding;

@@ -50,6 +50,10 @@ struct MajorantGrid {
 /// grid incomplete) once `cancel` is set (core/cancel.h).
 /// With an open `shutter` and a moving field (motion blur, core/tracking/motion_blur.h) the
 /// grid spans sweptBounds() and each cell holds sweptMajorant(): a bound over the shutter.
+/// Cells per axis of a majorant grid over an extent `ext` with cells of at most `cell`: at
+/// least 1 (buildMajorantGrid's; its cells are ext / res).
+ivec3 majorantResolution(vec3 ext, float cell);
+
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding = 0.05f,
                                const std::atomic<bool>* cancel = nullptr,
                                const Shutter& shutter = {});
