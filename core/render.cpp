@@ -249,7 +249,10 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         // blurred: the swept bounds keep the plan's cap on the cells per axis
         if (i == 0 && vs.shutter.open())
             cell = std::max(cell, autoMajorantCell(s, vs.boundsOf(0), plan.step));
-        vs.grids[i] = buildMajorantGrid(f, cell, 0.05f, cancel, vs.shutter);
+        // the path tracer's are tight (every null collision costs it a lookup); march only
+        // skips empty space with its grid and steps by its own schedule
+        vs.grids[i] = buildMajorantGrid(f, cell, 0.05f, cancel, vs.shutter,
+                                        s.render.integrator == Integrator::PathTrace);
         stats.majorantCells += vs.grids[i].cellCount();
         const double empty = vs.grids[i].emptyFraction();
         emptyCells += empty * double(vs.grids[i].cellCount());

@@ -152,4 +152,14 @@ float Field::majorant(const Box& b) const {
     return 0.0f;
 }
 
+bool Field::tightMajorant(const Box& b, float& m) const {
+    if (kind != FieldKind::Vdb) return false;
+    const Box c{glm::max(b.lo, box.lo), glm::min(b.hi, box.hi)};
+    if (c.lo.x > c.hi.x || c.lo.y > c.hi.y || c.lo.z > c.hi.z) {
+        m = 0.0f;
+        return true;
+    }
+    return as<GridField>().voxelMajorant(c, m);
+}
+
 } // namespace nimbus

@@ -47,6 +47,10 @@ struct Field {
     float density(vec3 p) const;
     /// Upper bound of density over the box (conservative, rigorous).
     float majorant(const Box& b) const;
+    /// A tighter upper bound than majorant() where one is cheap (grids with a dense copy of
+    /// their voxels: the voxels the box's stencils read, not the maxima of whole tree nodes);
+    /// false for the others.
+    bool tightMajorant(const Box& b, float& m) const;
     /// Grid fields: calls visit(worldBox, maxDensity) for every tree node that holds density
     /// (leaves, and internal nodes with active tiles), boxes grown by the trilinear support.
     /// Returns false for fields that are not grids.

@@ -264,4 +264,46 @@ float GridField::majorant(const Box& c) const {
     return m;
 }
 
+bool GridField::voxelMajorant(const Box& b, float& m) const {
+    const nanovdb::FloatGrid* g = nanoGrid(grid);
+    const DenseVoxels* dv = dense.get();
+    if (!g || !dv || !(scale >= 0.0f)) return false;
+    // the box's corners to index space by the inverse map density() uses; the stencils of the
+    // index points in their bounds read the voxels floor(x) .. floor(x) + 1, here widened by a
+    // thousandth of a voxel for the map's rounding
+    const float* inv = g->map().mInvMatF;
+    vec3 ilo(std::numeric_limits<float>::max()), ihi(-std::numeric_limits<float>::max());
+    for (int k = 0; k < 8; ++k) {
+        const vec3 c(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z);
+        const vec3 d = c - origin;
+        const vec3 x(d.x * inv[0] + d.y * inv[1] + d.z * inv[2],
+                     d.x * inv[3] + d.y * inv[4] + d.z * inv[5],
+                     d.x * inv[6] + d.y * inv[7] + d.z * inv[8]);
+        ilo = glm::min(ilo, x);
+        ihi = glm::max(ihi, x);
+    }
+    std::int64_t c0[3], c1[3];
+    bool outside = false; // stencils reaching past the copy read the background there
+    for (int a = 0; a < 3; ++a) {
+        if (!(ilo[a] > -2e9f && ihi[a] < 2e9f)) return false; // beyond the index range
+        const std::int64_t i0 = std::int64_t(std::floor(ilo[a] - 1e-3f));
+        const std::int64_t i1 = std::int64_t(std::floor(ihi[a] + 1e-3f)) + 1;
+        c0[a] = std::max<std::int64_t>(i0, dv->lo[a]);
+        c1[a] = std::min<std::int64_t>(i1, std::int64_t(dv->lo[a]) + dv->size[a] - 1);
+        outside = outside || c0[a] != i0 || c1[a] != i1 || c0[a] > c1[a];
+    }
+    float vmax = outside ? g->tree().background() : -std::numeric_limits<float>::max();
+    if (c0[0] <= c1[0] && c0[1] <= c1[1] && c0[2] <= c1[2]) {
+        const std::int64_t dy = dv->size[2], dx = std::int64_t(dv->size[1]) * dy;
+        for (std::int64_t i = c0[0]; i <= c1[0]; ++i)
+            for (std::int64_t j = c0[1]; j <= c1[1]; ++j) {
+                const float* row = dv->values.data() + (i - dv->lo[0]) * dx + (j - dv->lo[1]) * dy;
+                for (std::int64_t k = c0[2] - dv->lo[2]; k <= c1[2] - dv->lo[2]; ++k)
+                    vmax = std::max(vmax, row[k]);
+            }
+    }
+    m = std::max(0.0f, vmax) * scale; // density() clamps the interpolated value at 0
+    return true;
+}
+
 } // namespace nimbus

@@ -40,6 +40,10 @@ struct GridField {
     float density(vec3 p) const;
     /// Upper bound over the world box b: the maxima of the tree nodes that overlap it.
     float majorant(const Box& b) const;
+    /// A tight upper bound of the density over the world box b: the largest of the voxels its
+    /// trilinear stencils read (not the maxima of whole tree nodes). False without a dense
+    /// copy (majorant() is then the bound).
+    bool voxelMajorant(const Box& b, float& m) const;
     /// Calls fn(ctx, worldBox, maxDensity) for every tree node that holds density (leaves, and
     /// internal nodes with active tiles), boxes grown by the trilinear support.
     void forEachDensityNode(void (*fn)(void*, const Box&, float), void* ctx) const;

@@ -61,7 +61,8 @@ ivec3 majorantResolution(vec3 ext, float cell) {
 }
 
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
-                               const std::atomic<bool>* cancel, const Shutter& shutter) {
+                               const std::atomic<bool>* cancel, const Shutter& shutter,
+                               bool tight) {
     MajorantGrid g;
     const MotionSweep sweep(field, shutter);
     g.bounds = sweep.bounds();
@@ -70,6 +71,21 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
     g.cellSize = ext / vec3(g.res);
     g.maj.assign(size_t(g.res.x) * g.res.y * g.res.z, 0.0f);
     const vec3 pad = g.cellSize * padding;
+    float whole;
+    if (tight && !shutter.open() && field.tightMajorant(g.bounds, whole)) {
+        tbb::parallel_for(0, g.res.z, [&](int z) {
+            for (int y = 0; y < g.res.y; ++y) {
+                if (cancelRequested(cancel)) return;
+                for (int x = 0; x < g.res.x; ++x) {
+                    const vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
+                    field.tightMajorant(Box{lo - pad, lo + g.cellSize + pad},
+                                        g.maj[(size_t(z) * g.res.y + y) * g.res.x + x]);
+                }
+            }
+        });
+        g.buildBlocks();
+        return g;
+    }
     // grid fields: every tree node writes its maximum into the cells its support overlaps
     // (one pass over the nodes instead of one tree query per cell)
     if (field.forEachDensityNode([&](const Box& node, float v) {

@@ -45,18 +45,22 @@ struct MajorantGrid {
     double emptyFraction() const;
 };
 
+/// Cells per axis of a majorant grid over an extent `ext` with cells of at most `cell`: at
+/// least 1 (buildMajorantGrid's; its cells are ext / res).
+ivec3 majorantResolution(vec3 ext, float cell);
+
 /// Builds the grid over field.bounds() with cells of about `cell` world units (TBB-parallel).
 /// `padding` grows each cell by this fraction of its size before bounding. Stops early (the
 /// grid incomplete) once `cancel` is set (core/cancel.h).
 /// With an open `shutter` and a moving field (motion blur, core/tracking/motion_blur.h) the
 /// grid spans sweptBounds() and each cell holds sweptMajorant(): a bound over the shutter.
-/// Cells per axis of a majorant grid over an extent `ext` with cells of at most `cell`: at
-/// least 1 (buildMajorantGrid's; its cells are ext / res).
-ivec3 majorantResolution(vec3 ext, float cell);
-
+/// `tight` (the path tracer's grids), with the shutter closed, where the field has
+/// Field::tightMajorant (grids with a dense copy): each cell holds the largest voxel its
+/// stencils read instead of the maxima of the tree nodes it overlaps. Every null collision of
+/// delta and ratio tracking costs a density lookup; these bounds halve them on a thick cloud.
 MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding = 0.05f,
                                const std::atomic<bool>* cancel = nullptr,
-                               const Shutter& shutter = {});
+                               const Shutter& shutter = {}, bool tight = false);
 
 /// A stretch [t0, t1] of a ray with density bound sigma_maj > 0.
 struct MajorantSegment {
