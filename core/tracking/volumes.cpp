@@ -181,7 +181,19 @@ bool RayVolumes::begin(const VolumeSet& vs, const Ray& ray, float tmin, float tm
     densityNext_ = segNext_ = 0;
     coarseStarted_ = false;
     hits_.clear();
+    single_ = false;
     if (poll_()) return false;
+    if (vs.single() && !vs.useCoarse) {
+        const VolumeInstance& in = vs.instances[0];
+        float t0, t1;
+        if (!intersectBox(ray, vs.boundsOf(size_t(in.volume)), tmin, tmax, t0, t1)) return false;
+        single_ = true;
+        oneStarted_ = false;
+        oneField_ = &vs.fields[size_t(in.volume)];
+        tIn_ = cur_ = t0;
+        tOut_ = t1;
+        return true;
+    }
     if (vs.single()) {
         hits_.push_back({0, tmin, tmax});
     } else if (vs.query) {
@@ -213,6 +225,12 @@ bool RayVolumes::begin(const VolumeSet& vs, const Ray& ray, float tmin, float tm
 }
 
 float RayVolumes::density(float t) {
+    if (single_) {
+        if (t < tIn_ || t > tOut_) return 0.0f;
+        const VolumeInstance& in = vs_->instances[0];
+        return in.density * (time_ == 0.0f ? oneField_->density(ray_.at(t))
+                                           : nimbus::densityAt(*oneField_, ray_.at(t), time_));
+    }
     while (densityNext_ < spans_.size() && spans_[densityNext_].t0 <= t)
         densityActive_.push_back(int(densityNext_++));
     float sum = 0.0f;
@@ -232,7 +250,31 @@ float RayVolumes::density(float t) {
     return sum;
 }
 
+bool RayVolumes::nextSingle(MajorantSegment& out) {
+    if (!oneStarted_) {
+        oneStarted_ = true;
+        const VolumeInstance& in = vs_->instances[0];
+        const size_t v = size_t(in.volume);
+        const bool traced = v < vs_->traceSdf.size() && vs_->traceSdf[v];
+        one_.it =
+            traced ? MajorantIterator(oneField_->as<SdfCloudField>(), oneField_->bounds(), ray_,
+                                      tIn_, tOut_)
+                   : MajorantIterator(vs_->useGrid[v] ? &vs_->grids[v] : nullptr, vs_->boundsOf(v),
+                                      ray_, tIn_, tOut_, vs_->wholeMajorant[v]);
+        one_.scale = in.density;
+    }
+    while (one_.it.next(one_.seg)) {
+        const float sigma = one_.scale * one_.seg.sigma_maj;
+        if (sigma > 0.0f && one_.seg.t1 > one_.seg.t0) {
+            out = {one_.seg.t0, one_.seg.t1, sigma};
+            return true;
+        }
+    }
+    return false;
+}
+
 bool RayVolumes::nextSegment(MajorantSegment& out) {
+    if (single_) return nextSingle(out);
     if (spans_.empty()) return false;
     if (vs_->useCoarse) {
         if (!coarseStarted_) {

@@ -132,6 +132,15 @@ class RayVolumes {
     bool coarseStarted_ = false;
     MajorantIterator coarse_{nullptr, Box{}, Ray{}, 0.0f, 0.0f, 0.0f};
     CancelPoll poll_;
+    /// One untransformed instance (VolumeSet::single, no coarse grid): its walk and lookups
+    /// without the span and walker lists (the same segments and densities; a path tracer starts
+    /// a ray at every collision, and that bookkeeping was a tenth of a thick reference's time)
+    bool single_ = false;
+    bool oneStarted_ = false;
+    const Field* oneField_ = nullptr;
+    Walker one_{MajorantIterator{nullptr, Box{}, Ray{}, 0.0f, 0.0f, 0.0f}, MajorantSegment{}, 1.0f};
+    /// the single walk's next segment, started on first use
+    bool nextSingle(MajorantSegment& seg);
 };
 
 } // namespace nimbus
