@@ -35,6 +35,13 @@ vdb::VdbGridSpec blob(const glm::dmat4& worldFromIndex) {
     return g;
 }
 
+/// A rotated map with non-uniform voxel sizes (0.1, 0.2, 0.15), offset from the origin.
+glm::dmat4 rotatedNonUniformMap() {
+    return glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)), 0.7,
+                                  glm::normalize(glm::dvec3(1.0, 2.0, 0.5))),
+                      glm::dvec3(0.1, 0.2, 0.15));
+}
+
 /// A fresh folder under the temporary directory named for the test (removed by the caller).
 fs::path freshDir(const std::string& tag) {
     const fs::path dir = fs::temp_directory_path() / (tag + "_" + std::to_string(getpid()));
@@ -182,10 +189,7 @@ TEST(VdbTransform, MajorantSegmentsCoverTheLeavesAndSkipTheGap) {
 // box (where the tree is read again), under a rotated, non-uniform map.
 TEST(VdbTransform, DenseCopyGivesTheTreesDensitiesBitForBit) {
     const fs::path dir = freshDir("nimbus_vdbdense");
-    const glm::dmat4 worldFromIndex =
-        glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)), 0.7,
-                               glm::normalize(glm::dvec3(1.0, 2.0, 0.5))),
-                   glm::dvec3(0.1, 0.2, 0.15));
+    const glm::dmat4 worldFromIndex = rotatedNonUniformMap();
     FieldDesc fd;
     const GridBinding binding = writeAndBind(dir, "blob.vdb", blob(worldFromIndex), fd);
     fd.vdb.density = 1.7f;
@@ -249,10 +253,7 @@ TEST(VdbTransform, FarApartVoxelsKeepTheGridSparse) {
 // under a rotated, non-uniform map, and be tighter than the tree nodes' maxima.
 TEST(VdbTransform, TightMajorantGridBoundsTheDensity) {
     const fs::path dir = freshDir("nimbus_vdbtight");
-    const glm::dmat4 worldFromIndex =
-        glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(1.0, 2.0, 3.0)), 0.7,
-                               glm::normalize(glm::dvec3(1.0, 2.0, 0.5))),
-                   glm::dvec3(0.1, 0.2, 0.15));
+    const glm::dmat4 worldFromIndex = rotatedNonUniformMap();
     FieldDesc fd;
     const GridBinding binding = writeAndBind(dir, "blob.vdb", blob(worldFromIndex), fd);
     fd.vdb.density = 1.7f;

@@ -51,6 +51,10 @@ struct Field {
     /// their voxels: the voxels the box's stencils read, not the maxima of whole tree nodes);
     /// false for the others.
     bool tightMajorant(const Box& b, float& m) const;
+    /// Whether tightMajorant() gives bounds (a grid with a dense copy).
+    bool hasTightMajorant() const {
+        return kind == FieldKind::Vdb && as<GridField>().grid && as<GridField>().dense;
+    }
     /// Grid fields: calls visit(worldBox, maxDensity) for every tree node that holds density
     /// (leaves, and internal nodes with active tiles), boxes grown by the trilinear support.
     /// Returns false for fields that are not grids.

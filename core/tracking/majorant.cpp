@@ -71,8 +71,7 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
     g.cellSize = ext / vec3(g.res);
     g.maj.assign(size_t(g.res.x) * g.res.y * g.res.z, 0.0f);
     const vec3 pad = g.cellSize * padding;
-    float whole;
-    if (tight && !shutter.open() && field.tightMajorant(g.bounds, whole)) {
+    if (tight && !shutter.open() && field.hasTightMajorant()) {
         tbb::parallel_for(0, g.res.z, [&](int z) {
             for (int y = 0; y < g.res.y; ++y) {
                 if (cancelRequested(cancel)) return;
