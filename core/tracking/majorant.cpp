@@ -71,23 +71,11 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
     g.cellSize = ext / vec3(g.res);
     g.maj.assign(size_t(g.res.x) * g.res.y * g.res.z, 0.0f);
     const vec3 pad = g.cellSize * padding;
-    if (tight && !shutter.open() && field.hasTightMajorant()) {
-        tbb::parallel_for(0, g.res.z, [&](int z) {
-            for (int y = 0; y < g.res.y; ++y) {
-                if (cancelRequested(cancel)) return;
-                for (int x = 0; x < g.res.x; ++x) {
-                    const vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
-                    field.tightMajorant(Box{lo - pad, lo + g.cellSize + pad},
-                                        g.maj[(size_t(z) * g.res.y + y) * g.res.x + x]);
-                }
-            }
-        });
-        g.buildBlocks();
-        return g;
-    }
+    // tight: each cell bounded from the voxels it reads, in the per-cell loop below
+    const bool voxels = tight && !shutter.open() && field.hasTightMajorant();
     // grid fields: every tree node writes its maximum into the cells its support overlaps
     // (one pass over the nodes instead of one tree query per cell)
-    if (field.forEachDensityNode([&](const Box& node, float v) {
+    if (!voxels && field.forEachDensityNode([&](const Box& node, float v) {
             const Box n = sweep.node(node);
             const ivec3 a = glm::clamp(ivec3(glm::floor((n.lo - pad - g.bounds.lo) / g.cellSize)),
                                        ivec3(0), g.res - ivec3(1));
@@ -109,7 +97,8 @@ MajorantGrid buildMajorantGrid(const Field& field, float cell, float padding,
             for (int x = 0; x < g.res.x; ++x) {
                 vec3 lo = g.bounds.lo + vec3(x, y, z) * g.cellSize;
                 Box b{lo - pad, lo + g.cellSize + pad};
-                g.maj[(size_t(z) * g.res.y + y) * g.res.x + x] = sweep.majorant(b);
+                float& m = g.maj[(size_t(z) * g.res.y + y) * g.res.x + x];
+                if (!voxels || !field.tightMajorant(b, m)) m = sweep.majorant(b);
             }
         }
     });
