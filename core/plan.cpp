@@ -287,7 +287,8 @@ std::string FramePlan::explain() const {
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
           : photons
-              ? "sun: photons traced through the field, recorded on a grid of voxel " +
+              ? std::string(photonSky ? "sun and sky" : "sun") +
+                    ": photons traced through the field, recorded on a grid of voxel " +
                     std::to_string(photonCell) + megabytes(photonGridBytes) +
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
@@ -295,7 +296,9 @@ std::string FramePlan::explain() const {
                                              " scatterings, the higher orders from their light "
                                              "diffused on the light-volume grid"
                                        : std::string()) +
-                    "; sky: diffusion on the light-volume grid"
+                    (photonSky ? std::string(" (render.photons shared between the sun and the "
+                                             "sky by their power)")
+                               : std::string("; sky: diffusion on the light-volume grid"))
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
@@ -322,6 +325,7 @@ std::string FramePlan::explain() const {
       << (!ambient        ? std::string("no")
           : pathtrace     ? std::string(skyNee ? "next-event estimation and phase sampling (MIS)"
                                                : "phase-sampled rays")
+          : photonSky     ? std::string(sky) + ", the higher orders from photons"
           : diffusion     ? std::string("in the diffusion grid")
           : skySingle     ? std::string(sky)
           : columnVolumes ? std::string("ambient, column occlusion (volumes of the density up "
@@ -489,17 +493,23 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // light scattered in the medium: nothing to compute at albedo 0 (march's in-scattering is
     // sigma_s times it)
     const bool inScatter = marching && p.scatters;
-    p.photons = inScatter && oneVolume && p.shadows &&
+    // (photons need a light to leave: the sun, or the sky when they trace it too)
+    p.photons = inScatter && oneVolume && (p.shadows || (p.ambient && s.render.photonSky)) &&
                 s.render.multipleScattering == MultipleScattering::Photons;
     if (p.photons) p.photonBounces = std::max(0, s.render.photonBounces);
-    // the sky's multiple scattering is the diffusion grid's in either model
+    // the sky traced by photons too: its first scattering is march's (as with
+    // render.sky_scattering = "single"), the orders above it the photons'
+    p.photonSky = p.photons && p.ambient && s.render.photonSky;
+    // the sky's multiple scattering is the diffusion grid's in either model (unless photons
+    // trace it; then the grid carries only what photons hand off)
     p.diffusion =
         inScatter && oneVolume &&
         ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
          (s.render.multipleScattering == MultipleScattering::Photons &&
-          (p.ambient || p.photonBounces > 0)));
+          ((p.ambient && !p.photonSky) || p.photonBounces > 0)));
     p.skySingle =
-        inScatter && p.ambient && !p.diffusion && s.render.skyScattering == SkyScattering::Single;
+        inScatter && p.ambient &&
+        (p.photonSky || (!p.diffusion && s.render.skyScattering == SkyScattering::Single));
     // part of the diffusion grid's model of the sun's multiple scattering (its source is what
     // leaves the beams): not with render.multiple_scattering = "none" (single scattering, which
     // pathtrace at max_depth = 1 checks) nor with photons (which trace that light themselves)

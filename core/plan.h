@@ -60,6 +60,9 @@ struct FramePlan {
     /// light as its source (render.photon_bounces; 0 = traced to render.max_depth, the grid
     /// carries only the sky)
     int photonBounces = 0;
+    /// photons: the sky's light is traced by photons too (render.photon_sky); march adds the
+    /// sky's single scattering itself and the diffusion grid has no sky boundary
+    bool photonSky = false;
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;

@@ -52,7 +52,7 @@ DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan, const
     if (plan.shadows && !plan.photons) p.sunIrradiance = s.sun.irradiance * s.render.msStrength;
     p.sunDirection = s.sun.direction;
     p.forwardFraction = plan.forwardFraction;
-    if (plan.ambient) {
+    if (plan.ambient && !plan.photonSky) {
         const SkyMeans sky = skyMeans(s.sky);
         p.skyUp = sky.up;
         p.skyDown = sky.down;
@@ -369,11 +369,15 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.sigma_s = medium.sigma_s;
         pp.sigma_a = medium.sigma_a;
         pp.sunDirection = s.sun.direction;
-        pp.sunIrradiance = s.sun.irradiance * s.render.msStrength;
+        pp.sunIrradiance = plan.shadows ? s.sun.irradiance * s.render.msStrength : vec3(0.0f);
         pp.eye = s.camera.position;
         pp.photons = s.render.photons;
         pp.maxDepth = s.render.maxDepth;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
+        if (plan.photonSky) {
+            pp.sky = s.sky;
+            pp.skyScale = s.render.msStrength;
+        }
         if (plan.photonBounces > 0 && diffusion) {
             // the higher orders go on in the diffusion grid (its source, below)
             pp.handOff = plan.photonBounces;
@@ -398,6 +402,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         stats.photonSeconds = secondsSince(t0);
         stats.photonLookups = out.photons.lookups;
         stats.photonsTraced = out.photons.traced;
+        stats.photonsFromSky = out.photons.skyTraced;
         stats.photonsHandedOff = out.photons.handedOff;
         stats.photonBytes = out.photons.bytes;
     }

@@ -57,8 +57,9 @@ struct RenderStats {
     std::uint64_t densityGridVoxels = 0; ///< densities looked up at light-grid voxel centres
     double diffusionSeconds = 0.0;       ///< march: solving the multiple-scattering grid
     int diffusionIterations = 0;
-    double photonSeconds = 0.0;      ///< march: tracing the photons of the sun
-    std::uint64_t photonsTraced = 0; ///< photons that left the sun
+    double photonSeconds = 0.0;       ///< march: tracing the photons
+    std::uint64_t photonsTraced = 0;  ///< photons that left the sun or the sky
+    std::uint64_t photonsFromSky = 0; ///< of them, those that left the sky (render.photon_sky)
     /// photons whose light went on in the diffusion grid (render.photon_bounces)
     std::uint64_t photonsHandedOff = 0;
     /// bytes the photons held beyond the light-volume grid (PhotonVolume::bytes, with a

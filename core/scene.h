@@ -380,7 +380,8 @@ struct RenderDesc {
     /// msStrength scales its sun part (diffusion loses light in moderately thick, porous cloud),
     /// msP1 weights its flux (P1) term. Octaves still add the short-range, forward part.
     /// Photons: the sun's part from photons traced through the field once per frame
-    /// (core/lighting/photons.h; no octaves, no calibration), the sky's from the diffusion grid.
+    /// (core/lighting/photons.h; no octaves, no calibration), the sky's from the diffusion grid
+    /// (or from photons too with photonSky).
     MultipleScattering multipleScattering = MultipleScattering::Grid;
     int photons = 200000; ///< Photons: photons leaving the sun per frame
     /// Photons: the multiply scattered light inside a voxel is taken to fall off as
@@ -392,6 +393,9 @@ struct RenderDesc {
     /// Photons: the scatterings a photon is traced through; at the next one its light goes to
     /// the diffusion grid as a source (core/lighting/photons.h); 0 = traced to maxDepth
     int photonBounces = 0;
+    /// Photons: the sky's light traced by photons too (its orders above the first; march
+    /// integrates its single scattering), so the diffusion grid keeps no sky boundary
+    bool photonSky = false;
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

@@ -116,6 +116,8 @@ TEST(RtMarchSupport, RefusesByKey) {
     EXPECT_EQ(keysOf(s), "");
     s.render.photonSkin = 0.2f;
     EXPECT_EQ(keysOf(s), "");
+    s.render.photonSky = true; // march's single-scattered sky is CPU-only
+    EXPECT_EQ(keysOf(s), "render.photon_sky;");
     s = base;
     s.medium.phase = PhaseKind::MieTable;
     EXPECT_EQ(keysOf(s), "");

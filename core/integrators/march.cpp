@@ -231,9 +231,10 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         S += in * sun;
                         SF = in * sunForward;
                     }
-                    // the sun light scattered more than once (core/lighting/photons.h)
-                    if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
                 }
+                // the light scattered more than once that photons carry: the sun's, and the
+                // sky's with render.photon_sky (core/lighting/photons.h)
+                if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
                 if (!beamT) {
                     // T's terms are below the march's tolerance: none is evaluated
                 } else if (volumes_.diffusion) {
@@ -246,6 +247,9 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         ms[c] = kern::p1Radiance(phi[c], grad[c], medium_.sigma_tr[c], rho,
                                                  medium_.g, r.msP1, -ray.d);
                     S += ms * kern::NB_INV_4PI;
+                }
+                if (!beamT || (volumes_.diffusion && !plan_.photonSky)) {
+                    // (the grid's P1 radiance above carries the sky, or nothing is evaluated)
                 } else if (volumes_.sky) {
                     if (!skyWeighted) {
                         scratch.skyWeights.resize(skyL_.size());

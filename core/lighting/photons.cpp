@@ -24,6 +24,36 @@ inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
     return glm::clamp(ivec3(glm::floor((q - lo) / voxel)), ivec3(0), res - ivec3(1));
 }
 
+float mean3(vec3 v) {
+    return (v.x + v.y + v.z) * (1.0f / 3.0f);
+}
+
+/// The rectangle that covers a box seen along -d (d: toward the light), on the plane through
+/// the box's centre: its axes u, v (an orthonormal frame with d) and its extent lo..hi along
+/// them.
+struct Footprint {
+    vec3 u{0.0f}, v{0.0f};
+    vec2 lo{0.0f}, hi{0.0f};
+    float area() const { return (hi.x - lo.x) * (hi.y - lo.y); }
+};
+
+Footprint footprint(const Box& b, vec3 d) {
+    Footprint f;
+    f.u = kern::phaseDirection(d, 0.0f, 0.0f);
+    f.v = glm::cross(d, f.u);
+    const vec3 centre = 0.5f * (b.lo + b.hi);
+    f.lo = vec2(std::numeric_limits<float>::max());
+    f.hi = vec2(-std::numeric_limits<float>::max());
+    for (int c = 0; c < 8; ++c) {
+        const vec3 q((c & 1) ? b.hi.x : b.lo.x, (c & 2) ? b.hi.y : b.lo.y,
+                     (c & 4) ? b.hi.z : b.lo.z);
+        const vec2 uv(glm::dot(q - centre, f.u), glm::dot(q - centre, f.v));
+        f.lo = glm::min(f.lo, uv);
+        f.hi = glm::max(f.hi, uv);
+    }
+    return f;
+}
+
 /// The majorant segments of a walk with every bound scaled (an instance's density scale).
 struct ScaledSegments {
     MajorantIterator& walk;
@@ -42,6 +72,7 @@ struct Tally {
     std::vector<std::int64_t> sum;
     std::uint64_t lookups = 0;
     std::uint64_t traced = 0;
+    std::uint64_t skyTraced = 0;
 };
 
 /// A photon's tentative collisions in one voxel along one straight flight, added up before they
@@ -99,8 +130,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const vec3 sigmaT = p.sigma_s + p.sigma_a;
     const float sigmaTMax = maxComponent(sigmaT);
     const float sigmaTMean = (sigmaT.x + sigmaT.y + sigmaT.z) / 3.0f;
-    if (p.photons <= 0 || sigmaTMax <= 0.0f || maxComponent(p.sunIrradiance) <= 0.0f ||
-        rho.size() != n)
+    if (p.photons <= 0 || sigmaTMax <= 0.0f ||
+        (maxComponent(p.sunIrradiance) <= 0.0f && p.sky.kind == SkyKind::None) || rho.size() != n)
         return pv;
 
     // the voxels that record: those with density at their centre and their 26 neighbours
@@ -126,24 +157,58 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
             }
     if (cells.empty()) return pv;
 
-    // photons start on a plane on the sun's side of the bounds, over the rectangle that covers
-    // the bounds seen from the sun; each carries the flux of its share of that rectangle
-    const vec3 d0 = -glm::normalize(p.sunDirection);
-    const vec3 u = kern::phaseDirection(d0, 0.0f, 0.0f);
-    const vec3 v = glm::cross(d0, u);
+    // photons start on a plane on the light's side of the bounds, over the rectangle that
+    // covers the bounds seen from there; each carries the power of its share of it. The sun's
+    // and the sky's photons share p.photons in proportion to their power (the sky's from its
+    // radiance over 256 directions); every photon's weight is relative to the mean power per
+    // photon, flux0, so that the fixed-point sums see weights about 1.
+    const vec3 sunTo = glm::normalize(p.sunDirection);
+    const Footprint sunRect = footprint(geo.bounds, sunTo);
     const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
     const float radius = 0.5f * glm::length(geo.bounds.extent());
-    vec2 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (int c = 0; c < 8; ++c) {
-        const vec3 q((c & 1) ? geo.bounds.hi.x : geo.bounds.lo.x,
-                     (c & 2) ? geo.bounds.hi.y : geo.bounds.lo.y,
-                     (c & 4) ? geo.bounds.hi.z : geo.bounds.lo.z);
-        const vec2 uv(glm::dot(q - centre, u), glm::dot(q - centre, v));
-        lo = glm::min(lo, uv);
-        hi = glm::max(hi, uv);
+    const vec3 sunPower = p.sunIrradiance * sunRect.area();
+    const bool skyOn = p.sky.kind != SkyKind::None && p.skyScale > 0.0f;
+    const float skyGain = p.sky.ambient * p.skyScale;
+    double skyPower = 0.0;
+    if (skyOn) {
+        constexpr int kDirs = 256;
+        for (int k = 0; k < kDirs; ++k) {
+            const vec3 d = kern::fibonacciDirection(k, kDirs);
+            skyPower += double(mean3(skyRadiance(p.sky, d)) * skyGain) *
+                        footprint(geo.bounds, d).area() * (4.0 * 3.14159265358979 / kDirs);
+        }
     }
-    const vec2 span = hi - lo;
-    const vec3 origin = centre - d0 * (radius + 1.0f);
+    const double sunMean = double(mean3(sunPower));
+    const double total = sunMean + skyPower;
+    if (!(total > 0.0)) return pv;
+    const std::int64_t nSky =
+        skyOn ? std::clamp<std::int64_t>(
+                    std::int64_t(std::llround(double(p.photons) * skyPower / total)),
+                    sunMean > 0.0 ? 0 : p.photons, p.photons)
+              : 0;
+    const std::int64_t nSun = p.photons - nSky;
+    const float flux0 = float(total / double(p.photons));
+    const vec3 sunWeight = nSun > 0 ? sunPower / (float(nSun) * flux0) : vec3(0.0f);
+    const float skyWeight =
+        nSky > 0 ? float(4.0 * 3.14159265358979 / double(nSky)) * skyGain / flux0 : 0.0f;
+    // a photon's start: its ray and its weight (relative to flux0)
+    auto start = [&](std::int64_t i, Sampler& rng, Ray& ray, vec3& w) {
+        if (i < nSun) {
+            const float a = sunRect.lo.x + (sunRect.hi.x - sunRect.lo.x) * rng.next();
+            const float b = sunRect.lo.y + (sunRect.hi.y - sunRect.lo.y) * rng.next();
+            ray = Ray{centre + sunTo * (radius + 1.0f) + a * sunRect.u + b * sunRect.v, -sunTo};
+            w = sunWeight;
+            return;
+        }
+        // the sky: a uniform direction toward it, then a point of the rectangle seen from it
+        const float z = 1.0f - 2.0f * rng.next();
+        const vec3 d = kern::phaseDirection(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
+        const Footprint f = footprint(geo.bounds, d);
+        const float a = f.lo.x + (f.hi.x - f.lo.x) * rng.next();
+        const float b = f.lo.y + (f.hi.y - f.lo.y) * rng.next();
+        ray = Ray{centre + d * (radius + 1.0f) + a * f.u + b * f.v, -d};
+        w = skyRadiance(p.sky, d) * (skyWeight * f.area());
+    };
     const vec3 cellCentre0 = geo.bounds.lo + 0.5f * geo.voxel;
 
     // photons read the density from a grid of half the majorant cell (or of the recording
@@ -191,11 +256,12 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                 Sampler rng{kern::pcg(key ^ kern::pcg(std::uint32_t(i) ^
                                                       kern::pcg(std::uint32_t(i >> 32)))),
                             0};
-                const float a = lo.x + span.x * rng.next(), b = lo.y + span.y * rng.next();
-                Ray ray{origin + a * u + b * v, d0};
-                vec3 w(1.0f);
+                Ray ray;
+                vec3 w;
+                start(i, rng, ray, w);
                 if (poll.stopped) return;
                 ++tally.traced;
+                if (i >= nSun) ++tally.skyTraced;
                 for (int depth = 0; depth < p.maxDepth; ++depth) {
                     float tmax = std::numeric_limits<float>::max();
                     SurfaceHit hit;
@@ -287,9 +353,9 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         for (size_t k = 0; k < sum.size(); ++k) sum[k] += t.sum[k];
         pv.lookups += t.lookups;
         pv.traced += t.traced;
+        pv.skyTraced += t.skyTraced;
     }
-    const double area = double(span.x) * span.y;
-    const vec3 flux = p.sunIrradiance * float(area / double(p.photons));
+    const vec3 flux(flux0);
     for (size_t k = 0; k < cells.size(); ++k)
         pv.radiance[cells[k]] =
             flux * invVolume *

@@ -39,6 +39,7 @@
 #include "core/geometry.h"
 #include "core/lighting/light_volume.h"
 #include "core/media/phase.h"
+#include "core/media/sky.h"
 #include "core/tracking/volumes.h"
 
 namespace nimbus {
@@ -61,6 +62,12 @@ struct PhotonParams {
     /// `handOffGrid`'s voxel as emitted power (PhotonVolume::source) and its walk ends. 0 = none.
     int handOff = 0;
     const LightVolume* handOffGrid = nullptr;
+    /// Sky photons (render.photon_sky): photons also leave the sky, from uniformly sampled
+    /// directions over the rectangle that covers the bounds seen from there, each carrying
+    /// skyRadiance times sky.ambient times skyScale; `photons` is shared between the sun and
+    /// the sky in proportion to the power each sends through its rectangles. kind None = none.
+    SkyDesc sky{SkyKind::None};
+    float skyScale = 1.0f;
 };
 
 struct PhotonVolume {
@@ -83,6 +90,7 @@ struct PhotonVolume {
     std::uint64_t handedOff = 0; ///< photons whose walk went on in the diffusion grid
     std::uint64_t lookups = 0;   ///< density lookups spent (filling its density grid, tracking)
     std::uint64_t traced = 0;    ///< photons that left the sun (fewer than asked when cancelled)
+    std::uint64_t skyTraced = 0; ///< of them, those that left the sky (PhotonParams::sky)
     /// Bytes the trace held beyond the light-volume grid's (photonBytes' parts, from the arrays'
     /// sizes; the sums of the voxels that record excepted); the caller adds a density grid of
     /// their own. 0 when it returned before tracking (nothing to trace).

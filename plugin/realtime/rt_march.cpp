@@ -83,7 +83,10 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     if (s.ground.enabled) no("ground.enabled", "ground.enabled = true: no surfaces on the GPU yet");
     if (!s.meshes.empty()) no("mesh", "[[mesh]] entries: no surfaces on the GPU yet");
     if (!s.solids.empty()) no("solid", "[[solid]] entries: no SDF solids on the GPU yet");
-    if (p.skySingle)
+    if (p.photonSky)
+        no("render.photon_sky", "render.photon_sky = true: the sky's single scattering it leaves "
+                                "to march is not on the GPU yet");
+    else if (p.skySingle)
         no("render.sky_scattering", "render.sky_scattering = \"single\": not on the GPU yet; use "
                                     "\"ambient\"");
     if (p.columnVolumes)

@@ -241,6 +241,16 @@ void addRenderParams(std::vector<Param>& t) {
                           "render.max_depth and the grid carries only the sky.",
                           &RenderDesc::photonBounces)
                     .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+    t.push_back(ren.param("photon_sky", {},
+                          "Photons: trace the sky's light with photons as well as the sun's "
+                          "(photons leave the sky from every direction, each carrying the sky's "
+                          "radiance there); march then integrates the sky's single scattering "
+                          "itself and the diffusion grid keeps no sky of its own (with "
+                          "render.photon_bounces it carries the photons' higher orders only). "
+                          "render.photons is shared between the sun and the sky in proportion "
+                          "to the power each sends into the cloud's box.",
+                          &RenderDesc::photonSky)
+                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
     t.push_back(ren.param("ms_strength", atLeast(0),
                           "Scale of the grid's multiply scattered sun light (1 = the diffusion "
                           "solution, which loses light in moderately thick, porous cloud; the "
@@ -260,8 +270,10 @@ void addRenderParams(std::vector<Param>& t) {
         return f.scene.render.multipleScattering == MultipleScattering::None;
     };
     auto skySingle = [](const SceneFile& f) {
-        return f.scene.render.multipleScattering == MultipleScattering::None &&
-               f.scene.render.skyScattering == SkyScattering::Single;
+        const RenderDesc& r = f.scene.render;
+        return (r.multipleScattering == MultipleScattering::None &&
+                r.skyScattering == SkyScattering::Single) ||
+               (r.multipleScattering == MultipleScattering::Photons && r.photonSky);
     };
     auto skyAmbient = [](const SceneFile& f) {
         return f.scene.render.multipleScattering == MultipleScattering::None &&
@@ -290,7 +302,7 @@ void addRenderParams(std::vector<Param>& t) {
                   "volume only, else march).",
                   &RenderDesc::skyShadow)
             .usedWhen("render.multiple_scattering = \"none\" and "
-                      "render.sky_scattering = \"single\"",
+                      "render.sky_scattering = \"single\", or render.photon_sky",
                       skySingle));
     t.push_back(ren.param("sky_directions", closed(1, 256),
                           "Single-scattered sky: directions the sky is integrated over at each "
@@ -299,7 +311,7 @@ void addRenderParams(std::vector<Param>& t) {
                           "x 4 bytes).",
                           &RenderDesc::skyDirections)
                     .usedWhen("render.multiple_scattering = \"none\" and "
-                              "render.sky_scattering = \"single\"",
+                              "render.sky_scattering = \"single\", or render.photon_sky",
                               skySingle));
     t.push_back(ren.param("sky_occlusion",
                           WordTable<SkyOcclusion>{{"height", SkyOcclusion::Height},
