@@ -258,13 +258,17 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
     if (double s = stat(ctx, NIMBUS_STAT_PHOTON_SECONDS); s > 0.0) append(", photons %.2f s", s);
     if (double s = stat(ctx, NIMBUS_STAT_SKY_VOLUME_SECONDS); s > 0.0)
         append(", sky volume %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_SKY_VOLUME_MB));
+    // the integrator's own time, by its name
+    int integrator = 0;
+    nimbus_plan_int(ctx, frame, NIMBUS_PLAN_INTEGRATOR, &integrator);
     std::fprintf(stderr,
-                 "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s%s, march %.2f s), "
+                 "frame %d: %.2f s (noise %s, bake %.2f s, majorant %.2f s%s, %s %.2f s), "
                  "%.1f M density lookups (%.1f M/s, %.0f%% in shadow rays), "
                  "%.0f%% of majorant cells empty%s, peak RSS %.0f MB -> %s\n",
                  frame, seconds, stat(ctx, NIMBUS_STAT_BAKED_NOISE) != 0.0 ? "baked" : "direct",
                  stat(ctx, NIMBUS_STAT_BAKE_SECONDS), stat(ctx, NIMBUS_STAT_MAJORANT_SECONDS),
-                 grids, integrate, lookups * 1e-6, lookups * 1e-6 / std::max(integrate, 1e-9),
+                 grids, integrator == 1 ? "pathtrace" : "march", integrate, lookups * 1e-6,
+                 lookups * 1e-6 / std::max(integrate, 1e-9),
                  100.0 * stat(ctx, NIMBUS_STAT_SHADOW_LOOKUPS) / std::max(lookups, 1.0),
                  100.0 * stat(ctx, NIMBUS_STAT_MAJORANT_EMPTY_FRACTION),
                  stat(ctx, NIMBUS_STAT_MAJORANT_USED) != 0.0 ? "" : " (grid not used: too full)",
