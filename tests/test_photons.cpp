@@ -96,16 +96,25 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
 
 TEST(Photons, FirstScatteringIsLeftToMarch) {
     // photons record only what they carry after their first scattering, which march integrates
-    // itself: with one scattering event per photon they add exactly nothing
-    SceneDesc s = sunBox();
-    s.render.maxDepth = 1;
-    s.render.photons = 20000;
+    // itself: with one scattering event per photon they add exactly nothing, the sun's (against
+    // single scattering exact) and the sky's (against march's single-scattered sky)
+    auto firstOnly = [](SceneDesc s) {
+        s.render.maxDepth = 1;
+        s.render.photons = 20000;
+        return s;
+    };
+    SceneDesc s = firstOnly(sunBox());
     const Framebuffer a = renderScene(s);
     s.render.multipleScattering = MultipleScattering::None;
     s.render.octaves = 1;
     s.render.inScatter = InScatter::None; // single scattering exact, as photons leave it
     const Framebuffer b = renderScene(s);
     EXPECT_EQ(a.rgba, b.rgba);
+    SceneDesc sky = firstOnly(skyBox());
+    const Framebuffer c = renderScene(sky);
+    sky.render.multipleScattering = MultipleScattering::None;
+    sky.render.skyScattering = SkyScattering::Single;
+    EXPECT_EQ(c.rgba, renderScene(sky).rgba) << "the sky's photons";
     // and with more depth they add light
     s = sunBox();
     s.render.photons = 20000;
@@ -155,6 +164,10 @@ TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
 
 TEST(Photons, DeterministicAcrossThreadCounts) {
     expectSameImageOnOneAndTwoThreads(smallCumulus());
+    SceneDesc s = smallCumulus();
+    s.render.photonSky = true;
+    s.render.photonBounces = 4;
+    expectSameImageOnOneAndTwoThreads(s);
 }
 
 TEST(Photons, PlanNamesThemAndLeavesOutWhatIsNotNeeded) {
@@ -296,17 +309,6 @@ TEST(Photons, SkyPhotonsMatchPathtraceUnderTheSky) {
     EXPECT_NEAR(meanRgb(handOff) / mRef, 1.0, 0.04);
     EXPECT_LT(relativeRmse(handOff, ref), 0.09);
     EXPECT_LT(meanRgb(single) / mRef, 0.7) << "the higher orders are a visible part";
-}
-
-TEST(Photons, SkyPhotonsLeaveTheFirstScatteringToMarch) {
-    // with one scattering event per photon they add nothing: march's single-scattered sky alone
-    SceneDesc s = skyBox();
-    s.render.maxDepth = 1;
-    s.render.photons = 20000;
-    const Framebuffer a = renderScene(s);
-    s.render.multipleScattering = MultipleScattering::None;
-    s.render.skyScattering = SkyScattering::Single;
-    EXPECT_EQ(a.rgba, renderScene(s).rgba);
 }
 
 TEST(Photons, SkyPhotonsPlan) {
