@@ -248,7 +248,11 @@ void addRenderParams(std::vector<Param>& t) {
                           "itself and the diffusion grid keeps no sky of its own (with "
                           "render.photon_bounces it carries the photons' higher orders only). "
                           "render.photons is shared between the sun and the sky in proportion "
-                          "to the power each sends into the cloud's box.",
+                          "to the power each sends into the cloud's box. Pair it with "
+                          "render.sky_shadow = \"volume\": shadow marches toward every sky "
+                          "direction at every sample cost 9x the march (smoke1 at 640x360: 35 s "
+                          "a frame against 4.1 s), for no lower error on the validation matrix "
+                          "(docs/accuracy.md).",
                           &RenderDesc::photonSky)
                     .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
     t.push_back(ren.param("ms_strength", atLeast(0),
