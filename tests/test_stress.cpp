@@ -281,3 +281,34 @@ TEST(StressChecks, PhotonHandOffStaysBoundedFrom1e2To1e6MeanFreePaths) {
                        std::to_string(st.photonsHandedOff));
     }
 }
+
+TEST(StressChecks, SkyPhotonsStayBoundedFrom1e2To1e6MeanFreePaths) {
+    // the sky's light traced by photons too (render.photon_sky), handing off after 8
+    // scatterings, in the lit cube made 100 to 1,000,000 mean free paths across at albedo 1 and
+    // 0.9: no bad value, photons left the sky, and no pixel brighter than a white diffuser under
+    // the sun and the whole sky could make it (E / pi plus the sky's brightest radiance; the
+    // bound is the sun's E plus that)
+    for (float albedo : {1.0f, 0.9f})
+        for (float sigma : {100.0f, 1e4f, 1e6f}) {
+            SceneDesc s = litCube(Integrator::March);
+            s.medium.sigma_s = vec3(albedo * sigma);
+            s.medium.sigma_a = vec3((1.0f - albedo) * sigma);
+            s.render.multipleScattering = MultipleScattering::Photons;
+            s.render.photonSky = true;
+            s.render.skyShadow = SkyShadow::Volume;
+            s.render.photons = 20000;
+            s.render.photonBounces = 8;
+            s.render.maxDepth = 1 << 20;
+            s.render.lightVolumeCell = 0.25f;
+            RenderStats st;
+            const Framebuffer fb = renderScene(s, &st);
+            const stress::FrameCheck c = stress::checkFrame(fb);
+            const std::string at = std::to_string(sigma) + " at albedo " + std::to_string(albedo);
+            EXPECT_TRUE(c.ok()) << at << ": " << c.nonFinite << " non-finite, " << c.negative
+                                << " negative";
+            EXPECT_GT(st.photonsFromSky, 0u) << at;
+            const float skyMax = std::max(maxComponent(s.sky.zenith), maxComponent(s.sky.horizon));
+            EXPECT_LT(c.maxRgb, double(s.sun.irradiance.x + skyMax)) << at;
+            EXPECT_GT(c.meanRgb, 0.0) << at;
+        }
+}
