@@ -374,10 +374,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.photons = s.render.photons;
         pp.maxDepth = s.render.maxDepth;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
-        if (plan.photonSky) {
-            pp.sky = s.sky;
-            pp.skyScale = s.render.msStrength;
-        }
+        if (plan.photonSky) pp.sky = s.sky;
         if (plan.photonBounces > 0 && diffusion) {
             // the higher orders go on in the diffusion grid (its source, below)
             pp.handOff = plan.photonBounces;

@@ -167,8 +167,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
     const float radius = 0.5f * glm::length(geo.bounds.extent());
     const vec3 sunPower = p.sunIrradiance * sunRect.area();
-    const bool skyOn = p.sky.kind != SkyKind::None && p.skyScale > 0.0f;
-    const float skyGain = p.sky.ambient * p.skyScale;
+    const bool skyOn = p.sky.kind != SkyKind::None && p.sky.ambient > 0.0f;
+    const float skyGain = p.sky.ambient;
     double skyPower = 0.0;
     if (skyOn) {
         constexpr int kDirs = 256;

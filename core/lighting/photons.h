@@ -1,9 +1,10 @@
 /// @file photons.h
-/// @brief The sun's multiply scattered light for `march`, by tracing photons: once per frame,
-/// photons leave the sun, are tracked through the real density field (delta tracking on the
-/// majorant segments, the same machinery as pathtrace) and scatter by the phase function until
-/// they leave the volume; everything they travel after their first scattering is recorded on a
-/// voxel grid as the light scattered toward the camera.
+/// @brief The sun's (and with render.photon_sky the sky's) multiply scattered light for
+/// `march`, by tracing photons: once per frame, photons leave the sun (and the sky), are tracked
+/// through the real density field (delta tracking on the majorant segments, the same machinery as
+/// pathtrace) and scatter by the phase function until they leave the volume; everything they travel
+/// after their first scattering is recorded on a voxel grid as the light scattered toward the
+/// camera.
 ///
 /// Estimator (track length by null collisions): along a photon's path the tentative collisions
 /// of delta tracking fall at rate sigma_maj, so summing w / sigma_maj at each of them estimates
@@ -64,10 +65,10 @@ struct PhotonParams {
     const LightVolume* handOffGrid = nullptr;
     /// Sky photons (render.photon_sky): photons also leave the sky, from uniformly sampled
     /// directions over the rectangle that covers the bounds seen from there, each carrying
-    /// skyRadiance times sky.ambient times skyScale; `photons` is shared between the sun and
-    /// the sky in proportion to the power each sends through its rectangles. kind None = none.
+    /// skyRadiance times sky.ambient (not scaled by render.ms_strength, as the grid's sky is
+    /// not); `photons` is shared between the sun and the sky in proportion to the power each
+    /// sends through its rectangles. kind None = none.
     SkyDesc sky{SkyKind::None};
-    float skyScale = 1.0f;
 };
 
 struct PhotonVolume {
@@ -89,7 +90,7 @@ struct PhotonVolume {
     std::vector<vec3> source;
     std::uint64_t handedOff = 0; ///< photons whose walk went on in the diffusion grid
     std::uint64_t lookups = 0;   ///< density lookups spent (filling its density grid, tracking)
-    std::uint64_t traced = 0;    ///< photons that left the sun (fewer than asked when cancelled)
+    std::uint64_t traced = 0;    ///< photons that left a light (fewer than asked when cancelled)
     std::uint64_t skyTraced = 0; ///< of them, those that left the sky (PhotonParams::sky)
     /// Bytes the trace held beyond the light-volume grid's (photonBytes' parts, from the arrays'
     /// sizes; the sums of the voxels that record excepted); the caller adds a density grid of
