@@ -44,6 +44,19 @@ SceneDesc litCube(Integrator integrator) {
     return s;
 }
 
+/// The lit cube with photons handing off to the diffusion grid after 8 scatterings.
+SceneDesc photonCube(float sigma_s, float sigma_a) {
+    SceneDesc s = litCube(Integrator::March);
+    s.medium.sigma_s = vec3(sigma_s);
+    s.medium.sigma_a = vec3(sigma_a);
+    s.render.multipleScattering = MultipleScattering::Photons;
+    s.render.photons = 20000;
+    s.render.photonBounces = 8;
+    s.render.maxDepth = 1 << 20;
+    s.render.lightVolumeCell = 0.25f;
+    return s;
+}
+
 } // namespace
 
 TEST(StressChecks, MarchIsScaleInvariantFrom1e4To1e6) {
@@ -259,14 +272,7 @@ TEST(StressChecks, PhotonHandOffStaysBoundedFrom1e2To1e6MeanFreePaths) {
     // value, the light handed off, and no pixel brighter than the sun's irradiance (a white
     // diffuser returns E / pi; the history's blow-up was 2,000 E, docs/stress.md).
     for (float sigma : {100.0f, 1e4f, 1e6f}) {
-        SceneDesc s = litCube(Integrator::March);
-        s.medium.sigma_s = vec3(sigma);
-        s.medium.sigma_a = vec3(0.0f);
-        s.render.multipleScattering = MultipleScattering::Photons;
-        s.render.photons = 20000;
-        s.render.photonBounces = 8;
-        s.render.maxDepth = 1 << 20;
-        s.render.lightVolumeCell = 0.25f;
+        const SceneDesc s = photonCube(sigma, 0.0f);
         RenderStats st;
         const Framebuffer fb = renderScene(s, &st);
         const stress::FrameCheck c = stress::checkFrame(fb);
@@ -290,16 +296,9 @@ TEST(StressChecks, SkyPhotonsStayBoundedFrom1e2To1e6MeanFreePaths) {
     // bound is the sun's E plus that)
     for (float albedo : {1.0f, 0.9f})
         for (float sigma : {100.0f, 1e4f, 1e6f}) {
-            SceneDesc s = litCube(Integrator::March);
-            s.medium.sigma_s = vec3(albedo * sigma);
-            s.medium.sigma_a = vec3((1.0f - albedo) * sigma);
-            s.render.multipleScattering = MultipleScattering::Photons;
+            SceneDesc s = photonCube(albedo * sigma, (1.0f - albedo) * sigma);
             s.render.photonSky = true;
             s.render.skyShadow = SkyShadow::Volume;
-            s.render.photons = 20000;
-            s.render.photonBounces = 8;
-            s.render.maxDepth = 1 << 20;
-            s.render.lightVolumeCell = 0.25f;
             RenderStats st;
             const Framebuffer fb = renderScene(s, &st);
             const stress::FrameCheck c = stress::checkFrame(fb);
