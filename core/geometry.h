@@ -22,6 +22,9 @@ inline float maxComponent(vec3 v) {
 inline float minComponent(vec3 v) {
     return std::min(v.x, std::min(v.y, v.z));
 }
+inline float meanComponent(vec3 v) {
+    return (v.x + v.y + v.z) * (1.0f / 3.0f);
+}
 
 struct Ray {
     vec3 o;

@@ -235,34 +235,36 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                 // the light scattered more than once that photons carry: the sun's, and the
                 // sky's with render.photon_sky (core/lighting/photons.h)
                 if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
-                if (!beamT) {
-                    // T's terms are below the march's tolerance: none is evaluated
-                } else if (volumes_.diffusion) {
-                    // sun light scattered more than once and all sky light (diffusion.h): the P1
-                    // radiance scattered toward the camera by the phase function
-                    vec3 grad[3];
-                    const vec3 phi = volumes_.diffusion->sample(p, grad);
-                    vec3 ms;
-                    for (int c = 0; c < 3; ++c)
-                        ms[c] = kern::p1Radiance(phi[c], grad[c], medium_.sigma_tr[c], rho,
-                                                 medium_.g, r.msP1, -ray.d);
-                    S += ms * kern::NB_INV_4PI;
-                }
-                if (!beamT || (volumes_.diffusion && !plan_.photonSky)) {
-                    // (the grid's P1 radiance above carries the sky, or nothing is evaluated)
-                } else if (volumes_.sky) {
-                    if (!skyWeighted) {
-                        scratch.skyWeights.resize(skyL_.size());
-                        skyWeights(ray.d, scratch.skyWeights.data());
-                        skyWeighted = true;
+                // (below the march's tolerance T's terms are not evaluated)
+                if (beamT) {
+                    if (volumes_.diffusion) {
+                        // sun light scattered more than once and the sky light it carries
+                        // (diffusion.h): the P1 radiance scattered toward the camera by the
+                        // phase function
+                        vec3 grad[3];
+                        const vec3 phi = volumes_.diffusion->sample(p, grad);
+                        vec3 ms;
+                        for (int c = 0; c < 3; ++c)
+                            ms[c] = kern::p1Radiance(phi[c], grad[c], medium_.sigma_tr[c], rho,
+                                                     medium_.g, r.msP1, -ray.d);
+                        S += ms * kern::NB_INV_4PI;
                     }
-                    S += skySingleScatter(p, scratch.skyWeights.data());
-                } else if (plan_.skySingle) {
-                    S += skySingleScatterMarched(
-                        p, ray.d, pcg(pixelKey ^ std::uint32_t(n * 0x85ebca6bll) ^ 0x2545f491u),
-                        cnt, scratch.shadow);
-                } else if (plan_.ambient) {
-                    S += skyInScatter(p);
+                    // the sky's single scattering (the plan's skySingle: alone, or under sky
+                    // photons), else its ambient term where no grid carries the sky
+                    if (volumes_.sky) {
+                        if (!skyWeighted) {
+                            scratch.skyWeights.resize(skyL_.size());
+                            skyWeights(ray.d, scratch.skyWeights.data());
+                            skyWeighted = true;
+                        }
+                        S += skySingleScatter(p, scratch.skyWeights.data());
+                    } else if (plan_.skySingle) {
+                        S += skySingleScatterMarched(
+                            p, ray.d, pcg(pixelKey ^ std::uint32_t(n * 0x85ebca6bll) ^ 0x2545f491u),
+                            cnt, scratch.shadow);
+                    } else if (plan_.ambient && !volumes_.diffusion) {
+                        S += skyInScatter(p);
+                    }
                 }
                 kern::marchStep(S, medium_.sigma_s, medium_.sigma_t, rho, dt, L, T);
                 if (forward) kern::marchStep(SF, medium_.sigma_s, sigmaTForward_, rho, dt, L, TF);

@@ -18,17 +18,13 @@ constexpr float kShadowRouletteT = 0.1f;
 /// is wrong, e.g. behind a gap the sun-depth volume's interpolation smeared over).
 constexpr float kMinShadowProbability = 0.05f;
 
-float mean3(vec3 v) {
-    return (v.x + v.y + v.z) * (1.0f / 3.0f);
-}
-
 /// Keeps the path weights as ratios (pbrt-v4's beta and r_u): the estimate of channel c is
 /// f_c / mean(p), unchanged when both are divided by the same number, so they are divided by
 /// mean(p) at every event. Multiplied raw, both underflow to 0 after a few hundred null
 /// collisions in thick media, and 0/0 lost the whole sample (13% of them on a dense cloud).
 /// mean(p) > 0: the hero channel's probability of the event it chose is a factor of it.
 inline void rescale(vec3& f, vec3& p) {
-    const float m = mean3(p);
+    const float m = meanComponent(p);
     f /= m;
     p /= m;
 }
@@ -155,7 +151,7 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
                ? vec3(0.0f)
                : transmittance(cameraRay.o, cameraRay.d, trng, cnt, scratch, tSurf);
     depthOut = 0.0f;
-    alphaOut = opaque ? 1.0f : std::clamp(1.0f - mean3(Tcam), 0.0f, 1.0f);
+    alphaOut = opaque ? 1.0f : std::clamp(1.0f - meanComponent(Tcam), 0.0f, 1.0f);
 
     // Spectral MIS (one-sample over the channel that drives the tracking): f is the path
     // throughput and p the path pdf under each channel's own tracking; the estimate of channel
@@ -174,7 +170,7 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
         float t = 0.0f;
         const Event ev = track(ray, tSurf, rng, hero, f, p, t, cnt, scratch);
         if (ev == Event::Absorbed) break;
-        const vec3 beta = f / mean3(p);
+        const vec3 beta = f / meanComponent(p);
         if (ev == Event::Escaped && surf) {
             // an opaque diffuse surface (a holdout absorbs: it is a black matte for paths)
             if (hit.holdout) break;
@@ -261,7 +257,7 @@ vec3 PathContext::tracePath(const Ray& cameraRay, Sampler& rng, vec3& Tcam, floa
         // Russian roulette only on throughput below 1 (pbrt-v4): a floor on q would divide an
         // albedo-1 path's weight by 1 - q at every bounce (0.95^-200 = 3e4 after 200 bounces
         // in thick cloud), unbiased but with fireflies that dominated the references' error
-        const float m = maxComponent(f / mean3(p)); // mean3(p) = 1 up to rounding
+        const float m = maxComponent(f / meanComponent(p)); // meanComponent(p) = 1 up to rounding
         if (depth + 1 >= s_.render.rrDepth && m < 1.0f) {
             const float q = 1.0f - m;
             if (rng.next() < q) break;

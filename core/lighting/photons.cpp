@@ -24,9 +24,7 @@ inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
     return glm::clamp(ivec3(glm::floor((q - lo) / voxel)), ivec3(0), res - ivec3(1));
 }
 
-float mean3(vec3 v) {
-    return (v.x + v.y + v.z) * (1.0f / 3.0f);
-}
+constexpr double kFourPi = 4.0 * 3.14159265358979;
 
 /// The rectangle that covers a box seen along -d (d: toward the light), on the plane through
 /// the box's centre: its axes u, v (an orthonormal frame with d) and its extent lo..hi along
@@ -174,11 +172,11 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         constexpr int kDirs = 256;
         for (int k = 0; k < kDirs; ++k) {
             const vec3 d = kern::fibonacciDirection(k, kDirs);
-            skyPower += double(mean3(skyRadiance(p.sky, d)) * skyGain) *
-                        footprint(geo.bounds, d).area() * (4.0 * 3.14159265358979 / kDirs);
+            skyPower += double(meanComponent(skyRadiance(p.sky, d)) * skyGain) *
+                        footprint(geo.bounds, d).area() * (kFourPi / kDirs);
         }
     }
-    const double sunMean = double(mean3(sunPower));
+    const double sunMean = double(meanComponent(sunPower));
     const double total = sunMean + skyPower;
     if (!(total > 0.0)) return pv;
     const std::int64_t nSky =
@@ -189,8 +187,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const std::int64_t nSun = p.photons - nSky;
     const float flux0 = float(total / double(p.photons));
     const vec3 sunWeight = nSun > 0 ? sunPower / (float(nSun) * flux0) : vec3(0.0f);
-    const float skyWeight =
-        nSky > 0 ? float(4.0 * 3.14159265358979 / double(nSky)) * skyGain / flux0 : 0.0f;
+    const float skyWeight = nSky > 0 ? float(kFourPi / double(nSky)) * skyGain / flux0 : 0.0f;
     // a photon's start: its ray and its weight (relative to flux0)
     auto start = [&](std::int64_t i, Sampler& rng, Ray& ray, vec3& w) {
         if (i < nSun) {
