@@ -81,6 +81,14 @@ void chooseSteps(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p
     const std::string shadow = one(r.shadowStep, r.shadowStepVoxels, "render.shadow_step",
                                    "render.shadow_step_voxels", p.shadowStep);
     p.stepDecision = "primary " + primary + ", shadow " + shadow;
+    p.stepTau = r.stepTau;
+    if (p.stepTau > 0.0f) {
+        std::snprintf(buf, sizeof buf,
+                      ", steps split where their optical depth times the transmittance before "
+                      "them exceeds %g (render.step_tau)",
+                      double(p.stepTau));
+        p.stepDecision += buf;
+    }
 }
 
 /// Cells of a grid over `b` with cells of about `cell` (doubles: no int overflow).

@@ -89,6 +89,7 @@ struct FramePlan {
     float step = kDefaultStep;
     float shadowStep = kDefaultStep;
     std::string stepDecision;  ///< what the steps are and why
+    float stepTau = 0.0f;      ///< render.step_tau: thick steps split above this (march.cpp)
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries
     int instances = 1;         ///< placements (1: `field` untransformed)

@@ -338,6 +338,10 @@ struct RenderDesc {
     /// of the VDB volumes, kDefaultStep for procedural fields (core/plan.h)
     float step = 0.0f;
     float stepGrowth = 0.0f; ///< distance-adaptive: step = max(step, stepGrowth * distance)
+    /// march: a step (camera or shadow ray) whose optical depth at its sample times the
+    /// transmittance in front of it exceeds this is split into that many sub-steps (at most
+    /// kern::MAX_SUBSTEPS), sampled at their midpoints; 0 = never split
+    float stepTau = 0.0f;
     bool jitter = true;
     /// march: camera rays per pixel, stratified over the filter's width and weighted by it;
     /// 1 = one ray through the pixel centre (no filter)

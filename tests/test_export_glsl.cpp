@@ -375,6 +375,7 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(stepGrowth),
         NB_MEMBER(shadowStep),
         NB_MEMBER(shadowGrowth),
+        NB_MEMBER(stepTau),
         NB_MEMBER(octaves),
         NB_MEMBER(octaveContribution),
         NB_MEMBER(octaveExtinction),

@@ -1117,6 +1117,15 @@ std::vector<KernelCase> makeCases() {
                               d.f(0.0f, 1.0f, {0.3f}));
         }));
     c.push_back(kernelCase(
+        "substeps", "substeps(a0, a1)", [](float tau, float most) { return substeps(tau, most); },
+        [](Draw& d) {
+            // steps from thin to far past the cap of 64, limits from off (0) up; quotients
+            // within an ulp or two of a whole number are rare among random draws
+            return std::tuple(d.f(0.0f, 40.0f, {0.0f, 0.25f, 0.26f, 1000.0f}),
+                              d.f(0.0f, 1.0f, {0.0f, 0.25f}));
+        },
+        exact));
+    c.push_back(kernelCase(
         "fibonacciPoint", "fibonacciPoint(a0, a1, a2)",
         [](int i, int n, vec2 o) { return fibonacciPoint(i, n, o); },
         [](Draw& d) {

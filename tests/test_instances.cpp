@@ -141,9 +141,10 @@ TEST(Instances, CoarseGridRendersTheSameImageAsHierarchicalSkipping) {
     EXPECT_LT(maxDiff(h, c), 1e-4);
 }
 
-TEST(Instances, MergedMajorantsBoundTheSummedDensity) {
-    // Ratio tracking is unbiased only if every merged segment's majorant bounds the density
-    // summed over the instances it covers: overlapping, rotated, scaled cumulus instances.
+namespace {
+
+/// Two overlapping, rotated, scaled cumulus instances (path traced).
+SceneDesc overlappingCumulus() {
     SceneDesc s = boxes();
     s.render.integrator = Integrator::PathTrace;
     s.field.kind = FieldKind::Cumulus;
@@ -155,6 +156,53 @@ TEST(Instances, MergedMajorantsBoundTheSummedDensity) {
     s.instances = {InstanceDesc{0, vec3(0.0f), vec3(0.0f, 30.0f, 0.0f), vec3(1.0f), 1.0f},
                    InstanceDesc{0, vec3(1.5f, 0.3f, 0.0f), vec3(10.0f, -20.0f, 5.0f),
                                 vec3(1.2f, 0.8f, 1.0f), 0.7f}};
+    return s;
+}
+
+} // namespace
+
+TEST(Instances, DensityAheadLeavesTheQueriesAsTheyWere) {
+    // march looks at a step's sample (densityAhead) before it asks the densities of its
+    // sub-steps, some of them before that sample (render.step_tau): the look must not move
+    // the instance spans on, and must read what density() reads there. Two overlapping boxes
+    // of density 1 and 0.5, a ray through both: their spans begin and end inside the look.
+    SceneDesc s = boxes();
+    s.instances = {InstanceDesc{0, vec3(0.0f), vec3(0.0f), vec3(1.0f), 1.0f},
+                   InstanceDesc{0, vec3(1.5f, 0.0f, 0.0f), vec3(0.0f), vec3(1.0f), 0.5f}};
+    FrameBindings b;
+    b.geometry = embree(s);
+    Renderer r(s);
+    const FramePlan plan = r.plan(1, b);
+    RenderStats st;
+    const VolumeSet vs = r.volumesFor(plan, b, st);
+    ASSERT_EQ(vs.instances.size(), 2u);
+    const Ray ray{vec3(-3.0f, 0.01f, 0.02f), vec3(1.0f, 0.0f, 0.0f)};
+    RayVolumes looked, plain;
+    ASSERT_TRUE(looked.begin(vs, ray, 0.0f, 1e30f));
+    ASSERT_TRUE(plain.begin(vs, ray, 0.0f, 1e30f));
+    const float t0 = looked.tIn(), len = looked.tOut() - looked.tIn();
+    const int N = 400, ahead = 40; // the look reaches a tenth of the ray on
+    double sum = 0.0;
+    for (int k = 0; k < N; ++k) {
+        const float t = t0 + len * (float(k) + 0.5f) / float(N);
+        const float tAhead = t0 + len * (float(k + ahead) + 0.5f) / float(N);
+        const float look = looked.densityAhead(tAhead);
+        const float here = looked.density(t);
+        EXPECT_EQ(here, plain.density(t)) << "t " << t;
+        if (k + ahead < N) {
+            RayVolumes fresh;
+            ASSERT_TRUE(fresh.begin(vs, ray, 0.0f, 1e30f));
+            EXPECT_EQ(look, fresh.density(tAhead)) << "t " << tAhead;
+        }
+        sum += here;
+    }
+    EXPECT_NEAR(sum * len / N, 2.0 + 0.5 * 2.0, 0.05); // both boxes, 2 long each
+}
+
+TEST(Instances, MergedMajorantsBoundTheSummedDensity) {
+    // Ratio tracking is unbiased only if every merged segment's majorant bounds the density
+    // summed over the instances it covers: overlapping, rotated, scaled cumulus instances.
+    const SceneDesc s = overlappingCumulus();
     FrameBindings b;
     b.geometry = embree(s);
     Renderer r(s);

@@ -98,6 +98,70 @@ TEST(March, SingleScatterInUniformSlabMatchesClosedForm) {
         }
 }
 
+TEST(March, ThickStepsAreSplitToMeetTheHalfSpaceClosedForm) {
+    // A sunlit half-space (a slab 20 mean free paths deep) seen face-on, isotropic scattering,
+    // the sun on the camera's side 40 degrees off the normal, single scattering only: a ray at
+    // cosine mu to the normal sees L = E p(theta) (sigma_s / sigma_t) mu0 / (mu0 + mu). Steps of
+    // 5 mean free paths (camera and shadow rays) sample it once each: one jittered point stands
+    // for light that comes from the first mean free path alone. render.step_tau splits them
+    // (measured: whole 84%, split to 0.25 1.07%, to 0.05 0.11%).
+    SceneDesc s = homogeneousBox(
+        Box{vec3(-4.0f, -4.0f, 0.0f), vec3(4.0f, 4.0f, 2.0f)}, 1.0f,
+        cameraLookingAt(vec3(0.0f, 0.0f, -5.0f), vec3(0.0f, 0.0f, 1.0f), 16, 16, 10.0f));
+    s.medium.sigma_s = vec3(8.0f, 9.0f, 10.0f);
+    s.medium.sigma_a = vec3(2.0f, 1.0f, 0.0f);
+    s.medium.phase = PhaseKind::Isotropic;
+    const float el = glm::radians(50.0f);
+    s.sun.direction = vec3(std::cos(el), 0.0f, -std::sin(el));
+    s.sun.irradiance = vec3(1.0f);
+    s.sky.kind = SkyKind::None;
+    s.render.multipleScattering = MultipleScattering::None;
+    s.render.inScatter = InScatter::None;
+    s.render.background = Background::Transparent;
+    s.render.step = 0.5f;
+    s.render.shadowStep = 0.5f;
+    s.render.shadowGrowth = 0.0f;
+    s.render.epsilon = 1e-4f;
+    Camera cam(s.camera);
+    const float mu0 = std::sin(el);
+    // the relative RMSE over the image and the density lookups of a render
+    auto measure = [&](float stepTau, std::uint64_t& lookups) {
+        s.render.stepTau = stepTau;
+        RenderStats stats;
+        const Framebuffer fb = renderScene(s, &stats);
+        lookups = stats.lookups();
+        double se = 0.0, sum = 0.0;
+        for (int y = 0; y < fb.height; ++y)
+            for (int x = 0; x < fb.width; ++x) {
+                const float mu = cam.generate(x + 0.5f, y + 0.5f).d.z;
+                for (int c = 0; c < 3; ++c) {
+                    const float sigmaT = s.medium.sigma_s[c] + s.medium.sigma_a[c];
+                    const double want = double(s.medium.sigma_s[c] / sigmaT) * mu0 / (mu0 + mu) /
+                                        (4.0 * 3.14159265358979);
+                    const float got = fb.rgba[4 * (size_t(y) * fb.width + x) + c];
+                    EXPECT_TRUE(std::isfinite(got));
+                    se += (got - want) * (got - want);
+                    sum += want;
+                }
+            }
+        const double n = 3.0 * fb.width * fb.height;
+        return std::sqrt(se / n) / (sum / n);
+    };
+    std::uint64_t whole = 0, split = 0, fine = 0;
+    const double errWhole = measure(0.0f, whole);
+    const double errSplit = measure(0.25f, split);
+    const double errFine = measure(0.05f, fine);
+    std::printf("[ step_tau ] steps of 5 mean free paths: whole %.1f%% (%llu lookups), split to "
+                "0.25 %.2f%% (%llu), to 0.05 (at most 64 a step) %.2f%% (%llu)\n",
+                100.0 * errWhole, (unsigned long long)whole, 100.0 * errSplit,
+                (unsigned long long)split, 100.0 * errFine, (unsigned long long)fine);
+    EXPECT_GT(errWhole, 0.3);  // the whole steps are far off: the test can tell
+    EXPECT_LT(errSplit, 0.02); // the midpoints of sub-steps: an error of the second order
+    EXPECT_LT(errFine, 0.005);
+    EXPECT_GT(split, whole);
+    EXPECT_GT(fine, split);
+}
+
 TEST(March, MajorantIteratorGivesKnownSpans) {
     // 8 x 1 x 1 cells over [0,8] x [0,1] x [0,1]; cells 2, 3 and 6 hold density
     MajorantGrid g;

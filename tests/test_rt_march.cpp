@@ -974,6 +974,11 @@ TEST(RtVdbParity, WrittenGrid) {
     EXPECT_GE(sceneGpuAgainstCpu(scene, {"render.multiple_scattering=\"grid\""}, 1,
                                  "vdb_written_ms_grid", &maxAbs),
               45.0);
+    // ten times as dense, steps of several mean free paths split (render.step_tau): the
+    // camera's and the shadow marches' sub-steps
+    EXPECT_GE(sceneGpuAgainstCpu(scene, {"field.density=15.0", "render.step_tau=0.25"}, 1,
+                                 "vdb_written_step_tau", &maxAbs),
+              45.0);
 }
 
 // smoke1 as it ships (the diffusion grid, 8 octaves) at 160x90.

@@ -29,7 +29,8 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
       camera_(scene.camera), medium_(Medium::fromDesc(scene.medium)),
       primary_(plan.step, scene.render.stepGrowth),
       shadow_(plan.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)),
-      sigmaTForward_(medium_.sigma_t - plan.forwardFraction * medium_.sigma_s) {
+      sigmaTForward_(medium_.sigma_t - plan.forwardFraction * medium_.sigma_s),
+      sigmaTMax_(maxComponent(medium_.sigma_t)) {
     // similarity relation (van de Hulst): multiply scattered light sees the medium as isotropic
     // with sigma_s' = sigma_s (1 - g); diffusion decays by sqrt(3 sigma_a' / sigma_t') per
     // transport optical depth (the effective transport coefficient, Jensen et al. 2001)
@@ -126,9 +127,26 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
         if (!rv.begin(vols_, entry, 0.0f, std::numeric_limits<float>::max())) return 0.0f;
     }
     float tau = 0.0f;
+    const float sigmaTMin = minComponent(medium_.sigma_t);
     marchSegments(rv, shadow_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t) {
-        ++cnt.shadowSamples;
-        tau += rv.density(t) * dt;
+        // a step whose optical depth, times the transmittance in front of it, is above
+        // render.step_tau is split (kern::substeps): one jittered point of a thick step would
+        // stand for all of it; behind an opaque stretch the step's error no longer shows
+        const float rho = rv.densityAhead(t);
+        const int k =
+            kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ * rho * dt, plan_.stepTau);
+        if (k == 1) {
+            ++cnt.shadowSamples;
+            tau += rho * dt;
+        } else {
+            // at the midpoints of k sub-steps (a second-order rule: a jittered point in each
+            // would leave noise of the first order in the sub-step's optical depth)
+            const float h = dt / float(k), t0 = t - jitter * dt;
+            for (int j = 0; j < k && tau <= tauStop; ++j) {
+                ++cnt.shadowSamples;
+                tau += rv.density(t0 + (float(j) + 0.5f) * h) * h;
+            }
+        }
         return tau <= tauStop;
     });
     return tau;
@@ -192,88 +210,105 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
 
     RayVolumes& rv = scratch.primary;
     if (rv.begin(vols_, ray, 0.0f, tMax)) {
+        // one sample of the march: its position t, the length dt it stands for, its index n
+        // (the key of its random numbers) and the density there
+        auto visit = [&](float t, float dt, std::int64_t n, float rho) {
+            const vec3 p = ray.at(t);
+            ++cnt.primarySamples;
+            if (rho <= 0.0f) return true;
+            vec3 S(0.0f), SF(0.0f); // SF: what TF carries
+            // past the point where T has fallen below eps (only the forward beam goes on),
+            // every term T carries is dropped, as the march itself would stop there
+            const bool beamT = !forward || maxComponent(T) >= eps;
+            if (plan_.shadows && plan_.scatters) {
+                const float tau = sunOpticalDepth(
+                    p, pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) * 0x9e3779b9ull)), cnt,
+                    scratch.shadow);
+                if (std::isfinite(tau)) { // not behind a surface
+                    vec3 sun(0.0f);
+                    float weight = 1.0f, extinction = 1.0f;
+                    PhaseFunction octavePhase = medium_.phase;
+                    // traced photons carry every higher order: the octaves stand down
+                    const int octaves = volumes_.photons || !beamT ? 1 : r.octaves;
+                    vec3 sunForward(0.0f);
+                    for (int i = 0; i < octaves; ++i) {
+                        const vec3 ph = octavePhase.eval(cosTheta);
+                        // the single scattering (octave 0) in the beams' extinction
+                        if (i == 0 && forward)
+                            sunForward = kern::octaveSun(ph, sigmaTForward_, tau, 1.0f, 1.0f);
+                        else
+                            sun += kern::octaveSun(ph, medium_.sigma_t, tau, weight, extinction);
+                        weight *= r.octaveContribution;
+                        extinction *= r.octaveExtinction;
+                        octavePhase = octavePhase.octave(r.octaveEccentricity);
+                    }
+                    const vec3 in =
+                        s_.sun.irradiance * kern::inScatterFactor(int(plan_.inScatter), rho, tau,
+                                                                  medium_.sigma_t, r.inScatterC,
+                                                                  r.inScatterStrength);
+                    S += in * sun;
+                    SF = in * sunForward;
+                }
+            }
+            // the light scattered more than once that photons carry: the sun's, and the
+            // sky's with render.photon_sky (core/lighting/photons.h)
+            if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
+            // (below the march's tolerance T's terms are not evaluated)
+            if (beamT) {
+                if (volumes_.diffusion) {
+                    // sun light scattered more than once and the sky light it carries
+                    // (diffusion.h): the P1 radiance scattered toward the camera by the
+                    // phase function
+                    vec3 grad[3];
+                    const vec3 phi = volumes_.diffusion->sample(p, grad);
+                    vec3 ms;
+                    for (int c = 0; c < 3; ++c)
+                        ms[c] = kern::p1Radiance(phi[c], grad[c], medium_.sigma_tr[c], rho,
+                                                 medium_.g, r.msP1, -ray.d);
+                    S += ms * kern::NB_INV_4PI;
+                }
+                // the sky's single scattering (the plan's skySingle: alone, or under sky
+                // photons), else its ambient term where no grid carries the sky
+                if (volumes_.sky) {
+                    if (!skyWeighted) {
+                        scratch.skyWeights.resize(skyL_.size());
+                        skyWeights(ray.d, scratch.skyWeights.data());
+                        skyWeighted = true;
+                    }
+                    S += skySingleScatter(p, scratch.skyWeights.data());
+                } else if (plan_.skySingle) {
+                    S += skySingleScatterMarched(
+                        p, ray.d,
+                        pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) * 0x85ebca6bull) ^
+                            0x2545f491u),
+                        cnt, scratch.shadow);
+                } else if (plan_.ambient && !volumes_.diffusion) {
+                    S += skyInScatter(p);
+                }
+            }
+            kern::marchStep(S, medium_.sigma_s, medium_.sigma_t, rho, dt, L, T);
+            if (forward) kern::marchStep(SF, medium_.sigma_s, sigmaTForward_, rho, dt, L, TF);
+            if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
+                depth = t;
+                depthSet = true;
+            }
+            // the forward beam reaches further: it alone decides where the march may stop
+            return maxComponent(forward ? TF : T) >= eps;
+        };
         marchSegments(
             rv, primary_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t n) {
-                const vec3 p = ray.at(t);
-                ++cnt.primarySamples;
-                const float rho = rv.density(t);
-                if (rho <= 0.0f) return true;
-                vec3 S(0.0f), SF(0.0f); // SF: what TF carries
-                // past the point where T has fallen below eps (only the forward beam goes on),
-                // every term T carries is dropped, as the march itself would stop there
-                const bool beamT = !forward || maxComponent(T) >= eps;
-                if (plan_.shadows && plan_.scatters) {
-                    const float tau = sunOpticalDepth(
-                        p, pcg(pixelKey ^ std::uint32_t(n * 0x9e3779b9ll)), cnt, scratch.shadow);
-                    if (std::isfinite(tau)) { // not behind a surface
-                        vec3 sun(0.0f);
-                        float weight = 1.0f, extinction = 1.0f;
-                        PhaseFunction octavePhase = medium_.phase;
-                        // traced photons carry every higher order: the octaves stand down
-                        const int octaves = volumes_.photons || !beamT ? 1 : r.octaves;
-                        vec3 sunForward(0.0f);
-                        for (int i = 0; i < octaves; ++i) {
-                            const vec3 ph = octavePhase.eval(cosTheta);
-                            // the single scattering (octave 0) in the beams' extinction
-                            if (i == 0 && forward)
-                                sunForward = kern::octaveSun(ph, sigmaTForward_, tau, 1.0f, 1.0f);
-                            else
-                                sun +=
-                                    kern::octaveSun(ph, medium_.sigma_t, tau, weight, extinction);
-                            weight *= r.octaveContribution;
-                            extinction *= r.octaveExtinction;
-                            octavePhase = octavePhase.octave(r.octaveEccentricity);
-                        }
-                        const vec3 in =
-                            s_.sun.irradiance *
-                            kern::inScatterFactor(int(plan_.inScatter), rho, tau, medium_.sigma_t,
-                                                  r.inScatterC, r.inScatterStrength);
-                        S += in * sun;
-                        SF = in * sunForward;
-                    }
+                // split as the shadow march's steps are (densityIntegral), by the
+                // transmittance of the beam that carries the light to the camera
+                const float rho = rv.densityAhead(t);
+                const int k = kern::substeps(maxComponent(forward ? TF : T) * sigmaTMax_ * rho * dt,
+                                             plan_.stepTau);
+                if (k == 1) return visit(t, dt, n, rho);
+                const float h = dt / float(k), t0 = t - jitter * dt;
+                for (int j = 0; j < k; ++j) {
+                    const float tj = t0 + (float(j) + 0.5f) * h;
+                    if (!visit(tj, h, substepIndex(n, j), rv.density(tj))) return false;
                 }
-                // the light scattered more than once that photons carry: the sun's, and the
-                // sky's with render.photon_sky (core/lighting/photons.h)
-                if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
-                // (below the march's tolerance T's terms are not evaluated)
-                if (beamT) {
-                    if (volumes_.diffusion) {
-                        // sun light scattered more than once and the sky light it carries
-                        // (diffusion.h): the P1 radiance scattered toward the camera by the
-                        // phase function
-                        vec3 grad[3];
-                        const vec3 phi = volumes_.diffusion->sample(p, grad);
-                        vec3 ms;
-                        for (int c = 0; c < 3; ++c)
-                            ms[c] = kern::p1Radiance(phi[c], grad[c], medium_.sigma_tr[c], rho,
-                                                     medium_.g, r.msP1, -ray.d);
-                        S += ms * kern::NB_INV_4PI;
-                    }
-                    // the sky's single scattering (the plan's skySingle: alone, or under sky
-                    // photons), else its ambient term where no grid carries the sky
-                    if (volumes_.sky) {
-                        if (!skyWeighted) {
-                            scratch.skyWeights.resize(skyL_.size());
-                            skyWeights(ray.d, scratch.skyWeights.data());
-                            skyWeighted = true;
-                        }
-                        S += skySingleScatter(p, scratch.skyWeights.data());
-                    } else if (plan_.skySingle) {
-                        S += skySingleScatterMarched(
-                            p, ray.d, pcg(pixelKey ^ std::uint32_t(n * 0x85ebca6bll) ^ 0x2545f491u),
-                            cnt, scratch.shadow);
-                    } else if (plan_.ambient && !volumes_.diffusion) {
-                        S += skyInScatter(p);
-                    }
-                }
-                kern::marchStep(S, medium_.sigma_s, medium_.sigma_t, rho, dt, L, T);
-                if (forward) kern::marchStep(SF, medium_.sigma_s, sigmaTForward_, rho, dt, L, TF);
-                if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
-                    depth = t;
-                    depthSet = true;
-                }
-                // the forward beam reaches further: it alone decides where the march may stop
-                return maxComponent(forward ? TF : T) >= eps;
+                return true;
             });
     }
 

@@ -124,6 +124,17 @@ NB_FN void marchStep(vec3 S, vec3 sigmaS, vec3 sigmaT, float rho, float dt, INOU
     integrateStep(S * (sigmaS * rho), sigmaT * rho, dt, L, T);
 }
 
+// The sub-steps a march step is split into so that none has a weight above tauMax
+// (render.step_tau; 0 = never split), the weight being the step's optical depth tau times the
+// transmittance in front of it (march.cpp): a step several mean free paths thick, sampled once,
+// lets one point stand for light that comes from its first mean free path alone. At most
+// MAX_SUBSTEPS.
+const int MAX_SUBSTEPS = 64;
+NB_FN int substeps(float tau, float tauMax) {
+    if (!(tauMax > 0.0f) || !(tau > tauMax)) return 1;
+    return int(min(ceil(tau / tauMax), float(MAX_SUBSTEPS)));
+}
+
 // --- single-scattered sky light (core/lighting/sky_volume.h) ----------------------------------
 
 // Point i of n of a 2D Fibonacci lattice ((i + 1/2) / n, i / golden ratio) in the unit square,

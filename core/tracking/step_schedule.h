@@ -72,4 +72,12 @@ void marchSegments(Segments& it, const StepSchedule& sched, double tIn, double t
     }
 }
 
+/// The index (the key of its random numbers) of sub-step j of march step n when a thick step is
+/// split (render.step_tau): a hash of (n, j), so that its low 32 bits, which the random keys
+/// keep, differ from step to step and from sub-step to sub-step.
+inline std::int64_t substepIndex(std::int64_t n, int j) {
+    return std::int64_t(std::uint64_t(n) * 0x9e3779b97f4a7c15ull +
+                        std::uint64_t(j + 1) * 0xbf58476d1ce4e5b9ull);
+}
+
 } // namespace nimbus

@@ -250,6 +250,26 @@ float RayVolumes::density(float t) {
     return sum;
 }
 
+float RayVolumes::densityAhead(float t) const {
+    if (single_) {
+        if (t < tIn_ || t > tOut_) return 0.0f;
+        const VolumeInstance& in = vs_->instances[0];
+        return in.density * (time_ == 0.0f ? oneField_->density(ray_.at(t))
+                                           : nimbus::densityAt(*oneField_, ray_.at(t), time_));
+    }
+    float sum = 0.0f;
+    auto add = [&](const Span& s) {
+        if (t < s.t0 || t > s.t1) return;
+        const VolumeInstance& in = vs_->instances[size_t(s.instance)];
+        const Field& f = vs_->fields[size_t(in.volume)];
+        sum += in.density * (time_ == 0.0f ? f.density(s.local.at(t))
+                                           : nimbus::densityAt(f, s.local.at(t), time_));
+    };
+    for (int k : densityActive_) add(spans_[size_t(k)]);
+    for (size_t k = densityNext_; k < spans_.size() && spans_[k].t0 <= t; ++k) add(spans_[k]);
+    return sum;
+}
+
 bool RayVolumes::nextSingle(MajorantSegment& out) {
     if (!oneStarted_) {
         oneStarted_ = true;

@@ -97,6 +97,9 @@ class RayVolumes {
     float tIn() const { return tIn_; }
     float tOut() const { return tOut_; }
     float density(float t);
+    /// The density at t without moving the queries on: density() may still be asked at any t
+    /// from the last one asked (march looks at a step's sample before it splits the step).
+    float densityAhead(float t) const;
     bool nextSegment(MajorantSegment& seg);
     /// The time offset (seconds from the frame's time) of the densities asked from now on:
     /// motion blur, one per camera sample. 0 (the default): the frame's time.

@@ -274,6 +274,7 @@ int loadVdbCloud(Cloud& c, const ConvergeOptions& o, int w, int h, std::string& 
 
 /// The settings only `march` reads: left out of a reference's cache key.
 const char* const kMarchOnly[] = {"render.shadow",
+                                  "render.step_tau",
                                   "render.light_volume_cell",
                                   "render.step_growth",
                                   "render.pixel_samples",

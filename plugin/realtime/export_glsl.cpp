@@ -756,6 +756,10 @@ ParamDoc paramDoc(std::string_view n) {
         {"shadowStep",
          {"first step of the shadow march (the frame plan's shadow step)", "world units"}},
         {"shadowGrowth", {"growth of the shadow steps (render.shadow_growth)", "ratio per step"}},
+        {"stepTau",
+         {"a step (camera or shadow) thicker than this optical depth at its sample is split into "
+          "sub-steps no thicker, at most 64 (render.step_tau); 0: never split",
+          "optical depth"}},
         {"octaves", {"multiple-scattering octaves (Wrenninge; render.octaves)", "count"}},
         {"octaveContribution", {"octave contribution factor a", "1"}},
         {"octaveExtinction", {"octave extinction factor b", "1"}},

@@ -85,6 +85,7 @@ struct RtMarchParams {
     float stepGrowth;
     float shadowStep;   // plan.shadowStep: shadow step schedule
     float shadowGrowth;
+    float stepTau;      // render.step_tau: steps split above this optical depth (0: never)
     int octaves;
     float octaveContribution;
     float octaveExtinction;

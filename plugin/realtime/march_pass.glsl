@@ -232,28 +232,52 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
         if (!rtIntersectBox(o, w, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) return 0.0f;
     }
     RtSchedule s = rtSchedule(P.shadowStep, P.shadowGrowth);
+    float sigmaTMax = rtMaxComponent(rtXyz(P.sigmaT));
+    float sigmaTMin = rtMinComponent(rtXyz(P.sigmaT));
     float tau = 0.0f;
     // one step early: float rounding of u(tIn) must not skip the first step (it is clipped away)
     int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
     bool marching = true;
+    // sub-step j of the k a step is split into where its optical depth times the transmittance in
+    // front of it is above render.step_tau (substeps; MarchContext::densityIntegral), at their
+    // midpoints: taken by this loop, step n held while they last, not by a loop of their own
+    // (llvmpipe's loop budget counts one iteration of every loop a step would enter)
+    int j = 0;
+    int k = 1;
     for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
         float tA = max(rtScheduleT(s, float(n)), tIn);
         float tB = min(rtScheduleT(s, float(n + 1)), tOut);
         if (tB > tA) {
-            float ts = tA + jitter * (tB - tA);
-            vec3 q = o + w * ts;
+            float dt = tB - tA;
+            if (j == 0) {
+                vec3 q = o + w * (tA + jitter * dt);
 #if RT_SKIP
-            float tExit;
-            if (rtEmptyCell(o, w, q, tExit)) {
-                n = rtSkipTo(s, n, tExit, tOut);
-            } else {
-                tau += rtDensity(F, q) * (tB - tA);
-                marching = tau <= tauStop;
-            }
+                float tExit;
+                if (rtEmptyCell(o, w, q, tExit)) {
+                    n = rtSkipTo(s, n, tExit, tOut);
+                } else {
+                    float rho = rtDensity(F, q);
+                    k = substeps(exp(-sigmaTMin * tau) * sigmaTMax * rho * dt, P.stepTau);
+                    if (k == 1) tau += rho * dt;
+                }
 #else
-            tau += rtDensity(F, q) * (tB - tA);
-            marching = tau <= tauStop;
+                float rho = rtDensity(F, q);
+                k = substeps(exp(-sigmaTMin * tau) * sigmaTMax * rho * dt, P.stepTau);
+                if (k == 1) tau += rho * dt;
 #endif
+            }
+            if (k > 1) {
+                float h = dt / float(k);
+                tau += rtDensity(F, o + w * (tA + (float(j) + 0.5f) * h)) * h;
+                j++;
+                if (j < k) {
+                    n--; // the same step again
+                } else {
+                    j = 0;
+                    k = 1;
+                }
+            }
+            marching = tau <= tauStop;
         } else {
             marching = tA < tOut;
         }
@@ -294,30 +318,146 @@ RtRay rtRayStart() {
     return r;
 }
 
-// One camera ray (MarchContext::traceRay without surfaces or the column and
-// single-scattered sky), marched from r for at most maxSteps steps (RT_MAX_STEPS: to its end);
-// r.marching is false once the ray is done.
-void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, float jitter,
-                int maxSteps, inout RtRay r) {
+// One sample of a camera ray (MarchContext::traceRay's visit): at t on o + t d, standing for the
+// length dt, with the density rho there; key seeds its random numbers (its step's index, or
+// substepIndex's low bits for a sub-step). Adds its light to L, T and TF, sets the depth where T
+// first falls below half, and whether the march goes on.
+void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float t, float dt,
+                   float rho, uint pixelKey, uint key, inout vec3 L, inout vec3 T, inout vec3 TF,
+                   inout float depth, inout bool depthSet, inout bool marching) {
+    vec3 p = o + d * t;
     vec3 sunDir = rtXyz(P.sunDirection);
     float cosTheta = dot(d, sunDir);
     vec3 sigmaS = rtXyz(P.sigmaS);
     vec3 sigmaT = rtXyz(P.sigmaT);
-    vec3 L = r.L;
-    vec3 T = r.T;
-    vec3 TF = r.TF;
 #if RT_FORWARD_DELTA
     // the forward peak's share g^2 of scattering stays in the beams (PlanFrame's forwardFraction)
     float forwardFraction = P.mediumG * P.mediumG;
     vec3 sigmaTF = sigmaT - forwardFraction * sigmaS;
 #endif
+#if RT_AMBIENT
+    vec3 lo = rtXyz(P.boundsLo);
+    vec3 hi = rtXyz(P.boundsHi);
+#endif
+    vec3 S = vec3(0.0f);
+    vec3 SF = vec3(0.0f);
+#if RT_FORWARD_DELTA
+    // past T's tolerance only the forward beam goes on: T's terms are dropped
+    bool beamT = rtMaxComponent(T) >= P.epsilon;
+#else
+    bool beamT = true;
+#endif
+#if RT_SUN
+#if RT_LIGHT_VOLUME
+    // MarchContext::sunOpticalDepth: the light volume where it holds p
+    float tau = rtInLightVolume(p)
+                    ? rtLightVolumeSample(p)
+                    : rtDensityIntegral(F, p, sunDir,
+                                        pcg(pixelKey ^ (key * 0x9e3779b9u)));
+#else
+    float tau = rtDensityIntegral(F, p, sunDir,
+                                  pcg(pixelKey ^ (key * 0x9e3779b9u)));
+#endif
+    vec3 sun = vec3(0.0f);
+    vec3 sunForward = vec3(0.0f);
+    float weight = 1.0f;
+    float extinction = 1.0f;
+    PhaseParams octavePhase = phase;
+#if RT_MIE_TABLE
+    // PhaseFunction::octave of the table: w table + (1 - w) / 4 pi, w scaled by
+    // the eccentricity per octave
+    float tableWeight = 1.0f;
+#endif
+#if RT_MS_PHOTONS
+    // traced photons carry every higher order: the octaves stand down
+    int octaves = 1;
+#else
+    int octaves = beamT ? P.octaves : 1;
+#endif
+    for (int i = 0; i < octaves; i++) {
+#if RT_MIE_TABLE
+        vec3 ph = tableWeight * mie + vec3((1.0f - tableWeight) * NB_INV_4PI);
+        tableWeight *= P.octaveEccentricity;
+#else
+        vec3 ph = vec3(phaseEval(octavePhase, cosTheta));
+#endif
+#if RT_FORWARD_DELTA
+        // the single scattering (octave 0) in the beams' extinction
+        if (i == 0)
+            sunForward = octaveSun(ph, sigmaTF, tau, 1.0f, 1.0f);
+        else
+            sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+#else
+        sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+#endif
+        weight *= P.octaveContribution;
+        extinction *= P.octaveExtinction;
+        octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
+    }
+    vec3 sunIn = rtXyz(P.sunIrradiance) *
+                 inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
+                                 P.inScatterStrength);
+    S += sunIn * sun;
+    SF = sunIn * sunForward;
+#if RT_MS_PHOTONS
+    // the sun light scattered more than once (core/lighting/photons.h)
+    S += rtPhotonSample(p);
+#endif
+#endif
+#if RT_MS_DIFFUSION
+    // sun light scattered more than once and all sky light (diffusion.h): the P1
+    // radiance scattered toward the camera by the phase function
+    if (beamT) {
+        vec3 gradR, gradG, gradB;
+        vec3 phi = rtDiffusionSample(p, gradR, gradG, gradB);
+        vec3 sigmaTr = rtXyz(P.sigmaTr);
+        vec3 ms = vec3(
+            p1Radiance(phi.x, gradR, sigmaTr.x, rho, P.mediumG, P.msP1, -d),
+            p1Radiance(phi.y, gradG, sigmaTr.y, rho, P.mediumG, P.msP1, -d),
+            p1Radiance(phi.z, gradB, sigmaTr.z, rho, P.mediumG, P.msP1, -d));
+        S += ms * NB_INV_4PI;
+    }
+#endif
+#if RT_AMBIENT
+    // the sky ambient, occluded by height (MarchContext::skyInScatter)
+    float span = max(hi.y - lo.y, 1e-20f);
+    float h = clamp((p.y - lo.y) / span, 0.0f, 1.0f);
+    if (beamT) S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
+#endif
+    marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
+#if RT_FORWARD_DELTA
+    marchStep(SF, sigmaS, sigmaTF, rho, dt, L, TF);
+#endif
+    if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
+        depth = t;
+        depthSet = true;
+    }
+#if RT_FORWARD_DELTA
+    // the forward beam reaches further: it alone decides where the march stops
+    marching = rtMaxComponent(TF) >= P.epsilon;
+#else
+    marching = rtMaxComponent(T) >= P.epsilon;
+#endif
+}
+
+// One camera ray (MarchContext::traceRay without surfaces or the column and
+// single-scattered sky), marched from r for at most maxSteps steps (RT_MAX_STEPS: to its end);
+// r.marching is false once the ray is done.
+void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, float jitter,
+                int maxSteps, inout RtRay r) {
+    vec3 sigmaT = rtXyz(P.sigmaT);
+    vec3 L = r.L;
+    vec3 T = r.T;
+    vec3 TF = r.TF;
     float depth = r.depth;
     bool depthSet = r.depthSet;
     vec3 lo = rtXyz(P.boundsLo);
     vec3 hi = rtXyz(P.boundsHi);
 #if RT_MIE_TABLE
-    // the table at this ray's angle to the sun (PhaseFunction::eval of the table kind)
-    vec3 mie = rtMieEval(cosTheta);
+    // the table at this ray's angle to the sun (PhaseFunction::eval of the table kind), once a ray
+    vec3 mie = rtMieEval(dot(d, rtXyz(P.sunDirection)));
+#else
+    vec3 mie = vec3(0.0f);
 #endif
     float tIn, tOut;
     bool marching = false;
@@ -329,127 +469,59 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
         int n = r.n;
         // (the step loops end by their condition, without break or continue)
         marching = r.marching;
+        // sub-step j of the k a thick step is split into: taken by this loop, step n held while
+        // they last (as the shadow march's; a slice ends only between steps)
+        int j = 0;
+        int k = 1;
         for (; marching && n < nEnd; n++) {
             float tA = max(rtScheduleT(s, float(n)), tIn);
             float tB = min(rtScheduleT(s, float(n + 1)), tOut);
             if (!(tB > tA)) {
                 marching = tA < tOut;
             } else {
-                float t = tA + jitter * (tB - tA);
                 float dt = tB - tA;
-                vec3 p = o + d * t;
-#if RT_SKIP
-                // a sample in an empty majorant cell: on from the step holding the exit from
-                // the cell (or from the cube of empty blocks around it)
-                float tExit;
-                bool empty = rtEmptyCell(o, d, p, tExit);
-                if (empty) n = rtSkipTo(s, n, tExit, tOut);
+                float t = tA + jitter * dt;
                 float rho = 0.0f;
-                if (!empty) rho = rtDensity(F, p);
+                uint key = uint(n); // the sample's random numbers
+                if (j == 0) {
+                    vec3 p = o + d * t;
+#if RT_SKIP
+                    // a sample in an empty majorant cell: on from the step holding the exit from
+                    // the cell (or from the cube of empty blocks around it)
+                    float tExit;
+                    bool empty = rtEmptyCell(o, d, p, tExit);
+                    if (empty) n = rtSkipTo(s, n, tExit, tOut);
+                    if (!empty) rho = rtDensity(F, p);
 #else
-                float rho = rtDensity(F, p);
+                    rho = rtDensity(F, p);
 #endif
-                if (rho > 0.0f) {
-                    vec3 S = vec3(0.0f);
-                    vec3 SF = vec3(0.0f);
+                    // split as the shadow march's steps are, by the transmittance of the beam
+                    // that carries the light to the camera (MarchContext::traceRay)
 #if RT_FORWARD_DELTA
-                    // past T's tolerance only the forward beam goes on: T's terms are dropped
-                    bool beamT = rtMaxComponent(T) >= P.epsilon;
+                    float beam = rtMaxComponent(TF);
 #else
-                    bool beamT = true;
+                    float beam = rtMaxComponent(T);
 #endif
-#if RT_SUN
-#if RT_LIGHT_VOLUME
-                    // MarchContext::sunOpticalDepth: the light volume where it holds p
-                    float tau = rtInLightVolume(p)
-                                    ? rtLightVolumeSample(p)
-                                    : rtDensityIntegral(F, p, sunDir,
-                                                        pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
-#else
-                    float tau = rtDensityIntegral(F, p, sunDir,
-                                                  pcg(pixelKey ^ (uint(n) * 0x9e3779b9u)));
-#endif
-                    vec3 sun = vec3(0.0f);
-                    vec3 sunForward = vec3(0.0f);
-                    float weight = 1.0f;
-                    float extinction = 1.0f;
-                    PhaseParams octavePhase = phase;
-#if RT_MIE_TABLE
-                    // PhaseFunction::octave of the table: w table + (1 - w) / 4 pi, w scaled by
-                    // the eccentricity per octave
-                    float tableWeight = 1.0f;
-#endif
-#if RT_MS_PHOTONS
-                    // traced photons carry every higher order: the octaves stand down
-                    int octaves = 1;
-#else
-                    int octaves = beamT ? P.octaves : 1;
-#endif
-                    for (int i = 0; i < octaves; i++) {
-#if RT_MIE_TABLE
-                        vec3 ph = tableWeight * mie + vec3((1.0f - tableWeight) * NB_INV_4PI);
-                        tableWeight *= P.octaveEccentricity;
-#else
-                        vec3 ph = vec3(phaseEval(octavePhase, cosTheta));
-#endif
-#if RT_FORWARD_DELTA
-                        // the single scattering (octave 0) in the beams' extinction
-                        if (i == 0)
-                            sunForward = octaveSun(ph, sigmaTF, tau, 1.0f, 1.0f);
-                        else
-                            sun += octaveSun(ph, sigmaT, tau, weight, extinction);
-#else
-                        sun += octaveSun(ph, sigmaT, tau, weight, extinction);
-#endif
-                        weight *= P.octaveContribution;
-                        extinction *= P.octaveExtinction;
-                        octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
-                    }
-                    vec3 sunIn = rtXyz(P.sunIrradiance) *
-                                 inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
-                                                 P.inScatterStrength);
-                    S += sunIn * sun;
-                    SF = sunIn * sunForward;
-#if RT_MS_PHOTONS
-                    // the sun light scattered more than once (core/lighting/photons.h)
-                    S += rtPhotonSample(p);
-#endif
-#endif
-#if RT_MS_DIFFUSION
-                    // sun light scattered more than once and all sky light (diffusion.h): the P1
-                    // radiance scattered toward the camera by the phase function
-                    if (beamT) {
-                        vec3 gradR, gradG, gradB;
-                        vec3 phi = rtDiffusionSample(p, gradR, gradG, gradB);
-                        vec3 sigmaTr = rtXyz(P.sigmaTr);
-                        vec3 ms = vec3(
-                            p1Radiance(phi.x, gradR, sigmaTr.x, rho, P.mediumG, P.msP1, -d),
-                            p1Radiance(phi.y, gradG, sigmaTr.y, rho, P.mediumG, P.msP1, -d),
-                            p1Radiance(phi.z, gradB, sigmaTr.z, rho, P.mediumG, P.msP1, -d));
-                        S += ms * NB_INV_4PI;
-                    }
-#endif
-#if RT_AMBIENT
-                    // the sky ambient, occluded by height (MarchContext::skyInScatter)
-                    float span = max(hi.y - lo.y, 1e-20f);
-                    float h = clamp((p.y - lo.y) / span, 0.0f, 1.0f);
-                    if (beamT) S += skyHeightInScatter(rtXyz(P.skySphere), h, P.ambientGround);
-#endif
-                    marchStep(S, sigmaS, sigmaT, rho, dt, L, T);
-#if RT_FORWARD_DELTA
-                    marchStep(SF, sigmaS, sigmaTF, rho, dt, L, TF);
-#endif
-                    if (!depthSet && (T.x + T.y + T.z) < 1.5f) {
-                        depth = t;
-                        depthSet = true;
-                    }
-#if RT_FORWARD_DELTA
-                    // the forward beam reaches further: it alone decides where the march stops
-                    marching = rtMaxComponent(TF) >= P.epsilon;
-#else
-                    marching = rtMaxComponent(T) >= P.epsilon;
-#endif
+                    k = rho > 0.0f ? substeps(beam * rtMaxComponent(sigmaT) * rho * dt, P.stepTau)
+                                   : 1;
                 }
+                if (k > 1) {
+                    dt = dt / float(k);
+                    t = tA + (float(j) + 0.5f) * dt;
+                    rho = rtDensity(F, o + d * t);
+                    // the key of core/tracking/step_schedule.h's substepIndex (its low bits)
+                    key = uint(n) * 0x7f4a7c15u + uint(j + 1) * 0x1ce4e5b9u;
+                    j++;
+                    if (j < k) {
+                        n--; // the same step again
+                    } else {
+                        j = 0;
+                        k = 1;
+                    }
+                }
+                if (rho > 0.0f)
+                    rtMarchSample(F, phase, mie, o, d, t, dt, rho, pixelKey, key, L, T, TF, depth,
+                                  depthSet, marching);
             }
         }
         r.n = n;

@@ -342,6 +342,7 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
     P.stepGrowth = r.stepGrowth;
     P.shadowStep = p.shadowStep;
     P.shadowGrowth = r.shadowGrowth;
+    P.stepTau = p.stepTau;
     P.octaves = r.octaves;
     P.octaveContribution = r.octaveContribution;
     P.octaveExtinction = r.octaveExtinction;

@@ -95,6 +95,15 @@ void addRenderParams(std::vector<Param>& t) {
                               [hasVdb](const SceneFile& f) {
                                   return f.scene.render.step == 0.0f && hasVdb(f);
                               }));
+    t.push_back(ren.param("step_tau", atLeast(0),
+                          "Splits thick march steps, camera and shadow rays alike: a step whose "
+                          "optical depth (at its sample) times the transmittance in front of it "
+                          "exceeds this is taken as that many sub-steps at their midpoints, at "
+                          "most 64. One point of a step several mean free paths thick stands for "
+                          "light that comes from its first mean free path alone (noisy, and "
+                          "wrong on coarse VDB voxels). 0 = never split.",
+                          &RenderDesc::stepTau)
+                    .usedWhen("render.integrator = \"march\"", marching));
     t.push_back(ren.param("step_growth", atLeast(0),
                           "Distance-adaptive steps: step = max(step, step_growth * distance).",
                           &RenderDesc::stepGrowth)
