@@ -340,8 +340,9 @@ struct RenderDesc {
     float stepGrowth = 0.0f; ///< distance-adaptive: step = max(step, stepGrowth * distance)
     /// march: a step (camera or shadow ray) whose optical depth at its sample times the
     /// transmittance in front of it exceeds this is split into that many sub-steps (at most
-    /// kern::MAX_SUBSTEPS), sampled at their midpoints; 0 = never split
-    float stepTau = 0.0f;
+    /// kern::MAX_SUBSTEPS), each sampled at its own turn of the jitter (kern::substepOffset);
+    /// 0 = never split (docs/accuracy.md, "Thick steps split")
+    float stepTau = 0.5f;
     bool jitter = true;
     /// march: camera rays per pixel, stratified over the filter's width and weighted by it;
     /// 1 = one ray through the pixel centre (no filter)

@@ -1126,6 +1126,15 @@ std::vector<KernelCase> makeCases() {
         },
         exact));
     c.push_back(kernelCase(
+        "substepOffset", "substepOffset(a0, a1)",
+        [](int j, float jitter) { return substepOffset(j, jitter); },
+        [](Draw& d) {
+            return std::tuple(d.i(0, 63, {0, 1, 63}), unit(d));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-23f,
+                  .why = "fract() of a sum in [0, 40): an ulp of the sum, 2^-23 absolute"}));
+    c.push_back(kernelCase(
         "fibonacciPoint", "fibonacciPoint(a0, a1, a2)",
         [](int i, int n, vec2 o) { return fibonacciPoint(i, n, o); },
         [](Draw& d) {

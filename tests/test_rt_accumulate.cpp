@@ -173,11 +173,13 @@ TEST(RtAccumulate, KeptWorkBuffersStartFromZero) {
 
 // At a coarse step (4x the scene's), 16 accumulated passes are clearly closer to a converged
 // fine-step CPU reference (0.25x the scene's step, the mean of 4 renders with their own seeds)
-// than one pass. Measured at 80x45 (relative RMSE, N = 16 over N = 1): 0.0521 / 0.1099 = 0.474
-// here; with render.seed 11..16 on the GPU side 0.462, 0.478, 0.479, 0.481, 0.491, 0.505. Not
+// than one pass. Measured at 80x45 (relative RMSE, N = 16 over N = 1): 0.0460 / 0.0771 = 0.597
+// here; with render.seed 11..16 on the GPU side 0.705, 0.679, 0.633, 0.676, 0.637, 0.693. Not
 // 1/4 (the noise alone would fall as 1/sqrt(N)): what remains at N = 16 is the coarse step's
-// bias, which accumulation does not remove (docs/realtime.md). The bound, 0.6, is 0.1 above the
-// largest ratio measured; without distinct keys per pass the ratio is 1.
+// bias, which accumulation does not remove (docs/realtime.md). (Before thick steps were split,
+// render.step_tau, one pass was 0.110 off and the ratios 0.46-0.51: splitting takes much of the
+// one pass's error away.) The bound, 0.8, is 0.1 above the largest ratio measured; without
+// distinct keys per pass the ratio is 1.
 TEST(RtAccumulate, ConvergesTowardTheFineStepReference) {
     if (!requireContext()) return;
     const int w = 80, h = 45;
@@ -203,7 +205,7 @@ TEST(RtAccumulate, ConvergesTowardTheFineStepReference) {
     std::printf("[ rt accumulate ] step x4, %dx%d: relative RMSE N=1 %.4f (%.3f s), N=16 %.4f "
                 "(%.3f s)\n",
                 w, h, e1, t1, e16, t16);
-    EXPECT_LT(e16, 0.6 * e1);
+    EXPECT_LT(e16, 0.8 * e1);
 }
 
 // `nimbus rt --accumulate N`: the frame line and the EXR's metadata say N; N < 1 is refused.

@@ -139,12 +139,11 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
             ++cnt.shadowSamples;
             tau += rho * dt;
         } else {
-            // at the midpoints of k sub-steps (a second-order rule: a jittered point in each
-            // would leave noise of the first order in the sub-step's optical depth)
+            // k sub-steps, each sampled at its own turn of the jitter (kern::substepOffset)
             const float h = dt / float(k), t0 = t - jitter * dt;
             for (int j = 0; j < k && tau <= tauStop; ++j) {
                 ++cnt.shadowSamples;
-                tau += rv.density(t0 + (float(j) + 0.5f) * h) * h;
+                tau += rv.density(t0 + (float(j) + kern::substepOffset(j, jitter)) * h) * h;
             }
         }
         return tau <= tauStop;
@@ -305,7 +304,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                 if (k == 1) return visit(t, dt, n, rho);
                 const float h = dt / float(k), t0 = t - jitter * dt;
                 for (int j = 0; j < k; ++j) {
-                    const float tj = t0 + (float(j) + 0.5f) * h;
+                    const float tj = t0 + (float(j) + kern::substepOffset(j, jitter)) * h;
                     if (!visit(tj, h, substepIndex(n, j), rv.density(tj))) return false;
                 }
                 return true;

@@ -128,11 +128,20 @@ NB_FN void marchStep(vec3 S, vec3 sigmaS, vec3 sigmaT, float rho, float dt, INOU
 // (render.step_tau; 0 = never split), the weight being the step's optical depth tau times the
 // transmittance in front of it (march.cpp): a step several mean free paths thick, sampled once,
 // lets one point stand for light that comes from its first mean free path alone. At most
-// MAX_SUBSTEPS.
+// MAX_SUBSTEPS, each sampled at substepOffset.
 const int MAX_SUBSTEPS = 64;
 NB_FN int substeps(float tau, float tauMax) {
     if (!(tauMax > 0.0f) || !(tau > tauMax)) return 1;
     return int(min(ceil(tau / tauMax), float(MAX_SUBSTEPS)));
+}
+
+// Where in sub-step j of a split step its sample sits, as a fraction of the sub-step: the step's
+// jitter turned by the golden ratio per sub-step. Each is uniform when the jitter is, so frames
+// and passes with other jitters average to the step's integral; within one ray the sub-steps'
+// errors cancel, as a shared fraction's would not (the same offset in every sub-step errs the
+// same way in all of them). Without jitter (0.5) it still varies from sub-step to sub-step.
+NB_FN float substepOffset(int j, float jitter) {
+    return fract(jitter + float(j) * 0.618033989f);
 }
 
 // --- single-scattered sky light (core/lighting/sky_volume.h) ----------------------------------

@@ -239,9 +239,10 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
     int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
     bool marching = true;
     // sub-step j of the k a step is split into where its optical depth times the transmittance in
-    // front of it is above render.step_tau (substeps; MarchContext::densityIntegral), at their
-    // midpoints: taken by this loop, step n held while they last, not by a loop of their own
-    // (llvmpipe's loop budget counts one iteration of every loop a step would enter)
+    // front of it is above render.step_tau (substeps; MarchContext::densityIntegral), each at its
+    // own turn of the jitter (substepOffset): taken by this loop, step n held while they last,
+    // not by a loop of their own (llvmpipe's loop budget counts one iteration of every loop a
+    // step would enter)
     int j = 0;
     int k = 1;
     for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
@@ -268,7 +269,7 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
             }
             if (k > 1) {
                 float h = dt / float(k);
-                tau += rtDensity(F, o + w * (tA + (float(j) + 0.5f) * h)) * h;
+                tau += rtDensity(F, o + w * (tA + (float(j) + substepOffset(j, jitter)) * h)) * h;
                 j++;
                 if (j < k) {
                     n--; // the same step again
@@ -507,7 +508,7 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                 }
                 if (k > 1) {
                     dt = dt / float(k);
-                    t = tA + (float(j) + 0.5f) * dt;
+                    t = tA + (float(j) + substepOffset(j, jitter)) * dt;
                     rho = rtDensity(F, o + d * t);
                     // the key of core/tracking/step_schedule.h's substepIndex (its low bits)
                     key = uint(n) * 0x7f4a7c15u + uint(j + 1) * 0x1ce4e5b9u;
