@@ -215,6 +215,19 @@ float rtDensity(RtField F, vec3 p) { return cumulusDensity(F.cumulus, p); }
 #endif
 #endif
 
+// Past sub-step j of the k a split step is marched in (render.step_tau): true while the step
+// holds more of them (the step loop then takes the same step again), else j and k start over
+// for the next step.
+bool rtSubstepHolds(inout int j, inout int k) {
+    j++;
+    bool holds = j < k;
+    if (!holds) {
+        j = 0;
+        k = 1;
+    }
+    return holds;
+}
+
 #if RT_SUN
 // The density integral from p toward direction w (MarchContext::densityIntegral): a jittered
 // march on the shadow schedule from p (or from where the ray enters the box, when p lies outside
@@ -270,13 +283,7 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
             if (k > 1) {
                 float h = dt / float(k);
                 tau += rtDensity(F, o + w * (tA + (float(j) + substepOffset(j, jitter)) * h)) * h;
-                j++;
-                if (j < k) {
-                    n--; // the same step again
-                } else {
-                    j = 0;
-                    k = 1;
-                }
+                if (rtSubstepHolds(j, k)) n--; // the same step again
             }
             marching = tau <= tauStop;
         } else {
@@ -512,13 +519,7 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                     rho = rtDensity(F, o + d * t);
                     // the key of core/tracking/step_schedule.h's substepIndex (its low bits)
                     key = uint(n) * 0x7f4a7c15u + uint(j + 1) * 0x1ce4e5b9u;
-                    j++;
-                    if (j < k) {
-                        n--; // the same step again
-                    } else {
-                        j = 0;
-                        k = 1;
-                    }
+                    if (rtSubstepHolds(j, k)) n--; // the same step again
                 }
                 if (rho > 0.0f)
                     rtMarchSample(F, phase, mie, o, d, t, dt, rho, pixelKey, key, L, T, TF, depth,
