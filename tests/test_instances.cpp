@@ -163,9 +163,9 @@ SceneDesc overlappingCumulus() {
 
 TEST(Instances, DensityAheadLeavesTheQueriesAsTheyWere) {
     // march looks at a step's sample (densityAhead) before it asks the densities of its
-    // sub-steps, some of them before that sample (render.step_tau): the look must not move
-    // the instance spans on, and must read what density() reads there. Two overlapping boxes
-    // of density 1 and 0.5, a ray through both: their spans begin and end inside the look.
+    // sub-steps, some of them before that sample (render.step_tau): the look must leave every
+    // span a later query from `from` on needs, and read what density() reads there. Two overlapping
+    // boxes of density 1 and 0.5, a ray through both: their spans begin and end inside the look.
     SceneDesc s = boxes();
     s.instances = {InstanceDesc{0, vec3(0.0f), vec3(0.0f), vec3(1.0f), 1.0f},
                    InstanceDesc{0, vec3(1.5f, 0.0f, 0.0f), vec3(0.0f), vec3(1.0f), 0.5f}};
@@ -186,7 +186,7 @@ TEST(Instances, DensityAheadLeavesTheQueriesAsTheyWere) {
     for (int k = 0; k < N; ++k) {
         const float t = t0 + len * (float(k) + 0.5f) / float(N);
         const float tAhead = t0 + len * (float(k + ahead) + 0.5f) / float(N);
-        const float look = looked.densityAhead(tAhead);
+        const float look = looked.densityAhead(tAhead, t);
         const float here = looked.density(t);
         EXPECT_EQ(here, plain.density(t)) << "t " << t;
         if (k + ahead < N) {

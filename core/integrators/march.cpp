@@ -132,7 +132,7 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
         // a step whose optical depth, times the transmittance in front of it, is above
         // render.step_tau is split (kern::substeps): one jittered point of a thick step would
         // stand for all of it; behind an opaque stretch the step's error no longer shows
-        const float rho = rv.densityAhead(t);
+        const float rho = rv.densityAhead(t, t - jitter * dt);
         const int k =
             kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ * rho * dt, plan_.stepTau);
         if (k == 1) {
@@ -298,7 +298,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             rv, primary_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t n) {
                 // split as the shadow march's steps are (densityIntegral), by the
                 // transmittance of the beam that carries the light to the camera
-                const float rho = rv.densityAhead(t);
+                const float rho = rv.densityAhead(t, t - jitter * dt);
                 const int k = kern::substeps(maxComponent(forward ? TF : T) * sigmaTMax_ * rho * dt,
                                              plan_.stepTau);
                 if (k == 1) return visit(t, dt, n, rho);

@@ -241,6 +241,10 @@ float RayVolumes::density(float t) {
             densityActive_.pop_back();
             continue;
         }
+        if (t < s.t0) { // joined early by densityAhead
+            ++k;
+            continue;
+        }
         const VolumeInstance& in = vs_->instances[size_t(s.instance)];
         const Field& f = vs_->fields[size_t(in.volume)];
         sum += in.density * (time_ == 0.0f ? f.density(s.local.at(t))
@@ -250,23 +254,32 @@ float RayVolumes::density(float t) {
     return sum;
 }
 
-float RayVolumes::densityAhead(float t) const {
+float RayVolumes::densityAhead(float t, float from) {
     if (single_) {
         if (t < tIn_ || t > tOut_) return 0.0f;
         const VolumeInstance& in = vs_->instances[0];
         return in.density * (time_ == 0.0f ? oneField_->density(ray_.at(t))
                                            : nimbus::densityAt(*oneField_, ray_.at(t), time_));
     }
+    // the spans begun by t join the active ones (density() passes over them before their
+    // start); those ended before `from` leave
+    while (densityNext_ < spans_.size() && spans_[densityNext_].t0 <= t)
+        densityActive_.push_back(int(densityNext_++));
     float sum = 0.0f;
-    auto add = [&](const Span& s) {
-        if (t < s.t0 || t > s.t1) return;
+    for (size_t k = 0; k < densityActive_.size();) {
+        const Span& s = spans_[size_t(densityActive_[k])];
+        if (from > s.t1) {
+            densityActive_[k] = densityActive_.back();
+            densityActive_.pop_back();
+            continue;
+        }
+        ++k;
+        if (t < s.t0 || t > s.t1) continue;
         const VolumeInstance& in = vs_->instances[size_t(s.instance)];
         const Field& f = vs_->fields[size_t(in.volume)];
         sum += in.density * (time_ == 0.0f ? f.density(s.local.at(t))
                                            : nimbus::densityAt(f, s.local.at(t), time_));
-    };
-    for (int k : densityActive_) add(spans_[size_t(k)]);
-    for (size_t k = densityNext_; k < spans_.size() && spans_[k].t0 <= t; ++k) add(spans_[k]);
+    }
     return sum;
 }
 

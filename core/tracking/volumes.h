@@ -97,9 +97,10 @@ class RayVolumes {
     float tIn() const { return tIn_; }
     float tOut() const { return tOut_; }
     float density(float t);
-    /// The density at t without moving the queries on: density() may still be asked at any t
-    /// from the last one asked (march looks at a step's sample before it splits the step).
-    float densityAhead(float t) const;
+    /// The density at t, looked at ahead of the queries: density() may still be asked at any t
+    /// from `from` on (march looks at a step's sample, then may split the step from its start).
+    /// The instances whose spans end before `from` are done with, as density() would be.
+    float densityAhead(float t, float from);
     bool nextSegment(MajorantSegment& seg);
     /// The time offset (seconds from the frame's time) of the densities asked from now on:
     /// motion blur, one per camera sample. 0 (the default): the frame's time.
