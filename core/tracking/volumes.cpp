@@ -224,34 +224,9 @@ bool RayVolumes::begin(const VolumeSet& vs, const Ray& ray, float tmin, float tm
     return true;
 }
 
+// the queries move forward: the spans ended before t are done
 float RayVolumes::density(float t) {
-    if (single_) {
-        if (t < tIn_ || t > tOut_) return 0.0f;
-        const VolumeInstance& in = vs_->instances[0];
-        return in.density * (time_ == 0.0f ? oneField_->density(ray_.at(t))
-                                           : nimbus::densityAt(*oneField_, ray_.at(t), time_));
-    }
-    while (densityNext_ < spans_.size() && spans_[densityNext_].t0 <= t)
-        densityActive_.push_back(int(densityNext_++));
-    float sum = 0.0f;
-    for (size_t k = 0; k < densityActive_.size();) {
-        const Span& s = spans_[size_t(densityActive_[k])];
-        if (t > s.t1) { // queries only move forward: this span is done
-            densityActive_[k] = densityActive_.back();
-            densityActive_.pop_back();
-            continue;
-        }
-        if (t < s.t0) { // joined early by densityAhead
-            ++k;
-            continue;
-        }
-        const VolumeInstance& in = vs_->instances[size_t(s.instance)];
-        const Field& f = vs_->fields[size_t(in.volume)];
-        sum += in.density * (time_ == 0.0f ? f.density(s.local.at(t))
-                                           : nimbus::densityAt(f, s.local.at(t), time_));
-        ++k;
-    }
-    return sum;
+    return densityAhead(t, t);
 }
 
 float RayVolumes::densityAhead(float t, float from) {
@@ -261,8 +236,8 @@ float RayVolumes::densityAhead(float t, float from) {
         return in.density * (time_ == 0.0f ? oneField_->density(ray_.at(t))
                                            : nimbus::densityAt(*oneField_, ray_.at(t), time_));
     }
-    // the spans begun by t join the active ones (density() passes over them before their
-    // start); those ended before `from` leave
+    // the spans begun by t join the active ones (passed over before their start); those ended
+    // before `from` leave
     while (densityNext_ < spans_.size() && spans_[densityNext_].t0 <= t)
         densityActive_.push_back(int(densityNext_++));
     float sum = 0.0f;
