@@ -134,7 +134,9 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
         // stand for all of it; behind an opaque stretch the step's error no longer shows
         const float rho = rv.densityAhead(t, t - jitter * dt);
         const int k =
-            kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ * rho * dt, plan_.stepTau);
+            plan_.stepTau > 0.0f
+                ? kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ * rho * dt, plan_.stepTau)
+                : 1;
         if (k == 1) {
             ++cnt.shadowSamples;
             tau += rho * dt;
