@@ -1126,6 +1126,14 @@ std::vector<KernelCase> makeCases() {
         },
         exact));
     c.push_back(kernelCase(
+        "splitDensity", "splitDensity(a0, a1)",
+        [](float rho, float around) { return splitDensity(rho, around); },
+        [](Draw& d) {
+            // a sample outside the cloud (0) beside one inside, and the other way round
+            return std::tuple(d.f(0.0f, 5.0f, {0.0f, 2.0f}), d.f(0.0f, 5.0f, {0.0f, 3.0f}));
+        },
+        exact));
+    c.push_back(kernelCase(
         "substepOffset", "substepOffset(a0, a1)",
         [](int j, float jitter) { return substepOffset(j, jitter); },
         [](Draw& d) {

@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "core/camera.h"
 #include "core/integrators/march.h"
@@ -161,6 +163,55 @@ TEST(March, ThickStepsAreSplitToMeetTheHalfSpaceClosedForm) {
     EXPECT_LT(errFine, 0.01);
     EXPECT_GT(split, whole);
     EXPECT_GT(fine, split);
+}
+
+TEST(March, StepWalkVisitsTheEdgesOfEmptyStretches) {
+    // Cells 2, 3 and 6 of 8 hold density: segments [3, 4], [4, 5] and [7, 8] along the ray.
+    // Steps of 0.4 sampled a quarter in (t = 0.4 n + 0.1). Without edges only the samples in a
+    // segment are visited. With them also, as empty, the step before a segment that reaches into
+    // it (n 7 and 17) and the step after one when the next segment starts later (13 and 20),
+    // but not step 10 (its sample lies in the segment that follows at once, where it is visited
+    // as it is).
+    MajorantGrid g;
+    g.bounds = Box{vec3(0.0f), vec3(8.0f, 1.0f, 1.0f)};
+    g.res = ivec3(8, 1, 1);
+    g.cellSize = vec3(1.0f);
+    g.maj = {0, 0, 1, 2, 0, 0, 3, 0};
+    const Ray r{vec3(-1.0f, 0.5f, 0.5f), vec3(1.0f, 0.0f, 0.0f)};
+    const StepSchedule sched(0.4, 0.0);
+    using V = std::vector<std::pair<std::int64_t, bool>>;
+    auto walk = [&](EdgeSteps edges, double tIn) {
+        MajorantIterator it(&g, g.bounds, r, float(tIn), 9.0f, 0.0f);
+        V visited;
+        marchSegments(it, sched, tIn, 9.0, 0.25f, edges,
+                      [&](float t, float dt, std::int64_t n, float tNext, bool empty) {
+                          if (float(sched.t(double(n))) >= float(tIn)) { // (not clipped)
+                              EXPECT_NEAR(t, 0.4f * float(n) + 0.1f, 1e-5f) << n;
+                              EXPECT_NEAR(dt, 0.4f, 1e-5f) << n;
+                          }
+                          EXPECT_NEAR(tNext, 0.4f * float(n + 1) + 0.1f, 1e-5f) << n;
+                          visited.emplace_back(n, empty);
+                          return true;
+                      });
+        return visited;
+    };
+    EXPECT_EQ(walk(EdgeSteps::kNone, 1.0), (V{{8, false},
+                                              {9, false},
+                                              {10, false},
+                                              {11, false},
+                                              {12, false},
+                                              {18, false},
+                                              {19, false}}));
+    const V edges{{7, true},  {8, false}, {9, false},  {10, false}, {11, false}, {12, false},
+                  {13, true}, {17, true}, {18, false}, {19, false}, {20, true}};
+    EXPECT_EQ(walk(EdgeSteps::kEdges, 1.0), edges);
+    // from a point inside [4, 5] whose first (clipped) step has its sample past 5: only a start
+    // that sees density makes that step an edge
+    const V tail{{17, true}, {18, false}, {19, false}, {20, true}};
+    EXPECT_EQ(walk(EdgeSteps::kEdges, 4.95), tail);
+    V fromStart = tail;
+    fromStart.insert(fromStart.begin(), {12, true});
+    EXPECT_EQ(walk(EdgeSteps::kFromStart, 4.95), fromStart);
 }
 
 TEST(March, MajorantIteratorGivesKnownSpans) {

@@ -171,15 +171,17 @@ TEST(RtAccumulate, KeptWorkBuffersStartFromZero) {
     EXPECT_EQ(frames[2].depth, frames[0].depth);
 }
 
-// At a coarse step (4x the scene's), 16 accumulated passes are clearly closer to a converged
-// fine-step CPU reference (0.25x the scene's step, the mean of 4 renders with their own seeds)
-// than one pass. Measured at 80x45 (relative RMSE, N = 16 over N = 1): 0.0460 / 0.0771 = 0.597
-// here; with render.seed 11..16 on the GPU side 0.705, 0.679, 0.633, 0.676, 0.637, 0.693. Not
-// 1/4 (the noise alone would fall as 1/sqrt(N)): what remains at N = 16 is the coarse step's
-// bias, which accumulation does not remove (docs/realtime.md). (Before thick steps were split,
-// render.step_tau, one pass was 0.110 off and the ratios 0.46-0.51: splitting takes much of the
-// one pass's error away.) The bound, 0.8, is 0.1 above the largest ratio measured; without
-// distinct keys per pass the ratio is 1.
+// At a coarse step (4x the scene's), 16 accumulated passes are closer to a converged fine-step
+// CPU reference (0.25x the scene's step, the mean of 4 renders with their own seeds) than one
+// pass. Measured at 80x45 (relative RMSE, N = 16 over N = 1): 0.0260 / 0.0315 = 0.825 here;
+// with render.seed 11..16 on the GPU side 0.827, 0.804, 0.682, 0.705, 0.592, 0.806 (the same with
+// 16 reference renders: the reference is converged). Not 1/4 (the noise alone would fall as
+// 1/sqrt(N)): what remains at N = 16 is the coarse step's bias, 0.027-0.032, which accumulation
+// does not remove (docs/realtime.md). Splitting thick steps (render.step_tau) takes much of one
+// pass's error away: before it one pass was 0.110 off (ratios 0.46-0.51); with the split decided
+// by a step's own sample alone 0.077 (0.60-0.71); with its neighbours' too, 0.033-0.048. The
+// bound, 0.93, is 0.1 above the largest ratio measured; without distinct keys per pass the
+// ratio is 1.
 TEST(RtAccumulate, ConvergesTowardTheFineStepReference) {
     if (!requireContext()) return;
     const int w = 80, h = 45;
@@ -205,7 +207,7 @@ TEST(RtAccumulate, ConvergesTowardTheFineStepReference) {
     std::printf("[ rt accumulate ] step x4, %dx%d: relative RMSE N=1 %.4f (%.3f s), N=16 %.4f "
                 "(%.3f s)\n",
                 w, h, e1, t1, e16, t16);
-    EXPECT_LT(e16, 0.8 * e1);
+    EXPECT_LT(e16, 0.93 * e1);
 }
 
 // `nimbus rt --accumulate N`: the frame line and the EXR's metadata say N; N < 1 is refused.

@@ -7,12 +7,15 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <glm/gtc/matrix_transform.hpp>
+#include <unistd.h>
 
 #include "core/fields/grid.h"
 #include "core/image_error.h"
 #include "core/plan.h"
 #include "plugin/host/session.h"
 #include "plugin/io/scene_file.h"
+#include "plugin/vdb/vdb_writer.h"
 #include "test_util.h"
 
 using namespace nimbus;
@@ -167,5 +170,57 @@ TEST(VdbStep, ExplainSaysTheRuleWithoutReadingGrids) {
     EXPECT_NE(r.output.find("march steps: primary 1 x the finest voxel (render.step_voxels"),
               std::string::npos)
         << r.output;
+    fs::remove_all(dir);
+}
+
+// Steps across a VDB cloud's edge (render.step_tau): a slab of voxels of density 1 behind four
+// voxels of density 0 (active, so the field's box begins there), each voxel 5 mean free paths
+// deep, sunlit from the camera's side, single scattering. At a step of one voxel a camera step
+// that crosses the slab's face often has its sample in the empty voxels, and a shadow step that
+// leaves a point near the face its sample outside it: split only by its own sample (density 0)
+// such a step stays whole, its optical depth all or nothing with the jitter. The split looks at
+// the samples on both sides too (kern::splitDensity): the image comes within 6% of a march at
+// a fiftieth of a voxel with whole steps (measured 4.5%; 44.2% when the test takes the step's
+// own sample alone, 68.7% with whole steps).
+TEST(VdbStep, StepsAcrossACloudsFaceAreSplit) {
+    const fs::path dir = fs::temp_directory_path() / ("nimbus_vdbface_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    vdb::VdbGridSpec g;
+    g.worldFromIndex = glm::scale(glm::dmat4(1.0), glm::dvec3(0.1));
+    for (int k = 0; k < 12; ++k)
+        for (int j = 0; j < 40; ++j)
+            for (int i = 0; i < 40; ++i)
+                g.voxels.push_back({ivec3(i, j, k), k < 4 ? 0.0 : 1.0, true});
+    vdb::writeVdbGrids((dir / "slab.vdb").string(), {g});
+    const std::string scene =
+        "[camera]\nposition = [2.13, 1.87, -3.0]\nlook_at = [1.95, 2.05, 1.0]\nfov = 12.0\n"
+        "width = 32\nheight = 32\n"
+        "[sun]\ndirection = [0.5, 0.3, -0.8]\nirradiance = 1.0\n"
+        "[sky]\nkind = \"none\"\n"
+        "[medium]\nsigma_s = 50.0\nphase = \"isotropic\"\n"
+        "[field]\nkind = \"vdb\"\npath = \"" +
+        (dir / "slab.vdb").string() +
+        "\"\n"
+        "[render]\nmultiple_scattering = \"none\"\ninscatter = \"none\"\noctaves = 1\n"
+        "background = \"transparent\"\nshadow_growth = 0.0\nepsilon = 0.0001\nthreads = 2\n";
+    auto render = [&](const std::vector<std::string>& set) {
+        host::Session s;
+        boundPlan(s, scene, set);
+        Framebuffer fb;
+        RenderStats st;
+        EXPECT_TRUE(s.render(1, fb, st).ok());
+        return fb;
+    };
+    const Framebuffer fine =
+        render({"render.step_voxels=0.02", "render.shadow_step_voxels=0.02", "render.step_tau=0"});
+    const Framebuffer split = render({}); // one voxel a step, step_tau 0.5 (the defaults)
+    const Framebuffer whole = render({"render.step_tau=0"});
+    const ImageError e = imageError(split, fine), w = imageError(whole, fine);
+    std::printf("[ step_tau ] a VDB slab's face inside a step of 5 mean free paths: split %.2f%%, "
+                "whole %.2f%% (%zu pixels)\n",
+                100.0 * e.relative(), 100.0 * w.relative(), e.pixels);
+    EXPECT_GT(e.pixels, 32u * 32u * 9 / 10);
+    EXPECT_GT(w.relative(), 0.2); // whole steps are far off: the test can tell
+    EXPECT_LT(e.relative(), 0.06);
     fs::remove_all(dir);
 }

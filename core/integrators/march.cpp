@@ -83,7 +83,7 @@ vec3 MarchContext::skyInScatter(vec3 p) const {
 }
 
 vec3 MarchContext::skySingleScatterMarched(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt,
-                                           RayVolumes& rv) const {
+                                           RayVolumes& rv, float rhoP) const {
     // K directions drawn from the phase function around d, stratified: a 2D Fibonacci lattice
     // ((j + 1/2) / K, j / golden ratio) shifted by a random offset per sample (Cranley-Patterson
     // rotation) drives the phase function's inverse CDF and the azimuth; each direction weighs
@@ -102,19 +102,61 @@ vec3 MarchContext::skySingleScatterMarched(vec3 p, vec3 d, std::uint32_t rng, Ra
         const vec3 w = kern::phaseDirection(d, ps.cosTheta, u.y);
         if (surfaces_ && surfaces_->occluded(Ray{p, w}, 1e-4f, std::numeric_limits<float>::max()))
             continue;
-        const float tau = densityIntegral(p, w, pcg(rng ^ std::uint32_t(2 * j)), cnt, rv);
+        const float tau = densityIntegral(p, w, pcg(rng ^ std::uint32_t(2 * j)), cnt, rv, rhoP);
         S += ps.weight * skyRadiance(s_.sky, w) * kern::beerLambert(medium_.sigma_t * tau);
     }
     return S * (s_.sky.ambient / float(K));
 }
 
-float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt,
-                                       RayVolumes& rv) const {
-    return densityIntegral(p, s_.sun.direction, rng, cnt, rv);
+namespace {
+
+// The densities around a march step that render.step_tau's test takes besides its own sample's
+// (kern::splitDensity): at the sample before, while the visited steps follow each other (0 after
+// a stretch skipped as empty, where the density is 0 too), or at a shadow ray's start, and at the
+// next step's sample, read ahead. That sample is the one marchSegments visits next, so the density
+// read ahead is used when it comes, not read again. (The GLSL march: RtStepper.)
+struct StepNeighbours {
+    static constexpr std::int64_t kAnyStep = std::numeric_limits<std::int64_t>::min();
+    static constexpr std::int64_t kNoStep = kAnyStep + 1;
+    std::int64_t prevN = kNoStep; ///< the step prev belongs to (kAnyStep: a shadow ray's start)
+    float prev = 0.0f;
+    std::int64_t nextN = kNoStep; ///< the step next belongs to
+    float next = 0.0f;
+    float around = 0.0f; ///< the larger of the current step's neighbours
+
+    /// Starts from a shadow ray's origin, whose density is `rho`.
+    void start(float rho) {
+        prev = rho;
+        prevN = rho > 0.0f ? kAnyStep : kNoStep;
+    }
+    /// The density at step n's sample ts (the step starting at `from`; 0 without a look where
+    /// marchSegments says the sample lies in an empty stretch); with readAhead also at the next
+    /// step's sample tNext (-infinity where there is none).
+    float visit(RayVolumes& rv, std::int64_t n, float ts, float from, float tNext, bool empty,
+                bool readAhead) {
+        const float here = empty ? 0.0f : nextN == n ? next : rv.densityAhead(ts, from);
+        around = prevN == n - 1 || prevN == kAnyStep ? prev : 0.0f;
+        prev = here;
+        prevN = n;
+        nextN = kNoStep;
+        if (readAhead && tNext > ts) {
+            next = rv.densityAhead(tNext, from);
+            nextN = n + 1;
+            around = std::max(around, next);
+        }
+        return here;
+    }
+};
+
+} // namespace
+
+float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
+                                       float rhoP) const {
+    return densityIntegral(p, s_.sun.direction, rng, cnt, rv, rhoP);
 }
 
 float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt,
-                                    RayVolumes& rv) const {
+                                    RayVolumes& rv, float rhoP) const {
     const Ray ray{p, w};
     const float jitter = s_.render.jitter ? kern::hashToUnit(pcg(rng)) : 0.5f;
     // stop once the sun is blocked for every channel (transmittance < 1e-5)
@@ -125,41 +167,51 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
         // starts where the volumes do, not at p, so its steps have not grown on the way
         const Ray entry{ray.at(rv.tIn()), ray.d};
         if (!rv.begin(vols_, entry, 0.0f, std::numeric_limits<float>::max())) return 0.0f;
+        rhoP = 0.0f; // (the march starts where it enters, with nothing before it)
     }
     float tau = 0.0f;
     const float sigmaTMin = minComponent(medium_.sigma_t);
-    marchSegments(rv, shadow_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t) {
-        // a step whose optical depth, times the transmittance in front of it, is above
-        // render.step_tau is split (kern::substeps): one jittered point of a thick step would
-        // stand for all of it; behind an opaque stretch the step's error no longer shows
-        const float rho = rv.densityAhead(t, t - jitter * dt);
-        const int k =
-            plan_.stepTau > 0.0f
-                ? kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ * rho * dt, plan_.stepTau)
-                : 1;
-        if (k == 1) {
-            ++cnt.shadowSamples;
-            tau += rho * dt;
-        } else {
-            // k sub-steps, each sampled at its own turn of the jitter (kern::substepOffset)
-            const float h = dt / float(k), t0 = t - jitter * dt;
-            for (int j = 0; j < k && tau <= tauStop; ++j) {
+    StepNeighbours nb;
+    const bool split = plan_.stepTau > 0.0f;
+    if (split) nb.start(rhoP >= 0.0f ? rhoP : rv.density(0.0f));
+    marchSegments(
+        rv, shadow_, rv.tIn(), rv.tOut(), jitter,
+        !split                                 ? EdgeSteps::kNone
+        : nb.prevN == StepNeighbours::kAnyStep ? EdgeSteps::kFromStart
+                                               : EdgeSteps::kEdges,
+        [&](float t, float dt, std::int64_t n, float tNext, bool empty) {
+            // a step whose optical depth, times the transmittance in front of it, is above
+            // render.step_tau is split (kern::substeps): one jittered point of a thick step would
+            // stand for all of it; behind an opaque stretch the step's error no longer shows
+            const float rho = nb.visit(rv, n, t, t - jitter * dt, tNext, empty, split);
+            const int k = split ? kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ *
+                                                     kern::splitDensity(rho, nb.around) * dt,
+                                                 plan_.stepTau)
+                                : 1;
+            if (k == 1) {
+                if (empty) return true;
                 ++cnt.shadowSamples;
-                tau += rv.density(t0 + (float(j) + kern::substepOffset(j, jitter)) * h) * h;
+                tau += rho * dt;
+            } else {
+                // k sub-steps, each sampled at its own turn of the jitter (kern::substepOffset)
+                const float h = dt / float(k), t0 = t - jitter * dt;
+                for (int j = 0; j < k && tau <= tauStop; ++j) {
+                    ++cnt.shadowSamples;
+                    tau += rv.density(t0 + (float(j) + kern::substepOffset(j, jitter)) * h) * h;
+                }
             }
-        }
-        return tau <= tauStop;
-    });
+            return tau <= tauStop;
+        });
     return tau;
 }
 
-float MarchContext::sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt,
-                                    RayVolumes& rv) const {
+float MarchContext::sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
+                                    float rhoP) const {
     if (surfaces_ &&
         surfaces_->occluded(Ray{p, s_.sun.direction}, 1e-4f, std::numeric_limits<float>::max()))
         return std::numeric_limits<float>::infinity();
     if (lightVolume_ && lightVolume_->bounds.contains(p)) return lightVolume_->sample(p);
-    return sunDensityIntegral(p, rng, cnt, rv);
+    return sunDensityIntegral(p, rng, cnt, rv, rhoP);
 }
 
 vec3 MarchContext::surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::uint32_t rng,
@@ -224,7 +276,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             if (plan_.shadows && plan_.scatters) {
                 const float tau = sunOpticalDepth(
                     p, pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) * 0x9e3779b9ull)), cnt,
-                    scratch.shadow);
+                    scratch.shadow, rho);
                 if (std::isfinite(tau)) { // not behind a surface
                     vec3 sun(0.0f);
                     float weight = 1.0f, extinction = 1.0f;
@@ -282,7 +334,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                         p, ray.d,
                         pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) * 0x85ebca6bull) ^
                             0x2545f491u),
-                        cnt, scratch.shadow);
+                        cnt, scratch.shadow, rho);
                 } else if (plan_.ambient && !volumes_.diffusion) {
                     S += skyInScatter(p);
                 }
@@ -296,21 +348,25 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             // the forward beam reaches further: it alone decides where the march may stop
             return maxComponent(forward ? TF : T) >= eps;
         };
-        marchSegments(
-            rv, primary_, rv.tIn(), rv.tOut(), jitter, [&](float t, float dt, std::int64_t n) {
-                // split as the shadow march's steps are (densityIntegral), by the
-                // transmittance of the beam that carries the light to the camera
-                const float rho = rv.densityAhead(t, t - jitter * dt);
-                const int k = kern::substeps(maxComponent(forward ? TF : T) * sigmaTMax_ * rho * dt,
-                                             plan_.stepTau);
-                if (k == 1) return visit(t, dt, n, rho);
-                const float h = dt / float(k), t0 = t - jitter * dt;
-                for (int j = 0; j < k; ++j) {
-                    const float tj = t0 + (float(j) + kern::substepOffset(j, jitter)) * h;
-                    if (!visit(tj, h, substepIndex(n, j), rv.density(tj))) return false;
-                }
-                return true;
-            });
+        StepNeighbours nb;
+        marchSegments(rv, primary_, rv.tIn(), rv.tOut(), jitter,
+                      plan_.stepTau > 0.0f ? EdgeSteps::kEdges : EdgeSteps::kNone,
+                      [&](float t, float dt, std::int64_t n, float tNext, bool empty) {
+                          // split as the shadow march's steps are (densityIntegral), by the
+                          // transmittance of the beam that carries the light to the camera
+                          const float rho = nb.visit(rv, n, t, t - jitter * dt, tNext, empty,
+                                                     plan_.stepTau > 0.0f);
+                          const int k = kern::substeps(maxComponent(forward ? TF : T) * sigmaTMax_ *
+                                                           kern::splitDensity(rho, nb.around) * dt,
+                                                       plan_.stepTau);
+                          if (k == 1) return empty || visit(t, dt, n, rho);
+                          const float h = dt / float(k), t0 = t - jitter * dt;
+                          for (int j = 0; j < k; ++j) {
+                              const float tj = t0 + (float(j) + kern::substepOffset(j, jitter)) * h;
+                              if (!visit(tj, h, substepIndex(n, j), rv.density(tj))) return false;
+                          }
+                          return true;
+                      });
     }
 
     float alpha = 1.0f - (T.x + T.y + T.z) / 3.0f;

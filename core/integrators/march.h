@@ -77,14 +77,17 @@ class MarchContext {
                     Scratch& scratch) const;
 
     /// Density integral along the ray from p toward direction w (shadow march), stopped once
-    /// the transmittance is below 1e-5 in every channel.
-    float densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt,
-                          RayVolumes& rv) const;
+    /// the transmittance is below 1e-5 in every channel. `rhoP`: the density at p where the
+    /// caller knows it (render.step_tau's test of the first step looks at it), else negative.
+    float densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
+                          float rhoP = -1.0f) const;
     /// Density integral along the ray from p toward the sun (shadow march).
-    float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
+    float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
+                             float rhoP = -1.0f) const;
     /// Density integral toward the sun from p: light volume or shadow march; infinite when a
     /// surface blocks the sun.
-    float sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
+    float sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
+                          float rhoP = -1.0f) const;
     /// Radiance leaving a diffuse surface toward the camera.
     vec3 surfaceRadiance(const Ray& ray, const SurfaceHit& hit, std::uint32_t rng, RayCounters& cnt,
                          RayVolumes& rv) const;
@@ -98,7 +101,7 @@ class MarchContext {
     /// The single-scattered sky at p seen along direction d, a shadow march toward each of the
     /// directions turned by a random rotation drawn from `rng`.
     vec3 skySingleScatterMarched(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt,
-                                 RayVolumes& rv) const;
+                                 RayVolumes& rv, float rhoP = -1.0f) const;
 
   private:
     const SceneDesc& s_;

@@ -135,6 +135,13 @@ NB_FN int substeps(float tau, float tauMax) {
     return int(min(ceil(tau / tauMax), float(MAX_SUBSTEPS)));
 }
 
+// The density render.step_tau's test takes for a step: the largest of its sample's and its
+// neighbours' (`around`: the sample before, or a shadow ray's start, and the next step's). A
+// step across a cloud's rising or falling edge often has its own sample on the thin side (or
+// outside, at 0) and would stay whole, its optical depth all or nothing with the jitter, and the
+// exponential of that too bright on average.
+NB_FN float splitDensity(float rho, float around) { return max(rho, around); }
+
 // Where in sub-step j of a split step its sample sits, as a fraction of the sub-step: the step's
 // jitter turned by the golden ratio per sub-step. Each is uniform when the jitter is, so frames
 // and passes with other jitters average to the step's integral; within one ray the sub-steps'

@@ -44,7 +44,7 @@ const int RT_MAX_STEPS = 1048576; // a bound on any loop over steps (a GPU must 
 // and renders the frame again in shorter slices when `loopBudgetSpent` is not 0. The samples and
 // their arithmetic do not depend on the slicing (a ray's state is stored as the floats it holds).
 struct RtRayState {
-    vec4 L;       // radiance so far (w 0)
+    vec4 L;       // radiance so far (w: the density at the last step's sample, RtRay.prev)
     vec4 T;       // transmittance so far (w 0)
     vec4 TF;      // the forward beam's transmittance so far (RT_FORWARD_DELTA; w 0)
     float depth;
@@ -132,6 +132,12 @@ float rtMinComponent(vec3 v) { return min(v.x, min(v.y, v.z)); }
 // all are).
 const int RT_MAJORANT_BLOCK = 4; // MajorantGrid::kBlock
 
+// The nearer of tExit and where the ray (origin o, direction d along one axis) meets the plane
+// `face` of that axis (an axis the ray runs parallel to is left out).
+float rtFaceExit(float tExit, float o, float d, float face) {
+    return d != 0.0f ? min(tExit, (face - o) / d) : tExit;
+}
+
 bool rtEmptyCell(vec3 o, vec3 d, vec3 p, out float tExit) {
     ivec3 res = ivec3(P.majorantResX, P.majorantResY, P.majorantResZ);
     vec3 lo = rtXyz(P.majorantLo);
@@ -150,12 +156,10 @@ bool rtEmptyCell(vec3 o, vec3 d, vec3 p, out float tExit) {
         c0 = max(b - ivec3(k - 1), ivec3(0)) * RT_MAJORANT_BLOCK;
         c1 = min((b + ivec3(k)) * RT_MAJORANT_BLOCK, res); // one past the cube's last cell
     }
-    for (int a = 0; a < 3; a++) {
-        if (d[a] != 0.0f) {
-            float face = lo[a] + float(d[a] > 0.0f ? c1[a] : c0[a]) * cell[a];
-            tExit = min(tExit, (face - o[a]) / d[a]);
-        }
-    }
+    // (the axes written out, not a loop: llvmpipe's loop budget counts every loop entered)
+    tExit = rtFaceExit(tExit, o.x, d.x, lo.x + float(d.x > 0.0f ? c1.x : c0.x) * cell.x);
+    tExit = rtFaceExit(tExit, o.y, d.y, lo.y + float(d.y > 0.0f ? c1.y : c0.y) * cell.y);
+    tExit = rtFaceExit(tExit, o.z, d.z, lo.z + float(d.z > 0.0f ? c1.z : c0.z) * cell.z);
     return true;
 }
 
@@ -164,8 +168,10 @@ bool rtEmptyCell(vec3 o, vec3 d, vec3 p, out float tExit) {
 // the step holding the exit, whose sample is checked again (it may still lie in the empty cell);
 // never before n, so the loop always advances. Every step skipped has its sample before tExit,
 // in the empty cell: skipping drops only samples of density 0, as marchSegments does.
+// With render.step_tau the loop lands one step earlier still: the step before the one holding the
+// exit may be the last whose sample lies in the empty cell, and rtEdgeStep looks at it.
 int rtSkipTo(RtSchedule s, int n, float tExit, float tOut) {
-    return max(n, int(floor(rtScheduleU(s, min(tExit, tOut)))) - 1);
+    return max(n, int(floor(rtScheduleU(s, min(tExit, tOut)))) - (P.stepTau > 0.0f ? 2 : 1));
 }
 #endif
 
@@ -215,24 +221,161 @@ float rtDensity(RtField F, vec3 p) { return cumulusDensity(F.cumulus, p); }
 #endif
 #endif
 
-// Past sub-step j of the k a split step is marched in (render.step_tau): true while the step
-// holds more of them (the step loop then takes the same step again), else j and k start over
-// for the next step.
-bool rtSubstepHolds(inout int j, inout int k) {
-    j++;
-    bool holds = j < k;
-    if (!holds) {
-        j = 0;
-        k = 1;
-    }
-    return holds;
+// The densities around a march step that render.step_tau's test looks at besides its own
+// sample's (splitDensity; MarchContext's StepNeighbours): the sample before (kept while the
+// visited steps follow each other; 0 after a stretch skipped as empty, where the density is 0
+// too), or a shadow ray's start, and the next step's, read ahead and used again when that step
+// comes.
+struct RtNeighbours {
+    int prevN; // the step prev belongs to (RT_ANY_STEP: a shadow ray's start, before any step)
+    float prev;
+    int nextN; // the step next belongs to (-1 after none was read)
+    float next;
+    float around; // the larger of the current step's neighbours
+};
+const int RT_ANY_STEP = -2147483647;
+const int RT_NO_STEP = -2147483646; // prev belongs to no step (nothing before it saw density)
+
+// Where a march stands within its step n. Each iteration of a step loop looks up one density at
+// most (llvmpipe's loop budget counts an iteration of every loop a lookup enters, taken or not),
+// so a step takes one iteration or more, held while they last: its sample (unless read ahead),
+// then with render.step_tau the next step's sample (read ahead, kept for that step) and the
+// split is decided, then its sub-steps if it is split, each at its own turn of the jitter
+// (substepOffset).
+const int RT_PHASE_STEP = 0;  // a new step: its sample
+const int RT_PHASE_AHEAD = 1; // the next step's sample, then the split
+const int RT_PHASE_SUB = 2;   // sub-step j of k
+struct RtStepper {
+    int phase;
+    int j;
+    int k;
+    float here; // the density at the step's sample
+    RtNeighbours nb;
+};
+
+// A march from a point of density rhoStart (a shadow ray's start: the first step's neighbour; 0
+// for a march that enters the volume from outside).
+RtStepper rtStepperStart(float rhoStart) {
+    RtStepper st;
+    st.phase = RT_PHASE_STEP;
+    st.j = 0;
+    st.k = 1;
+    st.here = 0.0f;
+    st.nb.prevN = rhoStart > 0.0f ? RT_ANY_STEP : RT_NO_STEP;
+    st.nb.prev = rhoStart;
+    st.nb.nextN = -1;
+    st.nb.next = 0.0f;
+    st.nb.around = 0.0f;
+    return st;
 }
+
+// Step n's sample has density `here`: the sample before becomes its neighbour.
+void rtStepperBegin(inout RtStepper st, int n, float here) {
+    st.here = here;
+    st.nb.around = st.nb.prevN == n - 1 || st.nb.prevN == RT_ANY_STEP ? st.nb.prev : 0.0f;
+    st.nb.prev = here;
+    st.nb.prevN = n;
+    st.nb.nextN = -1;
+    st.phase = RT_PHASE_AHEAD;
+}
+
+// What step n (from tA to tA + dt, not skipped; `empty`: its sample lies in an empty majorant
+// cell, density 0) looks up in this iteration: true with the point in `at`, false for nothing.
+bool rtStepperLookup(inout RtStepper st, RtSchedule s, int n, float tA, float dt, bool empty,
+                     vec3 o, vec3 w, float tIn, float tOut, float jitter, out vec3 at) {
+    at = o;
+    if (st.phase == RT_PHASE_STEP) {
+        if (!empty && st.nb.nextN != n) {
+            at = o + w * (tA + jitter * dt);
+            return true;
+        }
+        rtStepperBegin(st, n, empty ? 0.0f : st.nb.next);
+    }
+    if (st.phase == RT_PHASE_AHEAD) {
+        float tA1 = max(rtScheduleT(s, float(n + 1)), tIn);
+        float tB1 = min(rtScheduleT(s, float(n + 2)), tOut);
+        at = o + w * (tA1 + jitter * (tB1 - tA1));
+        return P.stepTau > 0.0f && tB1 > tA1;
+    }
+    at = o + w * (tA + (float(st.j) + substepOffset(st.j, jitter)) * dt / float(st.k));
+    return true;
+}
+
+// Takes this iteration's lookup v (of the point rtStepperLookup chose, if it chose one) for step
+// n from tA to tA + dt, split where its optical depth times `weight` (the transmittance in front
+// of it times the largest sigma_t) is above render.step_tau. True with what the march adds in
+// (t, h, rho, key: a sample of density rho standing for a stretch h, the key of its random
+// numbers); `hold` is true while the step takes more iterations.
+bool rtStepperTake(inout RtStepper st, int n, float tA, float dt, float jitter, float v,
+                   bool looked, float weight, out float t, out float h, out float rho,
+                   out uint key, out bool hold) {
+    t = tA + jitter * dt;
+    h = dt;
+    rho = 0.0f;
+    key = uint(n);
+    hold = false;
+    if (st.phase == RT_PHASE_STEP) {
+        rtStepperBegin(st, n, v);
+        // without splitting nothing is read ahead: decided at once
+        hold = P.stepTau > 0.0f;
+        if (hold) return false;
+        looked = false;
+    }
+    if (st.phase == RT_PHASE_AHEAD) {
+        if (looked) {
+            st.nb.next = v;
+            st.nb.nextN = n + 1;
+            st.nb.around = max(st.nb.around, v);
+        }
+        st.k = substeps(weight * splitDensity(st.here, st.nb.around) * dt, P.stepTau);
+        if (st.k == 1) {
+            st.phase = RT_PHASE_STEP;
+            rho = st.here;
+            return true;
+        }
+        st.phase = RT_PHASE_SUB;
+        st.j = 0;
+        hold = true;
+        return false;
+    }
+    // sub-step j: the key of core/tracking/step_schedule.h's substepIndex (its low bits)
+    h = dt / float(st.k);
+    t = tA + (float(st.j) + substepOffset(st.j, jitter)) * h;
+    rho = v;
+    key = uint(n) * 0x7f4a7c15u + uint(st.j + 1) * 0x1ce4e5b9u;
+    st.j++;
+    hold = st.j < st.k;
+    if (!hold) {
+        st.phase = RT_PHASE_STEP;
+        st.j = 0;
+        st.k = 1;
+    }
+    return true;
+}
+
+#if RT_SKIP
+// Whether step n, whose sample lies in an empty majorant cell, is visited all the same (as a
+// sample of density 0) rather than skipped: with render.step_tau a march that takes every step
+// splits such a step where a neighbour's density is above 0 (the step may reach out of the cell),
+// so skipping visits the steps where that can happen, for the same image: the step after a
+// visited one that saw density (or a shadow ray's first) and the step whose next sample lies
+// outside the empty cell. Every other skipped step has neighbours of density 0.
+bool rtEdgeStep(RtNeighbours nb, RtSchedule s, int n, vec3 o, vec3 w, float tIn, float tOut,
+                float jitter) {
+    if (!(P.stepTau > 0.0f)) return false;
+    if ((nb.prevN == n - 1 || nb.prevN == RT_ANY_STEP) && nb.prev > 0.0f) return true;
+    float tA = max(rtScheduleT(s, float(n + 1)), tIn);
+    float tB = min(rtScheduleT(s, float(n + 2)), tOut);
+    float tExit;
+    return tB > tA && !rtEmptyCell(o, w, o + w * (tA + jitter * (tB - tA)), tExit);
+}
+#endif
 
 #if RT_SUN
 // The density integral from p toward direction w (MarchContext::densityIntegral): a jittered
 // march on the shadow schedule from p (or from where the ray enters the box, when p lies outside
 // it), stopped once the transmittance is below 1e-5 in every channel.
-float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
+float rtDensityIntegral(RtField F, vec3 p, float rhoP, vec3 w, uint rng) {
     float jitter = P.jitter != 0 ? hashToUnit(pcg(rng)) : 0.5f;
     float tauStop = 11.5f / max(rtMinComponent(rtXyz(P.sigmaT)), 1e-12f);
     vec3 lo = rtXyz(P.boundsLo);
@@ -243,6 +386,7 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
     if (tIn > 0.0f) {
         o = p + w * tIn;
         if (!rtIntersectBox(o, w, lo, hi, 0.0f, RT_FLOAT_MAX, tIn, tOut)) return 0.0f;
+        rhoP = 0.0f; // (the march starts where it enters the box, with nothing before it)
     }
     RtSchedule s = rtSchedule(P.shadowStep, P.shadowGrowth);
     float sigmaTMax = rtMaxComponent(rtXyz(P.sigmaT));
@@ -251,42 +395,40 @@ float rtDensityIntegral(RtField F, vec3 p, vec3 w, uint rng) {
     // one step early: float rounding of u(tIn) must not skip the first step (it is clipped away)
     int n0 = int(floor(rtScheduleU(s, tIn))) - 1;
     bool marching = true;
-    // sub-step j of the k a step is split into where its optical depth times the transmittance in
-    // front of it is above render.step_tau (substeps; MarchContext::densityIntegral), each at its
-    // own turn of the jitter (substepOffset): taken by this loop, step n held while they last,
-    // not by a loop of their own (llvmpipe's loop budget counts one iteration of every loop a
-    // step would enter)
-    int j = 0;
-    int k = 1;
+    // a step whose optical depth times the transmittance in front of it is above render.step_tau
+    // is split (substeps; MarchContext::densityIntegral); the test looks at the densities around
+    // the step too, the first step's neighbour being p's density rhoP (RtStepper)
+    RtStepper st = rtStepperStart(rhoP);
     for (int n = n0; marching && n < n0 + RT_MAX_STEPS; n++) {
         float tA = max(rtScheduleT(s, float(n)), tIn);
         float tB = min(rtScheduleT(s, float(n + 1)), tOut);
-        if (tB > tA) {
-            float dt = tB - tA;
-            if (j == 0) {
-                vec3 q = o + w * (tA + jitter * dt);
+        float dt = tB - tA;
+        vec3 at = o;
+        bool look = false;
+        bool skipped = !(tB > tA);
+        if (!skipped) {
+            bool empty = false;
 #if RT_SKIP
+            if (st.phase == RT_PHASE_STEP) {
                 float tExit;
-                if (rtEmptyCell(o, w, q, tExit)) {
-                    n = rtSkipTo(s, n, tExit, tOut);
-                } else {
-                    float rho = rtDensity(F, q);
-                    k = substeps(exp(-sigmaTMin * tau) * sigmaTMax * rho * dt, P.stepTau);
-                    if (k == 1) tau += rho * dt;
-                }
-#else
-                float rho = rtDensity(F, q);
-                k = substeps(exp(-sigmaTMin * tau) * sigmaTMax * rho * dt, P.stepTau);
-                if (k == 1) tau += rho * dt;
+                empty = rtEmptyCell(o, w, o + w * (tA + jitter * dt), tExit);
+                skipped = empty && !rtEdgeStep(st.nb, s, n, o, w, tIn, tOut, jitter);
+                if (skipped) n = rtSkipTo(s, n, tExit, tOut);
+            }
 #endif
-            }
-            if (k > 1) {
-                float h = dt / float(k);
-                tau += rtDensity(F, o + w * (tA + (float(j) + substepOffset(j, jitter)) * h)) * h;
-                if (rtSubstepHolds(j, k)) n--; // the same step again
-            }
+            if (!skipped) look = rtStepperLookup(st, s, n, tA, dt, empty, o, w, tIn, tOut, jitter, at);
+        }
+        float v = look ? rtDensity(F, at) : 0.0f; // the iteration's one lookup
+        if (!skipped) {
+            float t, h, rho;
+            uint key;
+            bool hold;
+            if (rtStepperTake(st, n, tA, dt, jitter, v, look, exp(-sigmaTMin * tau) * sigmaTMax, t,
+                              h, rho, key, hold))
+                tau += rho * h;
+            if (hold) n--; // the same step again
             marching = tau <= tauStop;
-        } else {
+        } else if (!(tB > tA)) {
             marching = tA < tOut;
         }
     }
@@ -310,6 +452,7 @@ struct RtRay {
     bool depthSet;
     bool started; // n is set (the first step is known once the box is hit)
     int n;        // the next step of the camera schedule
+    float prev;   // the density at step n - 1's sample (0 where it was skipped as empty)
     bool marching;
 };
 
@@ -322,6 +465,7 @@ RtRay rtRayStart() {
     r.depthSet = false;
     r.started = false;
     r.n = 0;
+    r.prev = 0.0f;
     r.marching = true;
     return r;
 }
@@ -360,11 +504,9 @@ void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float
     // MarchContext::sunOpticalDepth: the light volume where it holds p
     float tau = rtInLightVolume(p)
                     ? rtLightVolumeSample(p)
-                    : rtDensityIntegral(F, p, sunDir,
-                                        pcg(pixelKey ^ (key * 0x9e3779b9u)));
+                    : rtDensityIntegral(F, p, rho, sunDir, pcg(pixelKey ^ (key * 0x9e3779b9u)));
 #else
-    float tau = rtDensityIntegral(F, p, sunDir,
-                                  pcg(pixelKey ^ (key * 0x9e3779b9u)));
+    float tau = rtDensityIntegral(F, p, rho, sunDir, pcg(pixelKey ^ (key * 0x9e3779b9u)));
 #endif
     vec3 sun = vec3(0.0f);
     vec3 sunForward = vec3(0.0f);
@@ -477,10 +619,14 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
         int n = r.n;
         // (the step loops end by their condition, without break or continue)
         marching = r.marching;
-        // sub-step j of the k a thick step is split into: taken by this loop, step n held while
-        // they last (as the shadow march's; a slice ends only between steps)
-        int j = 0;
-        int k = 1;
+        // steps split as the shadow march's are (RtStepper), by the transmittance of the beam
+        // that carries the light to the camera (MarchContext::traceRay); a slice ends only
+        // between steps, the density at the last sample carried over in r.prev (for step r.n - 1)
+        RtStepper st = rtStepperStart(0.0f);
+        if (r.started) {
+            st.nb.prev = r.prev;
+            st.nb.prevN = n - 1;
+        }
         for (; marching && n < nEnd; n++) {
             float tA = max(rtScheduleT(s, float(n)), tIn);
             float tB = min(rtScheduleT(s, float(n + 1)), tOut);
@@ -488,45 +634,42 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
                 marching = tA < tOut;
             } else {
                 float dt = tB - tA;
-                float t = tA + jitter * dt;
-                float rho = 0.0f;
-                uint key = uint(n); // the sample's random numbers
-                if (j == 0) {
-                    vec3 p = o + d * t;
+                bool empty = false;
+                bool skipped = false;
 #if RT_SKIP
+                if (st.phase == RT_PHASE_STEP) {
                     // a sample in an empty majorant cell: on from the step holding the exit from
                     // the cell (or from the cube of empty blocks around it)
                     float tExit;
-                    bool empty = rtEmptyCell(o, d, p, tExit);
-                    if (empty) n = rtSkipTo(s, n, tExit, tOut);
-                    if (!empty) rho = rtDensity(F, p);
-#else
-                    rho = rtDensity(F, p);
+                    empty = rtEmptyCell(o, d, o + d * (tA + jitter * dt), tExit);
+                    skipped = empty && !rtEdgeStep(st.nb, s, n, o, d, tIn, tOut, jitter);
+                    if (skipped) n = rtSkipTo(s, n, tExit, tOut);
+                }
 #endif
-                    // split as the shadow march's steps are, by the transmittance of the beam
-                    // that carries the light to the camera (MarchContext::traceRay)
+                if (!skipped) {
+                    vec3 at;
+                    bool look =
+                        rtStepperLookup(st, s, n, tA, dt, empty, o, d, tIn, tOut, jitter, at);
+                    float v = look ? rtDensity(F, at) : 0.0f; // the iteration's one lookup
 #if RT_FORWARD_DELTA
                     float beam = rtMaxComponent(TF);
 #else
                     float beam = rtMaxComponent(T);
 #endif
-                    k = rho > 0.0f ? substeps(beam * rtMaxComponent(sigmaT) * rho * dt, P.stepTau)
-                                   : 1;
+                    float t, h, rho;
+                    uint key;
+                    bool hold;
+                    if (rtStepperTake(st, n, tA, dt, jitter, v, look,
+                                      beam * rtMaxComponent(sigmaT), t, h, rho, key, hold) &&
+                        rho > 0.0f)
+                        rtMarchSample(F, phase, mie, o, d, t, h, rho, pixelKey, key, L, T, TF,
+                                      depth, depthSet, marching);
+                    if (hold) n--; // the same step again
                 }
-                if (k > 1) {
-                    dt = dt / float(k);
-                    t = tA + (float(j) + substepOffset(j, jitter)) * dt;
-                    rho = rtDensity(F, o + d * t);
-                    // the key of core/tracking/step_schedule.h's substepIndex (its low bits)
-                    key = uint(n) * 0x7f4a7c15u + uint(j + 1) * 0x1ce4e5b9u;
-                    if (rtSubstepHolds(j, k)) n--; // the same step again
-                }
-                if (rho > 0.0f)
-                    rtMarchSample(F, phase, mie, o, d, t, dt, rho, pixelKey, key, L, T, TF, depth,
-                                  depthSet, marching);
             }
         }
         r.n = n;
+        r.prev = st.nb.prevN == n - 1 ? st.nb.prev : 0.0f;
         marching = marching && n < n0 + RT_MAX_STEPS;
     }
     r.L = L;
@@ -617,6 +760,7 @@ void main() {
         ray.depthSet = st.depthSet != 0;
         ray.started = true;
         ray.n = st.n;
+        ray.prev = st.L.w;
     }
     rtMarchRay(F, phase, origin, d, rayKey, jitter, P.sliceSteps, ray);
     if (!rtLoopBudgetHeld()) {
@@ -625,7 +769,7 @@ void main() {
         return;
     }
     RtRayState st;
-    st.L = vec4(ray.L, 0.0f);
+    st.L = vec4(ray.L, ray.prev);
     st.T = vec4(ray.T, 0.0f);
     st.TF = vec4(ray.TF, 0.0f);
     st.depth = ray.depth;
