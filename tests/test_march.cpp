@@ -30,6 +30,17 @@ SceneDesc slabScene() {
     return s;
 }
 
+/// 8 x 1 x 1 cells of size 1 over [0,8] x [0,1] x [0,1]; cells 2, 3 and 6 hold density (bounds
+/// 1, 2 and 3): along the ray from x = -1 the segments [3, 4], [4, 5] and [7, 8].
+MajorantGrid threeCellGrid() {
+    MajorantGrid g;
+    g.bounds = Box{vec3(0.0f), vec3(8.0f, 1.0f, 1.0f)};
+    g.res = ivec3(8, 1, 1);
+    g.cellSize = vec3(1.0f);
+    g.maj = {0, 0, 1, 2, 0, 0, 3, 0};
+    return g;
+}
+
 } // namespace
 
 TEST(March, StepScheduleRoundTrips) {
@@ -172,11 +183,7 @@ TEST(March, StepWalkVisitsTheEdgesOfEmptyStretches) {
     // it (n 7 and 17) and the step after one when the next segment starts later (13 and 20),
     // but not step 10 (its sample lies in the segment that follows at once, where it is visited
     // as it is).
-    MajorantGrid g;
-    g.bounds = Box{vec3(0.0f), vec3(8.0f, 1.0f, 1.0f)};
-    g.res = ivec3(8, 1, 1);
-    g.cellSize = vec3(1.0f);
-    g.maj = {0, 0, 1, 2, 0, 0, 3, 0};
+    const MajorantGrid g = threeCellGrid();
     const Ray r{vec3(-1.0f, 0.5f, 0.5f), vec3(1.0f, 0.0f, 0.0f)};
     const StepSchedule sched(0.4, 0.0);
     using V = std::vector<std::pair<std::int64_t, bool>>;
@@ -216,11 +223,7 @@ TEST(March, StepWalkVisitsTheEdgesOfEmptyStretches) {
 
 TEST(March, MajorantIteratorGivesKnownSpans) {
     // 8 x 1 x 1 cells over [0,8] x [0,1] x [0,1]; cells 2, 3 and 6 hold density
-    MajorantGrid g;
-    g.bounds = Box{vec3(0.0f), vec3(8.0f, 1.0f, 1.0f)};
-    g.res = ivec3(8, 1, 1);
-    g.cellSize = vec3(1.0f);
-    g.maj = {0, 0, 1, 2, 0, 0, 3, 0};
+    const MajorantGrid g = threeCellGrid();
     Ray r{vec3(-1.0f, 0.5f, 0.5f), vec3(1.0f, 0.0f, 0.0f)};
     MajorantIterator it(&g, g.bounds, r, 0.0f, 100.0f, 0.0f);
     MajorantSegment seg;
