@@ -1143,6 +1143,16 @@ std::vector<KernelCase> makeCases() {
                   .abs = 0x1p-23f,
                   .why = "fract() of a sum in [0, 40): an ulp of the sum, 2^-23 absolute"}));
     c.push_back(kernelCase(
+        "substepT", "substepT(a0, a1, a2, a3)",
+        [](float t0, float h, int j, float jitter) { return substepT(t0, h, j, jitter); },
+        [](Draw& d) {
+            return std::tuple(d.f(0.0f, 50.0f, {0.0f}), d.f(0.0f, 1.0f, {0.25f}),
+                              d.i(0, 63, {0, 63}), unit(d));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-18f,
+                  .why = "substepOffset's ulp of the sum times h, added to t0 (up to 50)"}));
+    c.push_back(kernelCase(
         "fibonacciPoint", "fibonacciPoint(a0, a1, a2)",
         [](int i, int n, vec2 o) { return fibonacciPoint(i, n, o); },
         [](Draw& d) {

@@ -124,10 +124,17 @@ struct StepNeighbours {
     float next = 0.0f;
     float around = 0.0f; ///< the larger of the current step's neighbours
 
-    /// Starts from a shadow ray's origin, whose density is `rho`.
-    void start(float rho) {
+    /// Starts from a shadow ray's origin, whose density is `rho`: marchSegments' edge steps
+    /// then count the first step as following one that saw density where it is above 0.
+    EdgeSteps start(float rho) {
         prev = rho;
         prevN = rho > 0.0f ? kAnyStep : kNoStep;
+        return rho > 0.0f ? EdgeSteps::kFromStart : EdgeSteps::kEdges;
+    }
+    /// How many sub-steps a step of length dt, its sample's density rho, is split into, its
+    /// optical depth per unit density weighted by `weight` (render.step_tau: kern::substeps).
+    int substeps(float weight, float rho, float dt, float stepTau) const {
+        return kern::substeps(weight * kern::splitDensity(rho, around) * dt, stepTau);
     }
     /// The density at step n's sample ts (the step starting at `from`; 0 without a look where
     /// marchSegments says the sample lies in an empty stretch); with readAhead also at the next
@@ -173,35 +180,33 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
     const float sigmaTMin = minComponent(medium_.sigma_t);
     StepNeighbours nb;
     const bool split = plan_.stepTau > 0.0f;
-    if (split) nb.start(rhoP >= 0.0f ? rhoP : rv.density(0.0f));
-    marchSegments(
-        rv, shadow_, rv.tIn(), rv.tOut(), jitter,
-        !split                                 ? EdgeSteps::kNone
-        : nb.prevN == StepNeighbours::kAnyStep ? EdgeSteps::kFromStart
-                                               : EdgeSteps::kEdges,
-        [&](float t, float dt, std::int64_t n, float tNext, bool empty) {
-            // a step whose optical depth, times the transmittance in front of it, is above
-            // render.step_tau is split (kern::substeps): one jittered point of a thick step would
-            // stand for all of it; behind an opaque stretch the step's error no longer shows
-            const float rho = nb.visit(rv, n, t, t - jitter * dt, tNext, empty, split);
-            const int k = split ? kern::substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_ *
-                                                     kern::splitDensity(rho, nb.around) * dt,
-                                                 plan_.stepTau)
-                                : 1;
-            if (k == 1) {
-                if (empty) return true;
-                ++cnt.shadowSamples;
-                tau += rho * dt;
-            } else {
-                // k sub-steps, each sampled at its own turn of the jitter (kern::substepOffset)
-                const float h = dt / float(k), t0 = t - jitter * dt;
-                for (int j = 0; j < k && tau <= tauStop; ++j) {
-                    ++cnt.shadowSamples;
-                    tau += rv.density(t0 + (float(j) + kern::substepOffset(j, jitter)) * h) * h;
-                }
-            }
-            return tau <= tauStop;
-        });
+    const EdgeSteps edges =
+        split ? nb.start(rhoP >= 0.0f ? rhoP : rv.density(0.0f)) : EdgeSteps::kNone;
+    marchSegments(rv, shadow_, rv.tIn(), rv.tOut(), jitter, edges,
+                  [&](float t, float dt, std::int64_t n, float tNext, bool empty) {
+                      // a step whose optical depth, times the transmittance in front of it, is
+                      // above render.step_tau is split (kern::substeps): one jittered point of a
+                      // thick step would stand for all of it; behind an opaque stretch the step's
+                      // error no longer shows
+                      const float rho = nb.visit(rv, n, t, t - jitter * dt, tNext, empty, split);
+                      const int k = split ? nb.substeps(std::exp(-sigmaTMin * tau) * sigmaTMax_,
+                                                        rho, dt, plan_.stepTau)
+                                          : 1;
+                      if (k == 1) {
+                          if (empty) return true;
+                          ++cnt.shadowSamples;
+                          tau += rho * dt;
+                      } else {
+                          // k sub-steps, each sampled at its own turn of the jitter
+                          // (kern::substepOffset)
+                          const float h = dt / float(k), t0 = t - jitter * dt;
+                          for (int j = 0; j < k && tau <= tauStop; ++j) {
+                              ++cnt.shadowSamples;
+                              tau += rv.density(kern::substepT(t0, h, j, jitter)) * h;
+                          }
+                      }
+                      return tau <= tauStop;
+                  });
     return tau;
 }
 
@@ -356,13 +361,12 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                           // transmittance of the beam that carries the light to the camera
                           const float rho = nb.visit(rv, n, t, t - jitter * dt, tNext, empty,
                                                      plan_.stepTau > 0.0f);
-                          const int k = kern::substeps(maxComponent(forward ? TF : T) * sigmaTMax_ *
-                                                           kern::splitDensity(rho, nb.around) * dt,
-                                                       plan_.stepTau);
+                          const int k = nb.substeps(maxComponent(forward ? TF : T) * sigmaTMax_,
+                                                    rho, dt, plan_.stepTau);
                           if (k == 1) return empty || visit(t, dt, n, rho);
                           const float h = dt / float(k), t0 = t - jitter * dt;
                           for (int j = 0; j < k; ++j) {
-                              const float tj = t0 + (float(j) + kern::substepOffset(j, jitter)) * h;
+                              const float tj = kern::substepT(t0, h, j, jitter);
                               if (!visit(tj, h, substepIndex(n, j), rv.density(tj))) return false;
                           }
                           return true;

@@ -151,6 +151,11 @@ NB_FN float substepOffset(int j, float jitter) {
     return fract(jitter + float(j) * 0.618033989f);
 }
 
+// Where along the ray sub-step j of a step split into sub-steps of length h from t0 is sampled.
+NB_FN float substepT(float t0, float h, int j, float jitter) {
+    return t0 + (float(j) + substepOffset(j, jitter)) * h;
+}
+
 // --- single-scattered sky light (core/lighting/sky_volume.h) ----------------------------------
 
 // Point i of n of a 2D Fibonacci lattice ((i + 1/2) / n, i / golden ratio) in the unit square,

@@ -269,6 +269,14 @@ RtStepper rtStepperStart(float rhoStart) {
     return st;
 }
 
+// The sample of step n + 1 (clipped to [tIn, tOut]) in t; false where that step is empty.
+bool rtNextSample(RtSchedule s, int n, float tIn, float tOut, float jitter, out float t) {
+    float tA = max(rtScheduleT(s, float(n + 1)), tIn);
+    float tB = min(rtScheduleT(s, float(n + 2)), tOut);
+    t = tA + jitter * (tB - tA);
+    return tB > tA;
+}
+
 // Step n's sample has density `here`: the sample before becomes its neighbour.
 void rtStepperBegin(inout RtStepper st, int n, float here) {
     st.here = here;
@@ -292,12 +300,12 @@ bool rtStepperLookup(inout RtStepper st, RtSchedule s, int n, float tA, float dt
         rtStepperBegin(st, n, empty ? 0.0f : st.nb.next);
     }
     if (st.phase == RT_PHASE_AHEAD) {
-        float tA1 = max(rtScheduleT(s, float(n + 1)), tIn);
-        float tB1 = min(rtScheduleT(s, float(n + 2)), tOut);
-        at = o + w * (tA1 + jitter * (tB1 - tA1));
-        return P.stepTau > 0.0f && tB1 > tA1;
+        float t;
+        bool next = rtNextSample(s, n, tIn, tOut, jitter, t);
+        at = o + w * t;
+        return P.stepTau > 0.0f && next;
     }
-    at = o + w * (tA + (float(st.j) + substepOffset(st.j, jitter)) * dt / float(st.k));
+    at = o + w * substepT(tA, dt / float(st.k), st.j, jitter);
     return true;
 }
 
@@ -340,7 +348,7 @@ bool rtStepperTake(inout RtStepper st, int n, float tA, float dt, float jitter, 
     }
     // sub-step j: the key of core/tracking/step_schedule.h's substepIndex (its low bits)
     h = dt / float(st.k);
-    t = tA + (float(st.j) + substepOffset(st.j, jitter)) * h;
+    t = substepT(tA, h, st.j, jitter);
     rho = v;
     key = uint(n) * 0x7f4a7c15u + uint(st.j + 1) * 0x1ce4e5b9u;
     st.j++;
@@ -364,10 +372,8 @@ bool rtEdgeStep(RtNeighbours nb, RtSchedule s, int n, vec3 o, vec3 w, float tIn,
                 float jitter) {
     if (!(P.stepTau > 0.0f)) return false;
     if ((nb.prevN == n - 1 || nb.prevN == RT_ANY_STEP) && nb.prev > 0.0f) return true;
-    float tA = max(rtScheduleT(s, float(n + 1)), tIn);
-    float tB = min(rtScheduleT(s, float(n + 2)), tOut);
-    float tExit;
-    return tB > tA && !rtEmptyCell(o, w, o + w * (tA + jitter * (tB - tA)), tExit);
+    float t, tExit;
+    return rtNextSample(s, n, tIn, tOut, jitter, t) && !rtEmptyCell(o, w, o + w * t, tExit);
 }
 #endif
 
