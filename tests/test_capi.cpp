@@ -391,6 +391,35 @@ TEST(CApi, LoadWithOverridesThreadsOutputAndSceneStrings) {
     EXPECT_EQ(nimbus_set_threads(c, -2), NIMBUS_BAD_INPUT);
 }
 
+// The photon counts of the last render: none with the grid; with photons from the sun and the
+// sky (render.photon_sky) handing off to the grid (render.photon_bounces) each count is there.
+TEST(CApi, PhotonStatistics) {
+    TempDir dir("capi_photons");
+    const std::string path = (dir / "scene.toml").string();
+    writeText(path, tinyScene());
+    Ctx c;
+    ASSERT_EQ(nimbus_load_file(c, path.c_str()), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    double traced = -1.0, sky = -1.0, handed = -1.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &traced), NIMBUS_OK);
+    EXPECT_EQ(traced, 0.0);
+    for (const char* a :
+         {"render.multiple_scattering=\"photons\"", "render.photons=20000",
+          "render.photon_sky=true", "render.photon_bounces=2", "render.max_depth=64"})
+        ASSERT_EQ(nimbus_set(c, a), NIMBUS_OK) << a << ": " << c.error();
+    renderC(c, 3);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &traced), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS_FROM_SKY, &sky), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS_HANDED_OFF, &handed), NIMBUS_OK);
+    // the sun and the sky share render.photons
+    EXPECT_GT(traced, 15000.0);
+    EXPECT_LE(traced, 20000.0);
+    EXPECT_GT(sky, 0.0);
+    EXPECT_LT(sky, traced);
+    EXPECT_GT(handed, 0.0);
+    EXPECT_LE(handed, traced);
+}
+
 // nimbus_output_check: absent, current after a write, stale (with the reason) after an edit of
 // the scene, for another frame number, another resolution; the statistics of the last render.
 TEST(CApi, OutputCheckAndRenderStatistics) {

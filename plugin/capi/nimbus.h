@@ -313,7 +313,7 @@ typedef enum nimbus_stat {
     NIMBUS_STAT_LIGHT_VOLUME_SECONDS = 4, /**< the per-frame light grids */
     NIMBUS_STAT_LIGHT_GRID_MB = 5,        /**< their memory, MiB */
     NIMBUS_STAT_DIFFUSION_SECONDS = 6,    /**< the multiple-scattering grid */
-    NIMBUS_STAT_PHOTON_SECONDS = 7,       /**< photons of the sun */
+    NIMBUS_STAT_PHOTON_SECONDS = 7,       /**< photons of the sun (and of the sky) */
     NIMBUS_STAT_SKY_VOLUME_SECONDS = 8,   /**< the single-scattered sky's integrals */
     NIMBUS_STAT_SKY_VOLUME_MB = 9,        /**< their memory, MiB */
     NIMBUS_STAT_LOOKUPS = 10,             /**< density lookups, all rays */
@@ -325,7 +325,11 @@ typedef enum nimbus_stat {
     /** simulation steps this frame computed: the automaton's, or [field.advect]'s (a lone
      * frame: all from the start; a frame after its predecessor: the steps in between) */
     NIMBUS_STAT_SIMULATION_STEPS = 16,
-    NIMBUS_STAT_SIMULATION_SECONDS = 17 /**< the seconds that simulation and the field took */
+    NIMBUS_STAT_SIMULATION_SECONDS = 17, /**< the seconds that simulation and the field took */
+    NIMBUS_STAT_PHOTONS = 18,            /**< photons traced (from the sun and the sky) */
+    NIMBUS_STAT_PHOTONS_FROM_SKY = 19,   /**< of them, from the sky (render.photon_sky) */
+    /** of them, those whose light went on in the diffusion grid (render.photon_bounces) */
+    NIMBUS_STAT_PHOTONS_HANDED_OFF = 20
 } nimbus_stat;
 
 /** What nimbus_output_check() found at a frame's output path. */

@@ -445,6 +445,12 @@ double statItem(const nimbus_context* ctx, int item) {
         return double(st.automatonSteps + st.advectSteps);
     case NIMBUS_STAT_SIMULATION_SECONDS:
         return st.automatonSeconds + st.advectSeconds;
+    case NIMBUS_STAT_PHOTONS:
+        return double(st.photonsTraced);
+    case NIMBUS_STAT_PHOTONS_FROM_SKY:
+        return double(st.photonsFromSky);
+    case NIMBUS_STAT_PHOTONS_HANDED_OFF:
+        return double(st.photonsHandedOff);
     }
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }

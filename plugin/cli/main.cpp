@@ -492,8 +492,10 @@ int mainImpl(int argc, char** argv) {
     stress->footer(
         "Cases (docs/stress.md): every integrator (march, pathtrace, photons = march with "
         "multiple_scattering\n"
-        "  photons, diffusion = march with the grid, lightvol = march with shadow = volume) over "
-        "the field kinds\n"
+        "  photons, photonsky = the same with photon_sky, diffusion = march with the grid, "
+        "lightvol "
+        "= march\n"
+        "  with shadow = volume) over the field kinds\n"
         "  (homogeneous, cumulus, a VDB grid, gardner, sdf): optical thickness per step 1e-6 to "
         "1e4, density\n"
         "  scales 1e-12 to 1e12, an albedo-1 cube of 1e6 mean free paths, HG g at +-0.999, "

@@ -244,7 +244,7 @@ double stat(nimbus_context* ctx, nimbus_stat item) {
 void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::string& out) {
     const double lookups = stat(ctx, NIMBUS_STAT_LOOKUPS);
     const double integrate = stat(ctx, NIMBUS_STAT_INTEGRATE_SECONDS);
-    char grids[200] = "";
+    char grids[400] = "";
     auto append = [&](const char* fmt, double a, double b = 0.0) {
         const std::size_t n = std::strlen(grids);
         std::snprintf(grids + n, sizeof grids - n, fmt, a, b);
@@ -255,7 +255,14 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
         append(", light grids %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_LIGHT_GRID_MB));
     if (double s = stat(ctx, NIMBUS_STAT_DIFFUSION_SECONDS); s > 0.0)
         append(", diffusion %.2f s", s);
-    if (double s = stat(ctx, NIMBUS_STAT_PHOTON_SECONDS); s > 0.0) append(", photons %.2f s", s);
+    if (double s = stat(ctx, NIMBUS_STAT_PHOTON_SECONDS); s > 0.0) {
+        append(", photons %.2f s (%.0f traced", s, stat(ctx, NIMBUS_STAT_PHOTONS));
+        if (double n = stat(ctx, NIMBUS_STAT_PHOTONS_FROM_SKY); n > 0.0)
+            append(", %.0f from the sky", n, 0.0);
+        if (double n = stat(ctx, NIMBUS_STAT_PHOTONS_HANDED_OFF); n > 0.0)
+            append(", %.0f handed to the grid", n, 0.0);
+        append(")", 0.0);
+    }
     if (double s = stat(ctx, NIMBUS_STAT_SKY_VOLUME_SECONDS); s > 0.0)
         append(", sky volume %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_SKY_VOLUME_MB));
     // the integrator's own time, by its name

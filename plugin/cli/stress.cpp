@@ -91,9 +91,9 @@ std::string fmt(const char* f, double v) {
     return b;
 }
 
-enum class Method { March, PathTrace, Photons, Diffusion, LightVolume };
-constexpr Method kMethods[] = {Method::March, Method::PathTrace, Method::Photons, Method::Diffusion,
-                               Method::LightVolume};
+enum class Method { March, PathTrace, Photons, PhotonSky, Diffusion, LightVolume };
+constexpr Method kMethods[] = {Method::March,     Method::PathTrace, Method::Photons,
+                               Method::PhotonSky, Method::Diffusion, Method::LightVolume};
 
 const char* methodName(Method m) {
     switch (m) {
@@ -103,6 +103,8 @@ const char* methodName(Method m) {
         return "pathtrace";
     case Method::Photons:
         return "photons";
+    case Method::PhotonSky:
+        return "photonsky";
     case Method::Diffusion:
         return "diffusion";
     case Method::LightVolume:
@@ -112,7 +114,7 @@ const char* methodName(Method m) {
 }
 
 bool deterministic(Method m) {
-    return m != Method::PathTrace && m != Method::Photons;
+    return m != Method::PathTrace && m != Method::Photons && m != Method::PhotonSky;
 }
 
 /// Shared by the cases of one run.
@@ -139,6 +141,13 @@ void applyMethod(SceneDesc& s, Method m, const Context& c) {
         break;
     case Method::Photons:
         s.render.multipleScattering = MultipleScattering::Photons;
+        s.render.photons = c.quick ? 4000 : 20000;
+        break;
+    case Method::PhotonSky:
+        // the sky's light traced by photons too (render.photon_sky): its photons start on the
+        // rectangle that covers the field's box seen from a direction of the sphere
+        s.render.multipleScattering = MultipleScattering::Photons;
+        s.render.photonSky = true;
         s.render.photons = c.quick ? 4000 : 20000;
         break;
     case Method::Diffusion:
@@ -563,7 +572,7 @@ void addStiffCases(Cases& cs) {
                           judge(o, f, c.budget);
                           judgeFurnace(o, f);
                           o.fig("lookups", double(f.stats.lookups()));
-                          if (m == Method::PathTrace || m == Method::Photons) {
+                          if (!deterministic(m)) {
                               o.note("work bounded by render.max_depth = " +
                                      std::to_string(s.render.maxDepth) + " events per walk");
                               if (o.furnaceMean < 0.99)
