@@ -425,7 +425,7 @@ struct RenderDesc {
     /// source is what leaves that beam
     ForwardScattering forwardScattering = ForwardScattering::Delta;
     float inScatterC = 2.0f;
-    float inScatterStrength = 0.5f;
+    float inScatterStrength = 0.4f; ///< chosen on the validation matrix (docs/accuracy.md)
     Background background = Background::Sky;
     std::uint32_t seed = 0;
     /// true: every frame draws its own random numbers from seed and its frame number (noise
