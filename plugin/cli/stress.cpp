@@ -139,15 +139,13 @@ void applyMethod(SceneDesc& s, Method m, const Context& c) {
         s.render.integrator = Integrator::PathTrace;
         s.render.spp = c.quick ? 4 : 16;
         break;
-    case Method::Photons:
-        s.render.multipleScattering = MultipleScattering::Photons;
-        s.render.photons = c.quick ? 4000 : 20000;
-        break;
     case Method::PhotonSky:
         // the sky's light traced by photons too (render.photon_sky): its photons start on the
         // rectangle that covers the field's box seen from a direction of the sphere
-        s.render.multipleScattering = MultipleScattering::Photons;
         s.render.photonSky = true;
+        [[fallthrough]];
+    case Method::Photons:
+        s.render.multipleScattering = MultipleScattering::Photons;
         s.render.photons = c.quick ? 4000 : 20000;
         break;
     case Method::Diffusion:
