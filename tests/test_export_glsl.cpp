@@ -336,6 +336,8 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(lightLo),
         NB_MEMBER(lightHi),
         NB_MEMBER(lightVoxel),
+        NB_MEMBER(skyVolumeLo),
+        NB_MEMBER(skyVolumeVoxel),
         NB_MEMBER(layerBottom),
         NB_MEMBER(layerTop),
         NB_MEMBER(heightA),
@@ -412,6 +414,10 @@ TEST(ExportGlslParams, Std430OffsetsAreTheCppOffsets) {
         NB_MEMBER(lightResX),
         NB_MEMBER(lightResY),
         NB_MEMBER(lightResZ),
+        NB_MEMBER(skyVolumeResX),
+        NB_MEMBER(skyVolumeResY),
+        NB_MEMBER(skyVolumeResZ),
+        NB_MEMBER(skyDirections),
         NB_MEMBER(sdfScale),
         NB_MEMBER(sdfFalloff),
         NB_MEMBER(sdfNodeCount),
@@ -873,6 +879,58 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheLightVolume) {
     EXPECT_TRUE(contains(shader, "#define RT_LIGHT_VOLUME 0"));
     EXPECT_FALSE(contains(shader, "RtLightGrid"));
     EXPECT_FALSE(contains(shader, "rtLightVolumeSample"));
+}
+
+// render.sky_scattering = "single" with render.sky_shadow = "volume": the sky's directions and
+// radiances and the CPU's sky volume go out as sky_volume.bin (the floats `nimbus rt` uploads,
+// binding 7), the shader integrates the sky's first scattering from it (RT_SKY_VOLUME), and the
+// image from the files alone is nimbus rt's.
+TEST(ExportGlslGpu, SameImageAsRtWithTheSkyVolume) {
+    std::vector<std::string> files;
+    std::string shader;
+    const std::vector<std::string> sets = {"camera.width=64",
+                                           "camera.height=36",
+                                           "render.multiple_scattering=\"none\"",
+                                           "field.evaluation=\"direct\"",
+                                           "render.sky_scattering=\"single\"",
+                                           "render.sky_shadow=\"volume\""};
+    EXPECT_GE(exportAgainstRt(sets, "sky_volume", files, kScene, 3, &shader), 45.0);
+    EXPECT_EQ(files, (std::vector<std::string>{"sky_volume.bin", "majorant.bin"}));
+    EXPECT_TRUE(contains(shader, "#define RT_SKY_VOLUME 1"));
+    EXPECT_TRUE(contains(shader, "buffer RtSkyVolume { float rtSkyVolume[]; };"));
+    EXPECT_TRUE(contains(shader, "#define RT_AMBIENT 0"));
+    // the file: 8 floats per direction (w_k, L_k), then the volume's floats
+    host::Session session;
+    ASSERT_TRUE(session.load(kScene, sets).ok());
+    const FramePlan plan = session.plan(3);
+    RenderStats stats;
+    const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), stats);
+    ASSERT_TRUE(grids.hasSky);
+    rt::GlslExport e;
+    std::string error;
+    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, &grids, &session.bindings(), nullptr,
+                               e, &error))
+        << error;
+    ASSERT_EQ(e.data.size(), 1u);
+    EXPECT_EQ(e.data[0].first, "sky_volume.bin");
+    const int K = grids.sky.count();
+    ASSERT_EQ(K, plan.skyDirections);
+    ASSERT_EQ(e.data[0].second.size(), (8 * std::size_t(K) + grids.sky.tau.size()) * sizeof(float));
+    std::vector<float> floats(e.data[0].second.size() / sizeof(float));
+    std::memcpy(floats.data(), e.data[0].second.data(), e.data[0].second.size());
+    for (int k = 0; k < K; ++k) {
+        const vec3 w(floats[8 * k], floats[8 * k + 1], floats[8 * k + 2]);
+        EXPECT_EQ(w, grids.sky.directions[std::size_t(k)]) << k;
+    }
+    EXPECT_EQ(std::memcmp(floats.data() + 8 * K, grids.sky.tau.data(),
+                          grids.sky.tau.size() * sizeof(float)),
+              0);
+    EXPECT_TRUE(contains(e.json, "\"skyVolumeResX\""));
+    EXPECT_TRUE(contains(e.json, "\"sky_volume.bin\""));
+    // without the grids the export refuses the frame
+    rt::GlslExport none;
+    EXPECT_FALSE(rt::exportGlsl(session.scene(), plan, kScene, none, &error));
+    EXPECT_TRUE(contains(error, "sky volume")) << error;
 }
 
 // field.evaluation = "rgba": Olajos' channel layout goes out as two RGBA8 3D textures

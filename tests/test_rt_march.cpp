@@ -116,8 +116,15 @@ TEST(RtMarchSupport, RefusesByKey) {
     EXPECT_EQ(keysOf(s), "");
     s.render.photonSkin = 0.2f;
     EXPECT_EQ(keysOf(s), "");
-    s.render.photonSky = true; // march's single-scattered sky is CPU-only
-    EXPECT_EQ(keysOf(s), "render.photon_sky;");
+    s.render.photonSky = true; // the sky's first scattering by shadow marches: CPU-only
+    EXPECT_EQ(keysOf(s), "render.sky_shadow;");
+    s.render.skyShadow = SkyShadow::Volume; // from the sky volume (RT_SKY_VOLUME)
+    EXPECT_EQ(keysOf(s), "");
+    s = base;
+    s.render.skyScattering = SkyScattering::Single;
+    EXPECT_EQ(keysOf(s), "render.sky_shadow;");
+    s.render.skyShadow = SkyShadow::Volume;
+    EXPECT_EQ(keysOf(s), "");
     s = base;
     s.medium.phase = PhaseKind::MieTable;
     EXPECT_EQ(keysOf(s), "");
@@ -139,9 +146,6 @@ TEST(RtMarchSupport, RefusesByKey) {
     s = base;
     s.render.skyOcclusion = SkyOcclusion::Column;
     EXPECT_EQ(keysOf(s), "render.sky_occlusion;");
-    s = base;
-    s.render.skyScattering = SkyScattering::Single;
-    EXPECT_EQ(keysOf(s), "render.sky_scattering;");
     s = base;
     s.ground.enabled = true;
     EXPECT_EQ(keysOf(s), "ground.enabled;");
@@ -187,6 +191,20 @@ TEST(RtMarchShader, DefinesOnlyTheFeaturesInUse) {
         EXPECT_TRUE(contains(g.defines(), "#define RT_LIGHT_VOLUME 1\n"));
         v.sun.enabled = false;
         EXPECT_FALSE(rt::marchFeatures(v, planFrame(v, 1)).lightVolume);
+        // the single-scattered sky from its volume replaces the ambient term; the Mie table is
+        // read toward the sky's directions even without the sun
+        SceneDesc k = s;
+        EXPECT_FALSE(f.skyVolume);
+        EXPECT_TRUE(contains(f.defines(), "#define RT_SKY_VOLUME 0\n"));
+        k.render.skyScattering = SkyScattering::Single;
+        k.render.skyShadow = SkyShadow::Volume;
+        g = rt::marchFeatures(k, planFrame(k, 1));
+        EXPECT_TRUE(g.skyVolume && !g.ambient);
+        EXPECT_TRUE(contains(g.defines(), "#define RT_SKY_VOLUME 1\n"));
+        k.sun.enabled = false;
+        k.medium.phase = PhaseKind::MieTable;
+        g = rt::marchFeatures(k, planFrame(k, 1));
+        EXPECT_TRUE(g.skyVolume && g.mieTable && !g.sun);
     }
     s.sun.enabled = false;
     s.sky.kind = SkyKind::None;
@@ -745,6 +763,43 @@ TEST(RtMarchParity, LightVolume) {
     EXPECT_GE(
         gpuAgainstCpu(1, {"render.shadow=\"volume\""}, "light_volume_ms_grid", &maxAbs, "grid"),
         45.0);
+}
+
+// The single-scattered sky from the CPU's sky volume (render.sky_shadow = "volume",
+// RT_SKY_VOLUME): its directions, radiances and density integrals read from one buffer as
+// MarchContext::skyWeights and skySingleScatter read them; alone (render.sky_scattering =
+// "single"), with the Lorenz-Mie table toward the sky's directions, and under the sky's photons
+// (render.photon_sky). On the CPU the sky's first scattering changes the image by far more than
+// the parity bound (a pass that left it out, or kept the ambient term, would fail).
+TEST(RtMarchParity, SingleScatteredSkyFromTheVolume) {
+    if (!requireContext()) return;
+    const std::vector<std::string> single = {"render.sky_scattering=\"single\"",
+                                             "render.sky_shadow=\"volume\""};
+    {
+        host::Session a, b;
+        ASSERT_TRUE(a.load(kDefaultScene, paritySettings(160, 90)).ok());
+        std::vector<std::string> sets = paritySettings(160, 90);
+        sets.insert(sets.end(), single.begin(), single.end());
+        ASSERT_TRUE(b.load(kDefaultScene, sets).ok());
+        ASSERT_TRUE(b.plan(1).skyVolume);
+        Framebuffer fa, fb;
+        RenderStats sa, sb;
+        ASSERT_TRUE(a.render(1, fa, sa).ok());
+        ASSERT_TRUE(b.render(1, fb, sb).ok());
+        double maxAbs = 0.0;
+        const double apart = psnrRgb(fa.rgba, fb.rgba, &maxAbs);
+        std::printf("[ rt parity ] CPU, ambient sky against the single-scattered sky: %.2f dB\n",
+                    apart);
+        EXPECT_LT(apart, 35.0);
+    }
+    double maxAbs = 0.0;
+    EXPECT_GE(gpuAgainstCpu(1, single, "sky_single_volume", &maxAbs), 45.0);
+    std::vector<std::string> mie = single;
+    mie.push_back("medium.phase=\"mie_table\"");
+    EXPECT_GE(gpuAgainstCpu(1, mie, "sky_single_volume_mie_table", &maxAbs), 45.0);
+    EXPECT_GE(gpuAgainstCpu(1, {"render.photon_sky=true", "render.sky_shadow=\"volume\""},
+                            "photon_sky_volume", &maxAbs, "photons"),
+              45.0);
 }
 
 // render.multiple_scattering = "photons": the sun's photon grid (one octave) and the sky's

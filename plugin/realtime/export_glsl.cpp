@@ -36,6 +36,7 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_SKIP", f.skip},
             {"RT_SDF", f.sdf},
             {"RT_LIGHT_VOLUME", f.lightVolume},
+            {"RT_SKY_VOLUME", f.skyVolume},
             {"RT_FORWARD_DELTA", f.forwardDelta},
             {"RT_RESUMABLE", f.resumable}};
 }
@@ -653,6 +654,19 @@ ParamDoc paramDoc(std::string_view n) {
           "voxels"}},
         {"lightResY", {"RT_LIGHT_VOLUME: light volume voxels along y", "voxels"}},
         {"lightResZ", {"RT_LIGHT_VOLUME: light volume voxels along z", "voxels"}},
+        {"skyVolumeLo",
+         {"RT_SKY_VOLUME: lower corner of the single-scattered sky's volume (sky_volume.bin; w 0)",
+          "world units"}},
+        {"skyVolumeVoxel", {"RT_SKY_VOLUME: that volume's voxel size (xyz; w 0)", "world units"}},
+        {"skyVolumeResX",
+         {"RT_SKY_VOLUME: sky volume voxels along x (sky_volume.bin: x fastest; 0 without)",
+          "voxels"}},
+        {"skyVolumeResY", {"RT_SKY_VOLUME: sky volume voxels along y", "voxels"}},
+        {"skyVolumeResZ", {"RT_SKY_VOLUME: sky volume voxels along z", "voxels"}},
+        {"skyDirections",
+         {"RT_SKY_VOLUME: the sky's directions K (render.sky_directions): K records at the start "
+          "of sky_volume.bin and K density integrals per voxel after them",
+          "count"}},
         {"majorantLo",
          {"RT_SKIP: lower corner of the majorant grid's box (majorant.bin; w 0)", "world units"}},
         {"majorantCell", {"RT_SKIP: the majorant grid's cell size (xyz; w 0)", "world units"}},
@@ -907,6 +921,16 @@ std::string bufferMeaning(std::string_view name) {
                "z; lightResX/Y/Z voxels of lightVoxel from lightLo), read trilinearly between the "
                "centres (clamped to the outermost) and multiplied by the extinction per unit "
                "density (sigmaT) for the sun's transmittance";
+    if (name == "RtSkyVolume")
+        return "the single-scattered sky for this frame (render.sky_shadow = \"volume\", "
+               "core/lighting/sky_volume.h): first skyDirections records of 8 floats, the unit "
+               "direction w_k toward the sky (xyz, then 0) and the sky's radiance there times "
+               "sky.ambient (RGB, then 0); then the sky volume (SkyVolume): skyDirections density "
+               "integrals per voxel, from the voxel centre toward each w_k, side by side, voxels "
+               "x fastest, then y, then z (skyVolumeResX/Y/Z voxels of skyVolumeVoxel from "
+               "skyVolumeLo), read trilinearly between the centres (clamped to the outermost); "
+               "the light is sum_k W_k exp(-sigmaT tau_k), W_k = L_k p(d . w_k) / sum_j "
+               "p(d . w_j)";
     if (name == "RtVdbGrid")
         return "the field's NanoVDB grid: the bytes of one nanovdb::FloatGrid (NanoVDB's in-memory "
                "layout, not an .nvdb file: no file header, no compression), from its GridData at "
@@ -955,6 +979,7 @@ const char* bufferFile(std::string_view name) {
     if (name == "RtSkinGrid") return "skin_tau.bin";
     if (name == "RtVdbGrid") return "vdb_grid.bin";
     if (name == "RtLightGrid") return "light_tau.bin";
+    if (name == "RtSkyVolume") return "sky_volume.bin";
     if (name == "RtBaseNoise") return "noise_base.bin";
     if (name == "RtDetailNoise") return "noise_detail.bin";
     if (name == "RtMajorant") return "majorant.bin";
@@ -999,6 +1024,9 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
         if (f.lightVolume)
             out.data.emplace_back(bufferFile("RtLightGrid"), bytesOf(grids->towardVolume()->tau));
+        if (f.skyVolume)
+            out.data.emplace_back(bufferFile("RtSkyVolume"),
+                                  bytesOf(skyVolumeBuffer(s, p, grids->sky)));
         if (f.sdf) out.data.emplace_back(bufferFile("RtSdfNodes"), bytesOf(sdfTreeNodes(s)));
         if (f.vdb) {
             const VdbGridBytes g = vdbGridBytes(bindings, error);

@@ -32,6 +32,15 @@ layout(std430, binding = 5) readonly buffer RtPhotonGrid { float rtPhoton[]; };
 layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
 #endif
 #endif
+#if RT_SKY_VOLUME
+// the single-scattered sky (render.sky_scattering = "single" or render.photon_sky, with
+// render.sky_shadow = "volume"; core/lighting/sky_volume.h): first P.skyDirections records of 8
+// floats, the direction w_k toward the sky and the sky's radiance L_k there (sky.ambient folded
+// in), each padded to 4 (rt::skyVolumeBuffer); then the sky volume's K density integrals per
+// voxel, side by side, voxels x fastest (P.skyVolumeResX/Y/Z voxels of P.skyVolumeVoxel from
+// P.skyVolumeLo)
+layout(std430, binding = 7) readonly buffer RtSkyVolume { float rtSkyVolume[]; };
+#endif
 #if RT_LIGHT_VOLUME
 // the sun's light-attenuation volume (LightVolume, core/lighting/light_volume.h; the one
 // MarchContext reads with render.shadow = "volume"): the density integral toward the sun at the
@@ -436,3 +445,72 @@ vec3 rtPhotonSample(vec3 p) {
 }
 #endif
 
+#if RT_SKY_VOLUME
+// The phase function toward a sky direction, as PhaseFunction::eval (the table's RGB, or the
+// analytic phase in every channel).
+vec3 rtSkyPhase(PhaseParams phase, float cosTheta) {
+#if RT_MIE_TABLE
+    return rtMieEval(cosTheta);
+#else
+    return vec3(phaseEval(phase, cosTheta));
+#endif
+}
+
+vec3 rtSkyDirection(int k) {
+    int o = 8 * k;
+    return vec3(rtSkyVolume[o], rtSkyVolume[o + 1], rtSkyVolume[o + 2]);
+}
+
+// The sky light scattered once toward -d at p (MarchContext::skyWeights and skySingleScatter):
+// sum_k W_k exp(-sigma_t tau_k(p)), W_k = L_k p(d . w_k) / sum_j p(d . w_j), tau_k read
+// trilinearly as SkyVolume::sample (clamped to the outermost voxel centres), in the same order of
+// operations. The weights depend on the ray alone; they are recomputed per sample (K phase
+// evaluations) rather than carried through the slices of a resumable march.
+vec3 rtSkySingleScatter(PhaseParams phase, vec3 p, vec3 d, vec3 sigmaT) {
+    int K = P.skyDirections;
+    vec3 sum = vec3(0.0f);
+    for (int k = 0; k < K; k++) sum += rtSkyPhase(phase, dot(d, rtSkyDirection(k)));
+    vec3 inv = vec3(1.0f) / max(sum, vec3(1e-30f));
+    ivec3 res = ivec3(P.skyVolumeResX, P.skyVolumeResY, P.skyVolumeResZ);
+    vec3 u = (p - rtXyz(P.skyVolumeLo)) / rtXyz(P.skyVolumeVoxel) - vec3(0.5f);
+    u = clamp(u, vec3(0.0f), vec3(res - ivec3(1)));
+    ivec3 i0 = min(ivec3(u), res - ivec3(1));
+    ivec3 i1 = min(i0 + ivec3(1), res - ivec3(1));
+    vec3 f = u - vec3(i0);
+    int base = 8 * K;
+    int c0 = base + ((i0.z * res.y + i0.y) * res.x + i0.x) * K;
+    int c1 = base + ((i0.z * res.y + i0.y) * res.x + i1.x) * K;
+    int c2 = base + ((i0.z * res.y + i1.y) * res.x + i0.x) * K;
+    int c3 = base + ((i0.z * res.y + i1.y) * res.x + i1.x) * K;
+    int c4 = base + ((i1.z * res.y + i0.y) * res.x + i0.x) * K;
+    int c5 = base + ((i1.z * res.y + i0.y) * res.x + i1.x) * K;
+    int c6 = base + ((i1.z * res.y + i1.y) * res.x + i0.x) * K;
+    int c7 = base + ((i1.z * res.y + i1.y) * res.x + i1.x) * K;
+    float w0 = (1.0f - f.x) * (1.0f - f.y) * (1.0f - f.z);
+    float w1 = f.x * (1.0f - f.y) * (1.0f - f.z);
+    float w2 = (1.0f - f.x) * f.y * (1.0f - f.z);
+    float w3 = f.x * f.y * (1.0f - f.z);
+    float w4 = (1.0f - f.x) * (1.0f - f.y) * f.z;
+    float w5 = f.x * (1.0f - f.y) * f.z;
+    float w6 = (1.0f - f.x) * f.y * f.z;
+    float w7 = f.x * f.y * f.z;
+    vec3 S = vec3(0.0f);
+    for (int k = 0; k < K; k++) {
+        float tau = 0.0f;
+        tau += w0 * rtSkyVolume[c0 + k];
+        tau += w1 * rtSkyVolume[c1 + k];
+        tau += w2 * rtSkyVolume[c2 + k];
+        tau += w3 * rtSkyVolume[c3 + k];
+        tau += w4 * rtSkyVolume[c4 + k];
+        tau += w5 * rtSkyVolume[c5 + k];
+        tau += w6 * rtSkyVolume[c6 + k];
+        tau += w7 * rtSkyVolume[c7 + k];
+        int o = 8 * k + 4;
+        vec3 L = vec3(rtSkyVolume[o], rtSkyVolume[o + 1], rtSkyVolume[o + 2]);
+        vec3 W = rtSkyPhase(phase, dot(d, rtSkyDirection(k))) * L;
+        W *= inv;
+        S += W * beerLambert(sigmaT * tau);
+    }
+    return S;
+}
+#endif

@@ -37,6 +37,8 @@ struct RtMarchParams {
     vec4 lightLo;       // the sun's light-attenuation volume (RT_LIGHT_VOLUME, render.shadow =
     vec4 lightHi;       // "volume", core/lighting/light_volume.h): its bounds, in which it
     vec4 lightVoxel;    // replaces the shadow march, and its voxel size
+    vec4 skyVolumeLo;   // the single-scattered sky's volume (RT_SKY_VOLUME, render.sky_shadow =
+    vec4 skyVolumeVoxel; // "volume", core/lighting/sky_volume.h): lower corner and voxel size
 
     // the cumulus layer (CloudLayer, core/kernels/cloud.glsl)
     float layerBottom;
@@ -131,6 +133,12 @@ struct RtMarchParams {
     int lightResX;
     int lightResY;
     int lightResZ;
+    // the single-scattered sky's volume (RT_SKY_VOLUME): voxels per axis and its directions (K
+    // density integrals per voxel, side by side, voxels x fastest)
+    int skyVolumeResX;
+    int skyVolumeResY;
+    int skyVolumeResZ;
+    int skyDirections;
     // the SDF cloud (RT_SDF): density = sdfScale * sdfDensityFromDistance(d(p), sdfFalloff), d the
     // tree of sdfNodeCount nodes in its buffer (binding 12, SdfTreeNode); the box is boundsLo/Hi
     float sdfScale;

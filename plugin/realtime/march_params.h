@@ -27,7 +27,7 @@ using kern::RtMarchParams;
 // scalars after them; so does C++ when the vec4s come first and are 16 bytes each
 static_assert(sizeof(glm::vec4) == 16);
 static_assert(offsetof(RtMarchParams, majorantCell) == 23 * 16);
-static_assert(offsetof(RtMarchParams, layerBottom) == 27 * 16);
+static_assert(offsetof(RtMarchParams, layerBottom) == 29 * 16);
 static_assert(sizeof(RtMarchParams) % 4 == 0);
 
 /// The block for frame `plan` of `scene`: camera, field bounds, sun, medium (density scale

@@ -1,7 +1,8 @@
 // march_pass.glsl: the GLSL march pass, one invocation per pixel. Assembled by
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
-// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_RGBA_NOISE, RT_SDF, RT_SKIP, RT_LIGHT_VOLUME: only
+// RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_RGBA_NOISE, RT_SDF, RT_SKIP, RT_LIGHT_VOLUME,
+// RT_SKY_VOLUME: only
 // the features the scene uses are
 // compiled in; RT_RESUMABLE: `nimbus rt`'s march in slices, below), the embedded kernels
 // (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie table,
@@ -18,14 +19,16 @@
 // read from the CPU's light-attenuation volume where it holds the sample), phaseEval (or
 // the Lorenz-Mie table, RT_MIE_TABLE) and the octaves (Wrenninge), inScatterFactor, the
 // multiple-scattering grids the CPU computed for the frame (RT_MS_DIFFUSION, RT_MS_PHOTONS) added
-// as MarchContext::traceRay adds them, the height-occluded sky ambient, marchStep (Hillaire's
+// as MarchContext::traceRay adds them, the height-occluded sky ambient or the single-scattered
+// sky from the CPU's sky volume (RT_SKY_VOLUME), marchStep (Hillaire's
 // energy-conserving step) and the early exit at transmittance < epsilon.
 // Empty-space skipping (RT_SKIP): a sample whose majorant cell (the CPU's grid for the frame) has
 // the bound 0 is not evaluated, and the step index jumps to the step holding the ray's exit
 // from that cell, or from the cube of empty blocks around it; the samples visited stay on the
 // schedule's lattice, so only samples of density 0 are dropped and the image is the same bit
 // for bit (camera and shadow rays).
-// What it does not do: the column and single-scattered sky, surfaces.
+// What it does not do: the column sky, the single-scattered sky by shadow marches
+// (render.sky_shadow = "march"), surfaces.
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -574,6 +577,11 @@ void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float
         S += ms * NB_INV_4PI;
     }
 #endif
+#if RT_SKY_VOLUME
+    // the sky light scattered once, its transmittance from the sky volume
+    // (MarchContext::skySingleScatter)
+    if (beamT) S += rtSkySingleScatter(phase, p, d, sigmaT);
+#endif
 #if RT_AMBIENT
     // the sky ambient, occluded by height (MarchContext::skyInScatter)
     float span = max(hi.y - lo.y, 1e-20f);
@@ -596,7 +604,7 @@ void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float
 #endif
 }
 
-// One camera ray (MarchContext::traceRay without surfaces or the column and
+// One camera ray (MarchContext::traceRay without surfaces, the column sky or the marched
 // single-scattered sky), marched from r for at most maxSteps steps (RT_MAX_STEPS: to its end);
 // r.marching is false once the ray is done.
 void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, float jitter,

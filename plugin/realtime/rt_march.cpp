@@ -83,12 +83,13 @@ std::vector<Unsupported> unsupported(const SceneDesc& s, const FramePlan& p) {
     if (s.ground.enabled) no("ground.enabled", "ground.enabled = true: no surfaces on the GPU yet");
     if (!s.meshes.empty()) no("mesh", "[[mesh]] entries: no surfaces on the GPU yet");
     if (!s.solids.empty()) no("solid", "[[solid]] entries: no SDF solids on the GPU yet");
-    if (p.photonSky)
-        no("render.photon_sky", "render.photon_sky = true: the sky's single scattering it leaves "
-                                "to march is not on the GPU yet");
-    else if (p.skySingle)
-        no("render.sky_scattering", "render.sky_scattering = \"single\": not on the GPU yet; use "
-                                    "\"ambient\"");
+    if (p.skySingle && !p.skyVolume)
+        no("render.sky_shadow",
+           std::string(p.photonSky ? "render.photon_sky = true"
+                                   : "render.sky_scattering = "
+                                     "\"single\"") +
+               " with render.sky_shadow = \"march\": the single-scattered sky's shadow marches "
+               "are not on the GPU yet; use render.sky_shadow = \"volume\" (the sky volume)");
     if (p.columnVolumes)
         no("render.sky_occlusion", "render.sky_occlusion = \"column\": the column volumes are not "
                                    "uploaded to the GPU yet; use \"height\"");
@@ -130,8 +131,9 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.ambient = p.ambient && !p.diffusion && !p.skySingle;
     f.backgroundSky = s.render.background == Background::Sky;
     f.multisample = s.render.pixelSamples > 1;
-    // the table is read where the phase function is: the sun's octaves
-    f.mieTable = f.sun && s.medium.phase == PhaseKind::MieTable;
+    // the table is read where the phase function is: the sun's octaves, the sky's directions
+    f.skyVolume = p.skySingle && p.skyVolume;
+    f.mieTable = (f.sun || f.skyVolume) && s.medium.phase == PhaseKind::MieTable;
     f.diffusion = p.diffusion;
     f.photons = p.photons;
     f.photonSkin = p.photons && s.render.photonSkin > 0.0f;
@@ -161,6 +163,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
     d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
     d += std::string("#define RT_LIGHT_VOLUME ") + (lightVolume ? "1" : "0") + "\n";
+    d += std::string("#define RT_SKY_VOLUME ") + (skyVolume ? "1" : "0") + "\n";
     d += std::string("#define RT_FORWARD_DELTA ") + (forwardDelta ? "1" : "0") + "\n";
     d += std::string("#define RT_RESUMABLE ") + (resumable ? "1" : "0") + "\n";
     return d;
@@ -368,6 +371,15 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
         P.lightResY = lv->res.y;
         P.lightResZ = lv->res.z;
     }
+    if (grids && grids->hasSky && p.skyVolume) {
+        const SkyVolume& g = grids->sky;
+        P.skyVolumeLo = v4(g.bounds.lo);
+        P.skyVolumeVoxel = v4(g.voxel);
+        P.skyVolumeResX = g.res.x;
+        P.skyVolumeResY = g.res.y;
+        P.skyVolumeResZ = g.res.z;
+        P.skyDirections = g.count();
+    }
     if (grids && grids->hasDiffusion) {
         const DiffusionVolume& g = grids->diffusion;
         P.diffusionLo = v4(g.bounds.lo);
@@ -529,6 +541,21 @@ std::string bakedNoiseError(const SceneDesc& s, const BakedNoise* noise) {
     return "";
 }
 
+std::vector<float> skyVolumeBuffer(const SceneDesc& s, const FramePlan& p, const SkyVolume& sky) {
+    const int K = sky.count();
+    std::vector<float> out(std::size_t(8) * std::size_t(K) + sky.tau.size(), 0.0f);
+    for (int k = 0; k < K; ++k) {
+        // the directions and radiances of MarchContext's constructor
+        const vec3 w = kern::fibonacciDirection(k, p.skyDirections);
+        const vec3 L = skyRadiance(s.sky, w) * s.sky.ambient;
+        float* r = out.data() + std::size_t(8) * std::size_t(k);
+        r[0] = w.x, r[1] = w.y, r[2] = w.z;
+        r[4] = L.x, r[5] = L.y, r[6] = L.z;
+    }
+    std::copy(sky.tau.begin(), sky.tau.end(), out.begin() + std::ptrdiff_t(8) * K);
+    return out;
+}
+
 std::string frameDataError(const SceneDesc& s, const FramePlan& p, const MarchGrids* grids,
                            const BakedNoise* noise, const std::string& consumer) {
     const MarchFeatures f = marchFeatures(s, p);
@@ -537,6 +564,9 @@ std::string frameDataError(const SceneDesc& s, const FramePlan& p, const MarchGr
         (f.photonSkin && !(grids && grids->photons.sunTau && grids->photons.skinK > 0.0f)))
         return "the frame's multiple-scattering grid was not given to " + consumer +
                " (build it with Renderer::marchGrids)";
+    if (f.skyVolume && !(grids && grids->hasSky && grids->sky.count() > 0))
+        return "the frame's sky volume (render.sky_shadow = \"volume\") was not given to " +
+               consumer + " (build it with Renderer::marchGrids)";
     if (f.lightVolume && !(grids && grids->towardVolume()))
         return "the frame's light-attenuation volume (render.shadow = \"volume\") was not given "
                "to " +
@@ -601,7 +631,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     P.loopProbe = 2;
     // the Lorenz-Mie table: per node (cos theta, R, G, B), as MieTable holds it
     std::unique_ptr<gl::StorageBuffer> mie, diffusion, photons, skin, grid, baseNoise, detailNoise,
-        sdfNodes, bounds, light;
+        sdfNodes, bounds, light, sky;
     std::unique_ptr<gl::Texture3D> baseChannels, detailChannels;
     // the majorant grid the CPU renders with: a density bound per cell, then the block distances
     // (RT_SKIP)
@@ -661,6 +691,12 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         const std::vector<float>& tau = grids->towardVolume()->tau;
         light = std::make_unique<gl::StorageBuffer>(tau.size() * sizeof(float), tau.data());
         light->bind(15);
+    }
+    // the single-scattered sky: its directions and radiances, then the sky volume
+    if (f.skyVolume) {
+        const std::vector<float> b = skyVolumeBuffer(s, p, grids->sky);
+        sky = std::make_unique<gl::StorageBuffer>(b.size() * sizeof(float), b.data());
+        sky->bind(7);
     }
     if (f.photonSkin) {
         const std::vector<float>& tau = grids->photons.sunTau->tau;

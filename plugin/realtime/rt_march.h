@@ -43,6 +43,7 @@
 #include "core/fields/cumulus.h"
 #include "core/image.h"
 #include "core/kernels/kernels.h"
+#include "core/lighting/sky_volume.h"
 #include "core/media/mie.h"
 #include "core/plan.h"
 #include "core/render.h"
@@ -83,6 +84,10 @@ struct MarchFeatures {
     /// from the CPU's light-attenuation volume (binding 15) inside its bounds, as MarchContext
     /// reads it; a shadow march outside
     bool lightVolume = false;
+    /// RT_SKY_VOLUME: the single-scattered sky (render.sky_scattering = "single" or
+    /// render.photon_sky) with render.sky_shadow = "volume": its directions and the CPU's sky
+    /// volume (binding 7, skyVolumeBuffer), read as MarchContext::skySingleScatter reads them
+    bool skyVolume = false;
     /// RT_FORWARD_DELTA: render.forward_scattering = "delta" in effect (plan.forwardFraction
     /// > 0): the sun's single scattering carried by a second transmittance under
     /// sigma_t - g^2 sigma_s, as MarchContext::traceRay carries it
@@ -155,16 +160,23 @@ BakedNoise bakedNoise(Renderer& renderer, const FramePlan& plan, const FrameBind
 /// not at field.base_bake_resolution / detail_bake_resolution; "" when it can.
 std::string bakedNoiseError(const SceneDesc& scene, const BakedNoise* noise);
 /// Whether frame `plan` reads grids the CPU builds (Renderer::marchGrids): the diffusion or
-/// photon grid (render.multiple_scattering) or the sun's light-attenuation volume
-/// (render.shadow = "volume"). `nimbus rt` and the export build them only then.
+/// photon grid (render.multiple_scattering), the sun's light-attenuation volume
+/// (render.shadow = "volume") or the single-scattered sky's volume (render.sky_shadow =
+/// "volume"). `nimbus rt` and the export build them only then.
 inline bool readsMarchGrids(const FramePlan& plan) {
-    return plan.diffusion || plan.photons || plan.lightVolume;
+    return plan.diffusion || plan.photons || plan.lightVolume || plan.skyVolume;
 }
 /// Why frame `plan` of `scene` cannot be rendered or exported from `grids` and `noise`: a
 /// multiple-scattering grid its features read is missing (named for `consumer`, e.g. "the GLSL
 /// pass"), or its baked noise tiles (bakedNoiseError); "" when everything it reads is there.
 std::string frameDataError(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
                            const BakedNoise* noise, const std::string& consumer);
+/// The single-scattered sky's buffer (RT_SKY_VOLUME, binding 7): for each of the plan's
+/// directions w_k (kern::fibonacciDirection, as MarchContext takes them) 8 floats, w_k and the
+/// sky's radiance L_k there times sky.ambient, each padded to 4; then `sky`'s density integrals
+/// as SkyVolume holds them.
+std::vector<float> skyVolumeBuffer(const SceneDesc& scene, const FramePlan& plan,
+                                   const SkyVolume& sky);
 
 /// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
 struct MarchShader {
