@@ -137,13 +137,19 @@ int runRt(const RtOptions& o) {
             const auto gridStart = std::chrono::steady_clock::now();
             RenderStats gridStats;
             grids = session.renderer().marchGrids(plan, session.bindings(), gridStats);
-            if (!o.quiet)
-                std::printf("frame %d: %s computed on the CPU in %.3f s\n", frame,
-                            plan.diffusion || plan.photons
-                                ? (plan.lightVolume ? "light volume and multiple-scattering grid"
-                                                    : "multiple-scattering grid")
-                                : "light-attenuation volume",
+            if (!o.quiet) {
+                // what the plan built: the multiple-scattering grids, the sun's light volume,
+                // the single-scattered sky's volume
+                std::string built;
+                auto add = [&](bool on, const char* what) {
+                    if (on) built += (built.empty() ? "" : " and ") + std::string(what);
+                };
+                add(plan.diffusion || plan.photons, "multiple-scattering grid");
+                add(plan.lightVolume, "light-attenuation volume");
+                add(plan.skyVolume, "sky volume");
+                std::printf("frame %d: %s computed on the CPU in %.3f s\n", frame, built.c_str(),
                             secondsSince(gridStart));
+            }
         }
         // the cumulus noise tiles when the plan bakes them: the CPU's (baked once, as for
         // `nimbus render`), read by the shader
