@@ -380,6 +380,14 @@ struct RenderDesc {
     float octaveExtinction = 0.5f;
     float octaveContribution = 0.5f;
     float octaveEccentricity = 0.5f;
+    /// Octaves above the first fade where the cloud along the sun's line through the sample is
+    /// optically thin: weighted by 1 - exp(-octaveGate sigma_s tau_line), tau_line the density
+    /// integral toward the sun plus the one away from it (a second shadow march per sample, only
+    /// with octaves > 1). Light scattered more than once needs a cloud to scatter in; the
+    /// octaves, calibrated on a thick cloud, otherwise add it to thin ones too (the default
+    /// scene at a twentieth of its density came out 1.30-1.38x the reference). 0 = off. Chosen
+    /// on the validation matrix (docs/accuracy.md, "Octaves gated by the cloud's depth").
+    float octaveGate = 0.25f;
     /// Grid: the sun light scattered more than once and all sky light, from a diffusion solve
     /// on the light-volume grid (core/lighting/diffusion.h); it replaces the sky ambient term.
     /// msStrength scales its sun part (diffusion loses light in moderately thick, porous cloud),

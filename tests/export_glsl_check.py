@@ -35,6 +35,8 @@ it that variant is skipped with a message.
 `nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
 A variant with render.shadow = "volume" (RT_LIGHT_VOLUME) has light_tau.bin at binding 15 and the
 volume's lookup; the others have neither (the SDF cloud as it ships uses the volume too).
+A variant with the single-scattered sky from its volume (RT_SKY_VOLUME) has sky_volume.bin at
+binding 7 and its lookup, and no ambient.
 Exit 0 when every check passes; each failure is printed.
 """
 import json
@@ -105,6 +107,9 @@ VARIANTS = {
     "light_volume": ([NONE, 'render.shadow="volume"'],
                      dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1,
                           RT_LIGHT_VOLUME=1)),
+    # the single-scattered sky from the CPU's sky volume instead of the ambient
+    "sky_volume": ([NONE, 'render.sky_scattering="single"', 'render.sky_shadow="volume"'],
+                   dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_SKIP=1, RT_SKY_VOLUME=1)),
 }
 # a VDB field (RT_VDB): smoke1 (examples/scenes/smoke1.toml) when the shared data folder beside
 # the repository holds its file; skipped, with a message, when it does not
@@ -125,8 +130,8 @@ VARIANTS["sdf_cloud"] = ([NONE],
 SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
-                "RT_RGBA_NOISE", "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_FORWARD_DELTA",
-                "RT_RESUMABLE"]
+                "RT_RGBA_NOISE", "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_SKY_VOLUME",
+                "RT_FORWARD_DELTA", "RT_RESUMABLE"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
         "RT_MS_PHOTONS": [("photons.bin", 5)], "RT_PHOTON_SKIN": [("skin_tau.bin", 6)],
@@ -134,7 +139,8 @@ DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.
         "FLOAT_TILES": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
         "RT_SKIP": [("majorant.bin", 13)],
         "RT_SDF": [("sdf_nodes.bin", 12)],
-        "RT_LIGHT_VOLUME": [("light_tau.bin", 15)]}
+        "RT_LIGHT_VOLUME": [("light_tau.bin", 15)],
+        "RT_SKY_VOLUME": [("sky_volume.bin", 7)]}
 SDF_NODE_BYTES = 144  # struct SdfTreeNode (core/kernels/sdf_tree.glsl), std430
 
 # code that exists only with the feature (march_pass.glsl, march_data.glsl): the shadow march
@@ -142,8 +148,9 @@ SDF_NODE_BYTES = 144  # struct SdfTreeNode (core/kernels/sdf_tree.glsl), std430
 # pixel-sample loop's body, the data buffers and their lookups (and the kernels only that code
 # calls)
 MARKERS = {
-    "RT_SUN": ["rtDensityIntegral(", "sun += octaveSun(ph, sigmaT", "inScatterFactor(P.inScatter",
-               "NB_FN vec3 octaveSun(", "NB_FN PhaseParams phaseOctave("],
+    "RT_SUN": ["rtDensityIntegral(", "higher += octaveSun(ph, sigmaT", "inScatterFactor(P.inScatter",
+               "NB_FN vec3 octaveSun(", "NB_FN PhaseParams phaseOctave(",
+               "NB_FN vec3 octaveGateFactor("],
     "RT_AMBIENT": ["skyHeightInScatter(rtXyz(P.skySphere)", "NB_FN vec3 skyHeightInScatter("],
     "RT_BACKGROUND_SKY": ["L += T * rtSkyRadiance(P, d);"],
     "RT_MULTISAMPLE": ["pixelSampleOffset(k, ns", "atomicAdd(nonFinite",
@@ -163,6 +170,7 @@ MARKERS = {
     "RT_SDF": ["buffer RtSdfNodes", "rtSdfDensity(", "NB_FN void sdfTreeStep(",
                "NB_FN float sdfTreePrimitive("],
     "RT_LIGHT_VOLUME": ["buffer RtLightGrid", "rtLightTau[", "rtLightVolumeSample(p)"],
+    "RT_SKY_VOLUME": ["buffer RtSkyVolume", "rtSkyVolume[", "rtSkySingleScatter(phase, p, d"],
     "RT_RESUMABLE": ["buffer RtSlices", "rtLoopBudgetHeld(", "atomicAdd(unfinished"],
     # the forward beam: the sun's single scattering under its own transmittance
     "RT_FORWARD_DELTA": ["sunForward = octaveSun(ph, sigmaTF", "marchStep(SF, sigmaS, sigmaTF"],

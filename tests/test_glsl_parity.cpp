@@ -1071,6 +1071,23 @@ std::vector<KernelCase> makeCases() {
                   .abs = 0x1p-20f,
                   .why = "exp()'s error on e^{-x} in [0, 1], times phase <= 10: 2^-20 absolute"}));
     c.push_back(kernelCase(
+        "octaveGateFactor", "octaveGateFactor(a0, a1, a2)",
+        [](vec3 ss, float gate, float tau) { return octaveGateFactor(ss, gate, tau); },
+        [depth](Draw& d) {
+            return std::tuple(d.v3(0.0f, 20.0f, {1.0f}), d.f(0.0f, 2.0f, {0.0f, 0.25f}), depth(d));
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 0x1p-20f,
+                  .why = "1 - exp(-x): exp()'s error on [0, 1], 2^-20 absolute"}));
+    c.push_back(kernelCase(
+        "octaveGateNeedsAway", "octaveGateNeedsAway(a0, a1, a2)",
+        [](vec3 ss, float gate, float tau) { return octaveGateNeedsAway(ss, gate, tau); },
+        [](Draw& d) {
+            return std::tuple(d.v3(0.0f, 20.0f, {1.0f, 28.0f}), d.f(0.0f, 2.0f, {0.25f}),
+                              d.f(0.0f, 60.0f, {1.0f, 28.0f}));
+        },
+        Tolerance{.ulps = 0, .abs = 0.0f, .why = "a comparison: the same answer"}));
+    c.push_back(kernelCase(
         "p1Radiance", "p1Radiance(a0, a1, a2, a3, a4, a5, a6)",
         [](float phi, vec3 g, float str, float rho, float gg, float p1, vec3 wo) {
             return p1Radiance(phi, g, str, rho, gg, p1, wo);

@@ -176,6 +176,42 @@ TEST(March, ThickStepsAreSplitToMeetTheHalfSpaceClosedForm) {
     EXPECT_GT(fine, split);
 }
 
+// render.octave_gate: the octaves above the first are weighted by 1 - exp(-k sigma_s tau_line),
+// tau_line the density integral along the sun's line through the sample (toward the sun plus away
+// from it). Under a sun straight overhead every sample of a homogeneous box has the same tau_line,
+// its height times its density, so the light the higher octaves add is scaled by that
+// closed-form factor: about 0.05 in a thin box, 0.63 in a thicker one.
+TEST(March, OctaveGateScalesTheHigherOctavesByTheCloudsDepth) {
+    for (float sigma : {0.2f, 4.0f}) {
+        SceneDesc s =
+            homogeneousBox(Box{vec3(-1.0f, -0.5f, -1.0f), vec3(1.0f, 0.5f, 1.0f)}, 1.0f,
+                           cameraLookingAt(vec3(0.4f, 0.3f, -5.0f), vec3(0.0f), 24, 16, 30.0f));
+        s.medium.sigma_s = vec3(sigma);
+        s.medium.sigma_a = vec3(0.0f);
+        s.sun.direction = vec3(0.0f, 1.0f, 0.0f);
+        s.sky.kind = SkyKind::None;
+        s.render.multipleScattering = MultipleScattering::None;
+        s.render.inScatter = InScatter::None;
+        s.render.background = Background::Transparent;
+        s.render.octaveContribution = 0.4f;
+        s.render.octaveExtinction = 0.4f;
+        auto mean = [&](int octaves, float gate) {
+            SceneDesc t = s;
+            t.render.octaves = octaves;
+            t.render.octaveGate = gate;
+            const Framebuffer fb = renderScene(t);
+            double sum = 0.0;
+            for (std::size_t i = 0; i < fb.rgba.size(); ++i)
+                if (i % 4 != 3) sum += fb.rgba[i];
+            return sum / double(fb.rgba.size() / 4 * 3);
+        };
+        const double one = mean(1, 0.0f), all = mean(8, 0.0f), gated = mean(8, 0.25f);
+        const double gate = 1.0 - std::exp(-0.25 * double(sigma) * 1.0);
+        ASSERT_GT(all - one, 0.05 * one) << "sigma " << sigma; // the octaves add light
+        EXPECT_NEAR((gated - one) / (all - one), gate, 1e-3 * gate) << "sigma " << sigma;
+    }
+}
+
 TEST(March, StepWalkVisitsTheEdgesOfEmptyStretches) {
     // Cells 2, 3 and 6 of 8 hold density: segments [3, 4], [4, 5] and [7, 8] along the ray.
     // Steps of 0.4 sampled a quarter in (t = 0.4 n + 0.1). Without edges only the samples in a

@@ -288,18 +288,34 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                     PhaseFunction octavePhase = medium_.phase;
                     // traced photons carry every higher order: the octaves stand down
                     const int octaves = volumes_.photons || !beamT ? 1 : r.octaves;
-                    vec3 sunForward(0.0f);
+                    vec3 sunForward(0.0f), higher(0.0f);
                     for (int i = 0; i < octaves; ++i) {
                         const vec3 ph = octavePhase.eval(cosTheta);
                         // the single scattering (octave 0) in the beams' extinction
                         if (i == 0 && forward)
                             sunForward = kern::octaveSun(ph, sigmaTForward_, tau, 1.0f, 1.0f);
-                        else
+                        else if (i == 0)
                             sun += kern::octaveSun(ph, medium_.sigma_t, tau, weight, extinction);
+                        else
+                            higher += kern::octaveSun(ph, medium_.sigma_t, tau, weight, extinction);
                         weight *= r.octaveContribution;
                         extinction *= r.octaveExtinction;
                         octavePhase = octavePhase.octave(r.octaveEccentricity);
                     }
+                    // the octave gate: the octaves above the first need a cloud along the sun's
+                    // line to scatter in (render.octave_gate; the density integral away from
+                    // the sun by a second shadow march)
+                    if (octaves > 1 && r.octaveGate > 0.0f && maxComponent(higher) > 0.0f) {
+                        const float away =
+                            kern::octaveGateNeedsAway(medium_.sigma_s, r.octaveGate, tau) > 0.0f
+                                ? densityIntegral(p, -sunDir,
+                                                  pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) *
+                                                                               0xc2b2ae35ull)),
+                                                  cnt, scratch.shadow, rho)
+                                : 0.0f;
+                        higher *= kern::octaveGateFactor(medium_.sigma_s, r.octaveGate, tau + away);
+                    }
+                    sun += higher;
                     const vec3 in =
                         s_.sun.irradiance * kern::inScatterFactor(int(plan_.inScatter), rho, tau,
                                                                   medium_.sigma_t, r.inScatterC,

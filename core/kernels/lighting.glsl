@@ -69,6 +69,20 @@ NB_FN vec3 octaveSun(vec3 phaseValue, vec3 sigmaT, float tau, float weight, floa
     return weight * phaseValue * beerLambert(sigmaT * (tau * extinction));
 }
 
+// The octave gate (render.octave_gate): octaves above the first weighted by the chance that
+// light scatters again along the sun's line through the sample, 1 - exp(-gate sigma_s tauLine),
+// tauLine the density integral toward the sun plus the one away from it.
+NB_FN vec3 octaveGateFactor(vec3 sigmaS, float gate, float tauLine) {
+    return vec3(1.0f) - beerLambert(sigmaS * (gate * tauLine));
+}
+
+// Whether the density integral away from the sun is needed (1) or not (0): not once the one
+// toward the sun alone takes the gate's factor within 0.1% of 1 (gate sigma_s tau >= 7 in every
+// channel), which spares the second shadow march deep in a thick cloud.
+NB_FN float octaveGateNeedsAway(vec3 sigmaS, float gate, float tauSun) {
+    return gate * min(sigmaS.x, min(sigmaS.y, sigmaS.z)) * tauSun < 7.0f ? 1.0f : 0.0f;
+}
+
 // The P1 radiance of a diffusion solution scattered toward direction wo (one channel): fluence
 // phi, its gradient grad, F = -grad / (3 sigma_tr rho) the net flux limited to |F| <= phi, and
 // (phi + 3 g p1 F.wo) with the phase function's first moment g and the flux weight p1. The caller

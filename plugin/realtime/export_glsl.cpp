@@ -778,6 +778,10 @@ ParamDoc paramDoc(std::string_view n) {
         {"octaveContribution", {"octave contribution factor a", "1"}},
         {"octaveExtinction", {"octave extinction factor b", "1"}},
         {"octaveEccentricity", {"octave eccentricity factor c", "1"}},
+        {"octaveGate",
+         {"render.octave_gate: octaves above the first times 1 - exp(-octaveGate sigma_s tau), tau "
+          "the density integral toward and away from the sun (0: off)",
+          "1/density integral per sigma_s"}},
         {"inScatter",
          {"in-scatter model: 0 none, 1 olajos, 2 powder (INSCATTER_* of "
           "core/kernels/lighting.glsl)",

@@ -92,6 +92,7 @@ struct RtMarchParams {
     float octaveContribution;
     float octaveExtinction;
     float octaveEccentricity;
+    float octaveGate;   // render.octave_gate: octaves above the first fade in thin cloud
     int inScatter;      // INSCATTER_* (core/kernels/lighting.glsl)
     float inScatterC;
     float inScatterStrength;

@@ -518,6 +518,7 @@ void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float
     float tau = rtDensityIntegral(F, p, rho, sunDir, pcg(pixelKey ^ (key * 0x9e3779b9u)));
 #endif
     vec3 sun = vec3(0.0f);
+    vec3 higher = vec3(0.0f);
     vec3 sunForward = vec3(0.0f);
     float weight = 1.0f;
     float extinction = 1.0f;
@@ -545,14 +546,26 @@ void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float
         if (i == 0)
             sunForward = octaveSun(ph, sigmaTF, tau, 1.0f, 1.0f);
         else
-            sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+            higher += octaveSun(ph, sigmaT, tau, weight, extinction);
 #else
-        sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+        if (i == 0)
+            sun += octaveSun(ph, sigmaT, tau, weight, extinction);
+        else
+            higher += octaveSun(ph, sigmaT, tau, weight, extinction);
 #endif
         weight *= P.octaveContribution;
         extinction *= P.octaveExtinction;
         octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
     }
+    // the octave gate (render.octave_gate): the octaves above the first need a cloud along the
+    // sun's line to scatter in; the density integral away from the sun by a second shadow march
+    if (octaves > 1 && P.octaveGate > 0.0f && rtMaxComponent(higher) > 0.0f) {
+        float away = octaveGateNeedsAway(sigmaS, P.octaveGate, tau) > 0.0f
+                         ? rtDensityIntegral(F, p, rho, -sunDir, pcg(pixelKey ^ (key * 0xc2b2ae35u)))
+                         : 0.0f;
+        higher *= octaveGateFactor(sigmaS, P.octaveGate, tau + away);
+    }
+    sun += higher;
     vec3 sunIn = rtXyz(P.sunIrradiance) *
                  inScatterFactor(P.inScatter, rho, tau, sigmaT, P.inScatterC,
                                  P.inScatterStrength);

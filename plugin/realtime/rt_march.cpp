@@ -350,6 +350,7 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
     P.octaveContribution = r.octaveContribution;
     P.octaveExtinction = r.octaveExtinction;
     P.octaveEccentricity = r.octaveEccentricity;
+    P.octaveGate = r.octaveGate;
     P.inScatter = int(p.inScatter);
     P.inScatterC = r.inScatterC;
     P.inScatterStrength = r.inScatterStrength;

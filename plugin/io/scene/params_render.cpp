@@ -198,6 +198,16 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::octaveEccentricity)
                     .calibratedOver({0.0, 0.25, 0.5, 0.75, 1.0})
                     .usedWhen("render.octaves > 1", multiple));
+    t.push_back(ren.param("octave_gate", closed(0, 16),
+                          "Octaves above the first fade where the cloud along the sun's line "
+                          "through the sample is optically thin: weighted by 1 - exp(-octave_gate "
+                          "sigma_s tau), tau the density integral toward the sun plus the one away "
+                          "from it (a second shadow march per sample). Octaves calibrated on a "
+                          "thick cloud otherwise add multiply scattered light to thin ones; 0.25 "
+                          "took the default scene's thin cases on the validation matrix from "
+                          "33-42% to 4-11% relative RMSE, its thick ones unchanged. 0 = off.",
+                          &RenderDesc::octaveGate)
+                    .usedWhen("render.octaves > 1", multiple));
     t.push_back(
         ren.param("multiple_scattering",
                   WordTable<MultipleScattering>{{"none", MultipleScattering::None},
