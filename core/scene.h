@@ -385,9 +385,11 @@ struct RenderDesc {
     /// integral toward the sun plus the one away from it (a second shadow march per sample, only
     /// with octaves > 1). Light scattered more than once needs a cloud to scatter in; the
     /// octaves, calibrated on a thick cloud, otherwise add it to thin ones too (the default
-    /// scene at a twentieth of its density came out 1.30-1.38x the reference). 0 = off. Chosen
-    /// on the validation matrix (docs/accuracy.md, "Octaves gated by the cloud's depth").
-    float octaveGate = 0.25f;
+    /// scene at a twentieth of its density came out 1.30-1.38x the reference). 0 = off (the
+    /// default: it costs a second shadow march, 1.27x the default scene's frame and 1.7x
+    /// smoke1's); the default scene sets 0.25, chosen on its cases of the validation matrix
+    /// (docs/accuracy.md, "Octaves gated by the cloud's depth").
+    float octaveGate = 0.0f;
     /// Grid: the sun light scattered more than once and all sky light, from a diffusion solve
     /// on the light-volume grid (core/lighting/diffusion.h); it replaces the sky ambient term.
     /// msStrength scales its sun part (diffusion loses light in moderately thick, porous cloud),
