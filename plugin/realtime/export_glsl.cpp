@@ -1030,7 +1030,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtLightGrid"), bytesOf(grids->towardVolume()->tau));
         if (f.skyVolume)
             out.data.emplace_back(bufferFile("RtSkyVolume"),
-                                  bytesOf(skyVolumeBuffer(s, p, grids->sky)));
+                                  bytesOf(skyVolumeBuffer(s, grids->sky)));
         if (f.sdf) out.data.emplace_back(bufferFile("RtSdfNodes"), bytesOf(sdfTreeNodes(s)));
         if (f.vdb) {
             const VdbGridBytes g = vdbGridBytes(bindings, error);

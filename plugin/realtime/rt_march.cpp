@@ -132,7 +132,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.backgroundSky = s.render.background == Background::Sky;
     f.multisample = s.render.pixelSamples > 1;
     // the table is read where the phase function is: the sun's octaves, the sky's directions
-    f.skyVolume = p.skySingle && p.skyVolume;
+    f.skyVolume = p.skyVolume; // (the plan builds the sky volume only for the single sky)
     f.mieTable = (f.sun || f.skyVolume) && s.medium.phase == PhaseKind::MieTable;
     f.diffusion = p.diffusion;
     f.photons = p.photons;
@@ -542,18 +542,18 @@ std::string bakedNoiseError(const SceneDesc& s, const BakedNoise* noise) {
     return "";
 }
 
-std::vector<float> skyVolumeBuffer(const SceneDesc& s, const FramePlan& p, const SkyVolume& sky) {
-    const int K = sky.count();
-    std::vector<float> out(std::size_t(8) * std::size_t(K) + sky.tau.size(), 0.0f);
-    for (int k = 0; k < K; ++k) {
-        // the directions and radiances of MarchContext's constructor
-        const vec3 w = kern::fibonacciDirection(k, p.skyDirections);
+std::vector<float> skyVolumeBuffer(const SceneDesc& s, const SkyVolume& sky) {
+    const std::size_t K = sky.directions.size();
+    std::vector<float> out(8 * K + sky.tau.size(), 0.0f);
+    for (std::size_t k = 0; k < K; ++k) {
+        // the volume's own directions, with the radiance MarchContext's constructor gives them
+        const vec3 w = sky.directions[k];
         const vec3 L = skyRadiance(s.sky, w) * s.sky.ambient;
-        float* r = out.data() + std::size_t(8) * std::size_t(k);
+        float* r = out.data() + 8 * k;
         r[0] = w.x, r[1] = w.y, r[2] = w.z;
         r[4] = L.x, r[5] = L.y, r[6] = L.z;
     }
-    std::copy(sky.tau.begin(), sky.tau.end(), out.begin() + std::ptrdiff_t(8) * K);
+    std::copy(sky.tau.begin(), sky.tau.end(), out.begin() + std::ptrdiff_t(8 * K));
     return out;
 }
 
@@ -695,7 +695,7 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
     }
     // the single-scattered sky: its directions and radiances, then the sky volume
     if (f.skyVolume) {
-        const std::vector<float> b = skyVolumeBuffer(s, p, grids->sky);
+        const std::vector<float> b = skyVolumeBuffer(s, grids->sky);
         sky = std::make_unique<gl::StorageBuffer>(b.size() * sizeof(float), b.data());
         sky->bind(7);
     }

@@ -171,12 +171,10 @@ inline bool readsMarchGrids(const FramePlan& plan) {
 /// pass"), or its baked noise tiles (bakedNoiseError); "" when everything it reads is there.
 std::string frameDataError(const SceneDesc& scene, const FramePlan& plan, const MarchGrids* grids,
                            const BakedNoise* noise, const std::string& consumer);
-/// The single-scattered sky's buffer (RT_SKY_VOLUME, binding 7): for each of the plan's
-/// directions w_k (kern::fibonacciDirection, as MarchContext takes them) 8 floats, w_k and the
-/// sky's radiance L_k there times sky.ambient, each padded to 4; then `sky`'s density integrals
-/// as SkyVolume holds them.
-std::vector<float> skyVolumeBuffer(const SceneDesc& scene, const FramePlan& plan,
-                                   const SkyVolume& sky);
+/// The single-scattered sky's buffer (RT_SKY_VOLUME, binding 7): for each of `sky`'s directions
+/// w_k 8 floats, w_k and the sky's radiance L_k there times sky.ambient (as MarchContext takes
+/// them), each padded to 4; then `sky`'s density integrals as SkyVolume holds them.
+std::vector<float> skyVolumeBuffer(const SceneDesc& scene, const SkyVolume& sky);
 
 /// A frame's shader as `nimbus rt` compiles it: the features and the assembled text.
 struct MarchShader {
