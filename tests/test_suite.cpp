@@ -230,7 +230,8 @@ TEST_F(Suite, CacheKeyFollowsContentNotTime) {
     CliRun marchOnly = run("--set render.multiple_scattering='\"none\"' --set "
                            "render.sky_scattering='\"single\"' --set render.sky_directions=4 "
                            "--set render.sky_shadow='\"volume\"' --set "
-                           "render.forward_scattering='\"none\"' --set render.octaves=1");
+                           "render.forward_scattering='\"none\"' --set render.octaves=1 "
+                           "--set render.octave_gate=0.25");
     ASSERT_EQ(marchOnly.exitCode, 0) << marchOnly.output;
     EXPECT_FALSE(renderedNow()) << marchOnly.output;
 
