@@ -114,6 +114,24 @@ TEST_F(Suite, TableCsvThicknessAndCache) {
         EXPECT_LE(num(row, "relative_rmse"), previous); // worst first
         previous = num(row, "relative_rmse");
     }
+    // the summary's median is the middle one of the three cases' errors, and the thin pair's
+    // the mean of its two (the CSV holds them at full precision, the summary to 0.01%)
+    auto pct = [](double v) {
+        char b[32];
+        std::snprintf(b, sizeof b, "%.2f%%", 100.0 * v);
+        return std::string(b);
+    };
+    EXPECT_TRUE(contains(r.output, "; median " + pct(num(rows[1], "relative_rmse")) + "\n"))
+        << r.output;
+    double thin[2];
+    int nThin = 0;
+    for (const auto& row : rows)
+        if (row.at("thickness") == "thin" && nThin < 2) thin[nThin++] = num(row, "relative_rmse");
+    ASSERT_EQ(nThin, 2);
+    EXPECT_TRUE(contains(r.output, " thin 0/2 (median " + pct(0.5 * (thin[0] + thin[1]))) ||
+                contains(r.output, " thin 1/2 (median " + pct(0.5 * (thin[0] + thin[1]))) ||
+                contains(r.output, " thin 2/2 (median " + pct(0.5 * (thin[0] + thin[1]))))
+        << r.output;
 
     // the thickness seen independently: the path tracer's own transmittance (alpha) of the
     // thin case's reference gives a mean optical depth near 1 over the cloud's pixels

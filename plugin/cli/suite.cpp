@@ -872,11 +872,22 @@ int runSuite(const ConvergeOptions& o) {
         refAll += r.refSeconds;
     }
     md << "\n";
+    // the median error of a set of cases (those with a finite error; NaN when none has one)
+    auto median = [](std::vector<double> v) {
+        v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }),
+                v.end());
+        if (v.empty()) return std::nan("");
+        std::sort(v.begin(), v.end());
+        const size_t m = v.size() / 2;
+        return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+    };
     if (!results.empty()) {
         const Result& worst = results.front();
+        std::vector<double> all;
+        for (const Result& r : results) all.push_back(r.rel);
         md << "worst: " << worst.c->name << " at " << percent(worst.rel) << " (mean ratio "
            << fmt("%.3f", worst.ratio) << "); " << pass << " of " << results.size()
-           << " cases within " << percent(kTarget) << "\n";
+           << " cases within " << percent(kTarget) << "; median " << percent(median(all)) << "\n";
     }
     // the worst case along each axis of the matrix
     auto byAxis = [&](const char* axis, auto value) {
@@ -893,10 +904,11 @@ int runSuite(const ConvergeOptions& o) {
         md << "by " << axis << ":";
         std::sort(order.begin(), order.end());
         for (const std::string& v : order) {
-            size_t n = 0;
-            for (const Result& r : results) n += value(*r.c) == v;
-            md << " " << v << " " << worst[v].first << "/" << n << " (worst "
-               << percent(worst[v].second->rel) << ");";
+            std::vector<double> rel;
+            for (const Result& r : results)
+                if (value(*r.c) == v) rel.push_back(r.rel);
+            md << " " << v << " " << worst[v].first << "/" << rel.size() << " (median "
+               << percent(median(rel)) << ", worst " << percent(worst[v].second->rel) << ");";
         }
         md << "\n";
     };
