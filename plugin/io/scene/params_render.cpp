@@ -282,9 +282,10 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::photonSky)
                     .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
     t.push_back(ren.param("ms_strength", atLeast(0),
-                          "Scale of the grid's multiply scattered sun light (1 = the diffusion "
-                          "solution, which loses light in moderately thick, porous cloud; the "
-                          "sky's part is not scaled).",
+                          "Scale of the multiply scattered sun light, the diffusion grid's or "
+                          "the sun's photons' (1 = their solution as it is; the grid loses "
+                          "light in moderately thick, porous cloud). The sky's part, from the "
+                          "grid or from render.photon_sky, is not scaled.",
                           &RenderDesc::msStrength)
                     .calibratedOver({0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0})
                     .usedWhen("render.multiple_scattering = \"grid\" or \"photons\"", gridOn));
