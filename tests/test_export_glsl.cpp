@@ -835,6 +835,33 @@ TEST(ExportGlslGpu, SameImageAsRtWithAnSdfCloud) {
     EXPECT_TRUE(contains(e.json, "132 uint seed"));
 }
 
+namespace {
+
+/// One frame of a scene exported with the CPU's grids, as `nimbus export-glsl` exports it: the
+/// session (the grids' bindings point into it), the frame's plan, its grids and the export.
+struct GridExport {
+    host::Session session;
+    FramePlan plan;
+    MarchGrids grids;
+    rt::GlslExport e;
+};
+
+/// Loads `sets` over kScene into x, plans frame `frame`, builds its grids and exports it.
+::testing::AssertionResult exportWithGrids(const std::vector<std::string>& sets, int frame,
+                                           GridExport& x) {
+    if (!x.session.load(kScene, sets).ok()) return ::testing::AssertionFailure() << "load";
+    x.plan = x.session.plan(frame);
+    RenderStats stats;
+    x.grids = x.session.renderer().marchGrids(x.plan, x.session.bindings(), stats);
+    std::string error;
+    if (!rt::exportGlsl(x.session.scene(), x.plan, kScene, &x.grids, &x.session.bindings(), nullptr,
+                        x.e, &error))
+        return ::testing::AssertionFailure() << error;
+    return ::testing::AssertionSuccess();
+}
+
+} // namespace
+
 // render.shadow = "volume": the CPU's light-attenuation volume goes out as light_tau.bin (the
 // floats `nimbus rt` uploads, binding 15), the shader reads the sun's density integral from it
 // (RT_LIGHT_VOLUME) and the image from the files alone is nimbus rt's; without the setting
@@ -855,17 +882,11 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheLightVolume) {
     EXPECT_TRUE(contains(shader, "buffer RtLightGrid { float rtLightTau[]; };"));
     EXPECT_TRUE(contains(shader, "rtLightVolumeSample(p)"));
     // the file is the volume's floats
-    host::Session session;
-    ASSERT_TRUE(session.load(kScene, sets).ok());
-    const FramePlan plan = session.plan(3);
-    RenderStats stats;
-    const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), stats);
+    GridExport x;
+    ASSERT_TRUE(exportWithGrids(sets, 3, x));
+    const rt::GlslExport& e = x.e;
+    const MarchGrids& grids = x.grids;
     ASSERT_NE(grids.towardVolume(), nullptr);
-    rt::GlslExport e;
-    std::string error;
-    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, &grids, &session.bindings(), nullptr,
-                               e, &error))
-        << error;
     ASSERT_EQ(e.data.size(), 1u);
     EXPECT_EQ(e.data[0].first, "light_tau.bin");
     const std::vector<float>& tau = grids.towardVolume()->tau;
@@ -874,7 +895,8 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheLightVolume) {
     EXPECT_TRUE(contains(e.json, "\"lightResX\""));
     // without the grids the export refuses the frame
     rt::GlslExport none;
-    EXPECT_FALSE(rt::exportGlsl(session.scene(), plan, kScene, none, &error));
+    std::string error;
+    EXPECT_FALSE(rt::exportGlsl(x.session.scene(), x.plan, kScene, none, &error));
     EXPECT_TRUE(contains(error, "light-attenuation volume")) << error;
     // render.shadow = "march": no file, no lookup
     sets.back() = "render.shadow=\"march\"";
@@ -905,21 +927,15 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheSkyVolume) {
     EXPECT_TRUE(contains(shader, "buffer RtSkyVolume { float rtSkyVolume[]; };"));
     EXPECT_TRUE(contains(shader, "#define RT_AMBIENT 0"));
     // the file: 8 floats per direction (w_k, L_k), then the volume's floats
-    host::Session session;
-    ASSERT_TRUE(session.load(kScene, sets).ok());
-    const FramePlan plan = session.plan(3);
-    RenderStats stats;
-    const MarchGrids grids = session.renderer().marchGrids(plan, session.bindings(), stats);
+    GridExport x;
+    ASSERT_TRUE(exportWithGrids(sets, 3, x));
+    const rt::GlslExport& e = x.e;
+    const MarchGrids& grids = x.grids;
     ASSERT_TRUE(grids.hasSky);
-    rt::GlslExport e;
-    std::string error;
-    ASSERT_TRUE(rt::exportGlsl(session.scene(), plan, kScene, &grids, &session.bindings(), nullptr,
-                               e, &error))
-        << error;
     ASSERT_EQ(e.data.size(), 1u);
     EXPECT_EQ(e.data[0].first, "sky_volume.bin");
     const int K = grids.sky.count();
-    ASSERT_EQ(K, plan.skyDirections);
+    ASSERT_EQ(K, x.plan.skyDirections);
     ASSERT_EQ(e.data[0].second.size(), (8 * std::size_t(K) + grids.sky.tau.size()) * sizeof(float));
     std::vector<float> floats(e.data[0].second.size() / sizeof(float));
     std::memcpy(floats.data(), e.data[0].second.data(), e.data[0].second.size());
@@ -934,7 +950,8 @@ TEST(ExportGlslGpu, SameImageAsRtWithTheSkyVolume) {
     EXPECT_TRUE(contains(e.json, "\"sky_volume.bin\""));
     // without the grids the export refuses the frame
     rt::GlslExport none;
-    EXPECT_FALSE(rt::exportGlsl(session.scene(), plan, kScene, none, &error));
+    std::string error;
+    EXPECT_FALSE(rt::exportGlsl(x.session.scene(), x.plan, kScene, none, &error));
     EXPECT_TRUE(contains(error, "sky volume")) << error;
 }
 
