@@ -8,13 +8,14 @@
 #include "core/fields/advected_field.h"
 #include "core/fields/automaton_field.h"
 #include "core/fields/field.h"
-#include "core/fields/grid.h"
 #include "core/fields/gardner.h"
 #include "core/fields/grid.h"
 #include "core/fields/sdf_cloud.h"
+#include "core/lighting/cloud_depth.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/photons.h"
 #include "core/lighting/sky_volume.h"
+#include "core/media/medium.h"
 #include "core/media/phase.h"
 #include "core/tracking/volumes.h"
 
@@ -297,7 +298,9 @@ std::string FramePlan::explain() const {
           : photons
               ? std::string(photonSky ? "sun and sky" : "sun") +
                     ": photons traced through the field, recorded on a grid of voxel " +
-                    std::to_string(photonCell) + megabytes(photonGridBytes) +
+                    std::to_string(photonCell) +
+                    (photonCellNote.empty() ? std::string() : " (" + photonCellNote + ")") +
+                    megabytes(photonGridBytes) +
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
                     (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
@@ -310,6 +313,7 @@ std::string FramePlan::explain() const {
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
+    if (msAuto && !pathtrace && scatters) o << "    chosen by " << msDecision << "\n";
     char sky[200];
     if (skyVolume)
         std::snprintf(sky, sizeof sky,
@@ -439,6 +443,97 @@ void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bound
     if (!dom.bounds.empty()) bounds = dom.bounds;
 }
 
+/// The cloud measured along the sun for the plan (core/lighting/cloud_depth.h), once a frame:
+/// false with the reason when it cannot be measured before rendering.
+bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p,
+                  std::string& why) {
+    if (p.cloudMeasured) return true;
+    if (s.field.kind == FieldKind::Automaton) {
+        why = "a simulated field: its depth is not measured before it is built";
+        return false;
+    }
+    if (s.field.kind == FieldKind::Vdb && !bindings.grid(0).grid) {
+        why = bindings.unread ? "chosen when the grid is read" : "no density";
+        return false;
+    }
+    // an advected cloud is measured as its source at time 0, the state the wind carries: one
+    // choice for the whole sequence (the wind moves and deforms it, the depth stays near)
+    const Field f = makeField(s.field, p.advected ? 0.0f : p.time, bindings.grid(0));
+    const Medium m = Medium::fromDesc(s.medium);
+    const float sigmaT = (m.sigma_t.x + m.sigma_t.y + m.sigma_t.z) / 3.0f;
+    const CloudDepth d = measureCloudDepth(f, f.bounds(), s.sun.direction, sigmaT, p.step);
+    if (d.hits == 0) {
+        why = "no density along the sun";
+        return false;
+    }
+    p.cloudMeasured = true;
+    p.cloudTau = d.meanTau;
+    p.cloudVolume = d.occupiedVolume;
+    return true;
+}
+
+/// render.multiple_scattering as the frame takes it: "auto" becomes photons where the cloud is
+/// optically thin along the sun (its mean optical depth at most render.photon_depth), where
+/// they are cheap (few scatterings a photon) and the diffusion grid misses the forward
+/// multiple scattering, and the grid elsewhere (docs/accuracy.md, "Photons where the cloud is
+/// thin or medium"). Records the choice in p.msAuto and p.msDecision.
+MultipleScattering chooseMultipleScattering(const SceneDesc& s, const FrameBindings& bindings,
+                                            bool inScatter, bool oneVolume, FramePlan& p) {
+    if (s.render.multipleScattering != MultipleScattering::Auto) return s.render.multipleScattering;
+    p.msAuto = true;
+    auto grid = [&](const std::string& why) {
+        p.msDecision = "render.multiple_scattering = \"auto\": the diffusion grid (" + why + ")";
+        return MultipleScattering::Grid;
+    };
+    if (!inScatter) return grid("nothing in-scatters");
+    if (!p.shadows) return grid("no sun: photons carry the sun's light");
+    if (!oneVolume)
+        return grid("several volumes or instances, which photons do not cover: octaves and the "
+                    "sky term as for \"grid\"");
+    if (!(s.render.photonDepth > 0.0f)) return grid("render.photon_depth = 0");
+    // each photon flight would sphere-trace the SDF solids (sdf_terrain.toml at 64x36: 136 s
+    // of photons against 0.2 s of march)
+    if (p.solids > 0) return grid("SDF solids, which photons would sphere-trace at every flight");
+    std::string why;
+    if (!measureCloud(s, bindings, p, why)) return grid(why);
+    const bool thin = p.cloudTau <= double(s.render.photonDepth);
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "render.multiple_scattering = \"auto\": %s (the cloud's mean optical depth "
+                  "along the sun %.3g %s render.photon_depth %g)",
+                  thin ? "photons" : "the diffusion grid", p.cloudTau, thin ? "<=" : ">",
+                  double(s.render.photonDepth));
+    p.msDecision = buf;
+    return thin ? MultipleScattering::Photons : MultipleScattering::Grid;
+}
+
+/// render.photon_cell_scale = 0: the photons' voxel, in light-volume cells, from the cloud's
+/// occupied volume: the finest of 1/4, 1/2, 1, 2 and 4 at which the cloud holds no more than
+/// render.photons / kPhotonsPerCell voxels (the noise of a voxel's estimate falls with the
+/// photons that cross it; docs/accuracy.md, "Photons where the cloud is thin or medium").
+constexpr double kPhotonsPerCell = 256.0;
+float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
+    std::string why;
+    if (!measureCloud(s, bindings, p, why) || !(p.cloudVolume > 0.0)) {
+        p.photonCellNote = "the light-volume cell (" + why + ")";
+        return 1.0f;
+    }
+    const double budget = double(s.render.photons) / kPhotonsPerCell;
+    float scale = 0.25f;
+    while (scale < 4.0f &&
+           p.cloudVolume / std::pow(double(p.lightVolumeCell) * scale, 3.0) > budget)
+        scale *= 2.0f;
+    const double voxels = p.cloudVolume / std::pow(double(p.lightVolumeCell) * scale, 3.0);
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "%g light-volume cells: the cloud fills %.3g of them, %.3g photons each (at "
+                  "least %g wanted)",
+                  double(scale), voxels, double(s.render.photons) / std::max(voxels, 1.0),
+                  kPhotonsPerCell);
+    p.photonCellNote = buf;
+    return scale;
+}
+
 } // namespace
 
 FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings,
@@ -501,20 +596,20 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // light scattered in the medium: nothing to compute at albedo 0 (march's in-scattering is
     // sigma_s times it)
     const bool inScatter = marching && p.scatters;
+    const MultipleScattering ms = chooseMultipleScattering(s, bindings, inScatter, oneVolume, p);
     // (photons need a light to leave: the sun, or the sky when they trace it too)
     p.photons = inScatter && oneVolume && (p.shadows || (p.ambient && s.render.photonSky)) &&
-                s.render.multipleScattering == MultipleScattering::Photons;
+                ms == MultipleScattering::Photons;
     if (p.photons) p.photonBounces = std::max(0, s.render.photonBounces);
     // the sky traced by photons too: its first scattering is march's (as with
     // render.sky_scattering = "single"), the orders above it the photons'
     p.photonSky = p.photons && p.ambient && s.render.photonSky;
     // the sky's multiple scattering is the diffusion grid's in either model (unless photons
     // trace it; then the grid carries only what photons hand off)
-    p.diffusion =
-        inScatter && oneVolume &&
-        ((s.render.multipleScattering == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
-         (s.render.multipleScattering == MultipleScattering::Photons &&
-          ((p.ambient && !p.photonSky) || p.photonBounces > 0)));
+    p.diffusion = inScatter && oneVolume &&
+                  ((ms == MultipleScattering::Grid && (p.shadows || p.ambient)) ||
+                   (ms == MultipleScattering::Photons &&
+                    ((p.ambient && !p.photonSky) || p.photonBounces > 0)));
     p.skySingle =
         inScatter && p.ambient &&
         (p.photonSky || (!p.diffusion && s.render.skyScattering == SkyScattering::Single));
@@ -529,7 +624,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.inScatter = p.photons ? InScatter::None : s.render.inScatter;
     // photons record on the light-volume grid, or on a grid of their own at
     // render.photon_cell_scale of its cell (docs/accuracy.md, "Photons on the matrix")
-    if (p.photons) p.photonCell = p.lightVolumeCell * s.render.photonCellScale;
+    if (p.photons)
+        p.photonCell = p.lightVolumeCell * (s.render.photonCellScale > 0.0f
+                                                ? s.render.photonCellScale
+                                                : autoPhotonCellScale(s, bindings, p));
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march

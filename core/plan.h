@@ -49,6 +49,17 @@ struct FramePlan {
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
+    /// render.multiple_scattering = "auto": the model was chosen here, from the cloud's mean
+    /// optical depth along the sun (cloudTau; -1 when it was not measured) against
+    /// render.photon_depth; msDecision says what was chosen and why
+    bool msAuto = false;
+    std::string msDecision;
+    /// the cloud measured along the sun (core/lighting/cloud_depth.h), for "auto" and for
+    /// render.photon_cell_scale = 0: its mean optical depth and the volume it fills
+    bool cloudMeasured = false;
+    double cloudTau = -1.0;
+    double cloudVolume = 0.0;
+    std::string photonCellNote; ///< render.photon_cell_scale = 0: the voxel chosen and why
     /// photons: the voxel of the grid they record on (world units) and its memory (without the
     /// per-thread sums of the voxels that record; with the hand-off its sums and source on the
     /// light-volume grid too; 0 while a VDB field is unread)

@@ -57,6 +57,9 @@ struct RenderStats {
     std::uint64_t densityGridVoxels = 0; ///< densities looked up at light-grid voxel centres
     double diffusionSeconds = 0.0;       ///< march: solving the multiple-scattering grid
     int diffusionIterations = 0;
+    /// render.multiple_scattering = "auto": the cloud's mean optical depth along the sun it
+    /// chose the model by (FramePlan::cloudTau); -1 when not measured
+    double cloudDepth = -1.0;
     double photonSeconds = 0.0;       ///< march: tracing the photons
     std::uint64_t photonsTraced = 0;  ///< photons that left the sun or the sky
     std::uint64_t photonsFromSky = 0; ///< of them, those that left the sky (render.photon_sky)

@@ -311,7 +311,7 @@ struct SolidDesc {
 
 enum class InScatter { None, Olajos, Powder };
 /// march: approximation of the sun light scattered more than once (core/integrators/march.h).
-enum class MultipleScattering { None, Grid, Photons };
+enum class MultipleScattering { None, Grid, Photons, Auto };
 /// march: how much of the sky a point inside the medium sees (core/integrators/march.h).
 enum class SkyOcclusion { Height, Column };
 /// march without multiple scattering: the sky as an ambient term standing for every order of
@@ -397,14 +397,18 @@ struct RenderDesc {
     /// Photons: the sun's part from photons traced through the field once per frame
     /// (core/lighting/photons.h; no octaves, no calibration), the sky's from the diffusion grid
     /// (or from photons too with photonSky).
-    MultipleScattering multipleScattering = MultipleScattering::Grid;
-    int photons = 200000; ///< Photons: photons leaving the sun per frame
+    /// Auto: photons where the cloud's mean optical depth along the sun is at most photonDepth
+    /// (measured by the plan each frame, core/lighting/cloud_depth.h), the grid elsewhere.
+    MultipleScattering multipleScattering = MultipleScattering::Auto;
+    float photonDepth = 64.0f;
+    int photons = 2000000; ///< Photons: photons leaving the sun per frame
     /// Photons: the multiply scattered light inside a voxel is taken to fall off as
     /// max(exp(-photonSkin sigma_t tau_sun), 0.1) with the density integral toward the sun
     /// (core/lighting/photons.h); 0 = flat over the voxel
     float photonSkin = 0.0f;
-    /// The photons' grid: its voxel in light-volume cells (1 = the light-volume grid itself)
-    float photonCellScale = 1.0f;
+    /// The photons' grid: its voxel in light-volume cells (1 = the light-volume grid itself);
+    /// 0 = chosen by the plan from the cloud's occupied volume and the photon count
+    float photonCellScale = 0.0f;
     /// Photons: the scatterings a photon is traced through; at the next one its light goes to
     /// the diffusion grid as a source (core/lighting/photons.h); 0 = traced to maxDepth
     int photonBounces = 0;

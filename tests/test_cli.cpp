@@ -36,8 +36,11 @@ std::string tinyScene(const fs::path& dir, const std::string& extraRender = "") 
            "[field]\nkind = \"cumulus\"\nbounds_min = [-30.0, 1.2, -20.0]\n"
            "bounds_max = [30.0, 5.2, 40.0]\nwind = [0.6, 0.0, 0.15]\nbase_octaves = 3\n"
            "detail_octaves = 2\n"
-           "[render]\nstep = 0.08\nstep_growth = 0.004\nshadow_step = 0.1\n" +
-           extraRender + "[output]\npath = \"" + (dir / "tiny.####.exr").string() +
+           "[render]\nstep = 0.08\nstep_growth = 0.004\nshadow_step = 0.1\n"
+           "multiple_scattering = \"grid\"\n" + // the default scene's model, not 2 M photons
+
+           extraRender +
+           "[output]\npath = \"" + (dir / "tiny.####.exr").string() +
            "\"\naovs = [\"transmittance\", \"depth\"]\npreview = \"" +
            (dir / "tiny.####.png").string() + "\"\n";
 }

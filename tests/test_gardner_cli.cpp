@@ -85,7 +85,8 @@ TEST(GardnerCli, BakedVdbRendersLikeTheField) {
     auto render = [&](const std::string& scene, const std::string& name) {
         CliRun r = runNimbus("render " + scene + size(160, 90) + " --set output.path=\"" +
                              (dir / (name + ".####.exr")).string() + "\" --set output.preview=\"" +
-                             (dir / (name + ".####.png")).string() + "\" --progress none");
+                             (dir / (name + ".####.png")).string() +
+                             "\" --set render.multiple_scattering=\"grid\" --progress none");
         EXPECT_EQ(r.exitCode, 0) << r.output;
         return framebufferOf(nimbus::io::readExr((dir / (name + ".0001.exr")).string()));
     };

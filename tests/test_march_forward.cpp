@@ -35,6 +35,8 @@ SceneDesc forwardBox(float sigmaS, float g, float angle, int size = 32) {
     s.render.shadowStep = 0.02f;
     s.render.inScatter = InScatter::None;
     s.render.maxDepth = 4096;
+    // the beams are part of the diffusion grid's model ("auto" would trace photons here)
+    s.render.multipleScattering = MultipleScattering::Grid;
     return s;
 }
 

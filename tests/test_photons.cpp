@@ -24,6 +24,7 @@ SceneDesc sunBox() {
     s.render.lightVolumeCell = 0.1f;
     s.render.multipleScattering = MultipleScattering::Photons;
     s.render.photons = 400000;
+    s.render.photonCellScale = 1.0f; // on the light-volume grid (0.1)
     return s;
 }
 
@@ -46,6 +47,7 @@ SceneDesc smallCumulus() {
     s.sun.direction = glm::normalize(vec3(0.6f, 0.4f, 0.5f));
     s.render.multipleScattering = MultipleScattering::Photons;
     s.render.photons = 40000;
+    s.render.photonCellScale = 1.0f; // on the light-volume grid
     return s;
 }
 
@@ -214,7 +216,7 @@ TEST(Photons, PhotonCellScaleGivesThemAGridOfTheirOwn) {
     SceneDesc s = smallCumulus();
     const FramePlan p = Renderer(s).plan(1);
     ASSERT_GT(p.majorantCell, 0.0f);
-    EXPECT_FLOAT_EQ(p.photonCell, p.lightVolumeCell) << "by default the light-volume grid";
+    EXPECT_FLOAT_EQ(p.photonCell, p.lightVolumeCell) << "at scale 1 the light-volume grid";
     RenderStats one;
     const Framebuffer a = renderScene(s, &one);
     s.render.photonCellScale = 0.5f;

@@ -1608,6 +1608,7 @@ TEST(RtSdfParity, SdfCloud) {
     double maxAbs = 0.0;
     EXPECT_GE(sceneGpuAgainstCpu(kSdfCloud,
                                  {"camera.width=160", "camera.height=90", kSdfShadowMarch,
+                                  "render.multiple_scattering=\"grid\"",
                                   "output.aovs=[\"transmittance\", \"depth\"]"},
                                  1, "sdf_cloud", &maxAbs, 5),
               45.0);

@@ -18,11 +18,16 @@ struct Method {
 };
 
 const Method kMethods[] = {
-    {"march (jitter)", [](SceneDesc& s) { s.render.jitter = true; }},
+    {"march (jitter)",
+     [](SceneDesc& s) {
+         s.render.jitter = true;
+         s.render.multipleScattering = MultipleScattering::Grid;
+     }},
     {"march photons",
      [](SceneDesc& s) {
          s.render.multipleScattering = MultipleScattering::Photons;
          s.render.photons = 20000;
+         s.render.photonCellScale = 1.0f; // the light-volume grid
      }},
     {"pathtrace",
      [](SceneDesc& s) {

@@ -329,7 +329,10 @@ typedef enum nimbus_stat {
     NIMBUS_STAT_PHOTONS = 18,            /**< photons traced (from the sun and the sky) */
     NIMBUS_STAT_PHOTONS_FROM_SKY = 19,   /**< of them, from the sky (render.photon_sky) */
     /** of them, those whose light went on in the diffusion grid (render.photon_bounces) */
-    NIMBUS_STAT_PHOTONS_HANDED_OFF = 20
+    NIMBUS_STAT_PHOTONS_HANDED_OFF = 20,
+    /** render.multiple_scattering = "auto": the cloud's mean optical depth along the sun that
+     * chose photons (at most render.photon_depth) or the grid; -1 when nothing was measured */
+    NIMBUS_STAT_CLOUD_DEPTH = 21
 } nimbus_stat;
 
 /** What nimbus_output_check() found at a frame's output path. */

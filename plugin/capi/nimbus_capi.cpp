@@ -451,6 +451,8 @@ double statItem(const nimbus_context* ctx, int item) {
         return double(st.photonsFromSky);
     case NIMBUS_STAT_PHOTONS_HANDED_OFF:
         return double(st.photonsHandedOff);
+    case NIMBUS_STAT_CLOUD_DEPTH:
+        return st.cloudDepth;
     }
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }

@@ -251,6 +251,12 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
     };
     if (double n = stat(ctx, NIMBUS_STAT_SIMULATION_STEPS); n > 0.0)
         append(", simulation %.0f steps %.2f s", n, stat(ctx, NIMBUS_STAT_SIMULATION_SECONDS));
+    // render.multiple_scattering = "auto": what it chose, and the depth it chose by
+    if (double d = stat(ctx, NIMBUS_STAT_CLOUD_DEPTH); d >= 0.0)
+        append(stat(ctx, NIMBUS_STAT_PHOTON_SECONDS) > 0.0
+                   ? ", auto: photons (the cloud's depth along the sun %.3g)"
+                   : ", auto: the grid (the cloud's depth along the sun %.3g)",
+               d);
     if (double s = stat(ctx, NIMBUS_STAT_LIGHT_VOLUME_SECONDS); s > 0.0)
         append(", light grids %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_LIGHT_GRID_MB));
     if (double s = stat(ctx, NIMBUS_STAT_DIFFUSION_SECONDS); s > 0.0)

@@ -147,6 +147,7 @@ void applyMethod(SceneDesc& s, Method m, const Context& c) {
     case Method::Photons:
         s.render.multipleScattering = MultipleScattering::Photons;
         s.render.photons = c.quick ? 4000 : 20000;
+        s.render.photonCellScale = 1.0f; // the light-volume grid: its cell, whatever the count
         break;
     case Method::Diffusion:
         s.render.multipleScattering = MultipleScattering::Grid;

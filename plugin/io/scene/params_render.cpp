@@ -213,7 +213,8 @@ void addRenderParams(std::vector<Param>& t) {
         ren.param("multiple_scattering",
                   WordTable<MultipleScattering>{{"none", MultipleScattering::None},
                                                 {"grid", MultipleScattering::Grid},
-                                                {"photons", MultipleScattering::Photons}},
+                                                {"photons", MultipleScattering::Photons},
+                                                {"auto", MultipleScattering::Auto}},
                   "Sun light scattered more than once and sky light: none (octaves and "
                   "the sky term of `sky_scattering` only); grid: solved once per frame as a "
                   "diffusion process on the light-volume grid (Stam 1995; similarity "
@@ -222,19 +223,39 @@ void addRenderParams(std::vector<Param>& t) {
                   "sun's part from `render.photons` photons traced through the field "
                   "once per frame and recorded on the light-volume grid toward the "
                   "camera (no octaves, nothing to calibrate), the sky's from the "
-                  "diffusion grid.",
+                  "diffusion grid; auto: photons where the cloud is optically thin along "
+                  "the sun (its mean optical depth, measured each frame, at most "
+                  "`render.photon_depth`), the grid elsewhere (`--explain` and the frame's "
+                  "log line say which). A sequence whose cloud crosses photon_depth "
+                  "switches model between frames: name the model for such a sequence.",
                   &RenderDesc::multipleScattering));
+    t.push_back(ren.param("photon_depth", atLeast(0),
+                          "multiple_scattering = \"auto\": the cloud's mean optical depth "
+                          "along the sun (over the rays toward the sun that meet density) up to "
+                          "which photons carry the sun's multiple scattering; above it the "
+                          "diffusion grid does. Photons are exact up to their grid's voxel and "
+                          "cheap where a photon scatters a few times; the grid misses the "
+                          "forward multiple scattering of thin clouds (docs/accuracy.md, "
+                          "\"Photons where the cloud is thin or medium\"). 0 = always the grid.",
+                          &RenderDesc::photonDepth)
+                    .usedWhen("render.multiple_scattering = \"auto\"", [](const SceneFile& f) {
+                        return f.scene.render.multipleScattering == MultipleScattering::Auto;
+                    }));
     auto gridOn = [](const SceneFile& f) {
         return f.scene.render.multipleScattering != MultipleScattering::None;
     };
     auto photonsOn = [](const SceneFile& f) {
-        return f.scene.render.multipleScattering == MultipleScattering::Photons;
+        return f.scene.render.multipleScattering == MultipleScattering::Photons ||
+               f.scene.render.multipleScattering == MultipleScattering::Auto;
     };
     t.push_back(ren.param("photons", closed(1, 1 << 30),
                           "Photons traced from the sun per frame (multiple_scattering = "
-                          "\"photons\"); their noise falls as 1 / sqrt(photons).",
+                          "\"photons\", or \"auto\" where it chooses them); their noise falls "
+                          "as 1 / sqrt(photons), their cost grows with them and with the "
+                          "cloud's depth (2 M: 0.2-1 s a frame on the validation matrix's thin "
+                          "clouds, 1-7 s on its medium ones, on 2 cores).",
                           &RenderDesc::photons)
-                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
     t.push_back(ren.param("photon_skin", closed(0, 4),
                           "Photons: how the sun's multiply scattered light falls off inside a "
                           "voxel of the light-volume grid, brightest under the sunlit surface: as "
@@ -246,17 +267,21 @@ void addRenderParams(std::vector<Param>& t) {
                           "photons) 0.2 measured 9.0% relative RMSE against 10.0% flat; on a "
                           "homogeneous box with voxels of two mean free paths it did not help.",
                           &RenderDesc::photonSkin)
-                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
-    t.push_back(ren.param("photon_cell_scale", closed(0.125, 4),
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+    t.push_back(ren.param("photon_cell_scale", closed(0, 4),
                           "The voxel of the grid photons record on, in light-volume cells: 1 = "
                           "that grid itself; below 1 a finer grid of their own, for the light "
                           "near lit surfaces and in small clouds, noisier per voxel (it needs "
-                          "more photons) and larger. On the "
-                          "validation matrix's medium cases 0.5 took the median error from 21.4% "
-                          "to 16.7% at 2 M photons, and only from 24.1% to 23.0% at 200,000, "
-                          "where it doubled the flicker (docs/accuracy.md).",
+                          "more photons) and larger. 0 = chosen each frame: the finest of 1/4, "
+                          "1/2, 1, 2 and 4 at which the cloud fills at most render.photons / "
+                          "256 voxels (a small cloud gets a fine grid, a wide cloud layer a "
+                          "coarse one). On the validation matrix's thin cases at 2 M photons "
+                          "this measured 50 of 54 within 10% (at most 8 photons a voxel: 47; "
+                          "1/4, 1/2 and 1 for every cloud: 39, 46, 36) and on a moving thin "
+                          "cloud 1.2% flicker frame to frame (8 a voxel: 4.8%) (docs/accuracy.md, "
+                          "\"Photons where the cloud is thin or medium\").",
                           &RenderDesc::photonCellScale)
-                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
     t.push_back(ren.param("photon_bounces", closed(0, 1 << 20),
                           "Photons: the scatterings each photon is traced through; at its next "
                           "one the light it carries becomes a source of the diffusion grid, "
@@ -264,7 +289,7 @@ void addRenderParams(std::vector<Param>& t) {
                           "where a photon's walk is long). 0 = photons are traced to "
                           "render.max_depth and the grid carries only the sky.",
                           &RenderDesc::photonBounces)
-                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
     t.push_back(ren.param("photon_sky", {},
                           "Photons: trace the sky's light with photons as well as the sun's "
                           "(photons leave the sky from every direction, each carrying the sky's "
@@ -280,7 +305,7 @@ void addRenderParams(std::vector<Param>& t) {
                           "a frame against 4.1 s), for no lower error on the validation matrix "
                           "(docs/accuracy.md).",
                           &RenderDesc::photonSky)
-                    .usedWhen("render.multiple_scattering = \"photons\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
     t.push_back(ren.param("ms_strength", atLeast(0),
                           "Scale of the multiply scattered sun light, the diffusion grid's or "
                           "the sun's photons' (1 = their solution as it is; the grid loses "
@@ -289,14 +314,16 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::msStrength)
                     .calibratedOver({0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0})
                     .usedWhen("render.multiple_scattering = \"grid\" or \"photons\"", gridOn));
-    t.push_back(ren.param("ms_p1", closed(0, 1),
-                          "Grid diffusion: weight of the flux term (phi + 3 g F.w) of the "
-                          "diffuse radiance scattered toward the camera; 0 = isotropic.",
-                          &RenderDesc::msP1)
-                    .calibratedOver({0.0, 0.5, 1.0})
-                    .usedWhen("render.multiple_scattering = \"grid\"", [](const SceneFile& f) {
-                        return f.scene.render.multipleScattering == MultipleScattering::Grid;
-                    }));
+    t.push_back(
+        ren.param("ms_p1", closed(0, 1),
+                  "Grid diffusion: weight of the flux term (phi + 3 g F.w) of the "
+                  "diffuse radiance scattered toward the camera; 0 = isotropic.",
+                  &RenderDesc::msP1)
+            .calibratedOver({0.0, 0.5, 1.0})
+            .usedWhen("render.multiple_scattering = \"grid\" or \"auto\"", [](const SceneFile& f) {
+                const MultipleScattering ms = f.scene.render.multipleScattering;
+                return ms == MultipleScattering::Grid || ms == MultipleScattering::Auto;
+            }));
     auto noMs = [](const SceneFile& f) {
         return f.scene.render.multipleScattering == MultipleScattering::None;
     };
@@ -304,7 +331,9 @@ void addRenderParams(std::vector<Param>& t) {
         const RenderDesc& r = f.scene.render;
         return (r.multipleScattering == MultipleScattering::None &&
                 r.skyScattering == SkyScattering::Single) ||
-               (r.multipleScattering == MultipleScattering::Photons && r.photonSky);
+               ((r.multipleScattering == MultipleScattering::Photons ||
+                 r.multipleScattering == MultipleScattering::Auto) &&
+                r.photonSky);
     };
     auto skyAmbient = [](const SceneFile& f) {
         return f.scene.render.multipleScattering == MultipleScattering::None &&
@@ -397,10 +426,12 @@ void addRenderParams(std::vector<Param>& t) {
                   "(render.multiple_scattering = \"grid\", one untransformed volume): none "
                   "with \"none\" (single scattering) or photons, at g <= 0 or without the sun.",
                   &RenderDesc::forwardScattering)
-            .usedWhen("render.integrator = \"march\" and render.multiple_scattering = \"grid\"",
+            .usedWhen("render.integrator = \"march\" and render.multiple_scattering = \"grid\" "
+                      "or \"auto\"",
                       [](const SceneFile& f) {
+                          const MultipleScattering ms = f.scene.render.multipleScattering;
                           return f.scene.render.integrator == Integrator::March &&
-                                 f.scene.render.multipleScattering == MultipleScattering::Grid;
+                                 (ms == MultipleScattering::Grid || ms == MultipleScattering::Auto);
                       }));
     t.push_back(ren.param("inscatter_strength", closed(0, 1),
                           "Blend weight of the in-scatter term.", &RenderDesc::inScatterStrength)

@@ -1,0 +1,33 @@
+/// @file cloud_depth.h
+/// @brief How thick a cloud is along a direction, measured once per frame for the plan
+/// (render.multiple_scattering = "auto" chooses its model from it; core/plan.cpp).
+///
+/// Parallel rays along the direction cover the projection of the field's bounds on a square
+/// lattice; each integrates the density at midpoints of equal steps. The figures are those of
+/// the rays that meet density: their mean optical depth (the validation matrix's "thickness",
+/// docs/accuracy.md, taken along the sun instead of the camera's rays) and the volume their
+/// occupied steps cover.
+#pragma once
+
+#include <cstddef>
+
+#include "core/fields/field.h"
+
+namespace nimbus {
+
+struct CloudDepth {
+    double meanTau = 0.0;        ///< sigma_t x density integral, mean over the rays that hit
+    double occupiedVolume = 0.0; ///< world volume of the steps with density > 0
+    int rays = 0;                ///< rays cast
+    int hits = 0;                ///< of those, rays that met density
+    std::size_t lookups = 0;     ///< density lookups made
+};
+
+/// Measures `field` over `bounds` along `direction` (any length but 0) with `raysPerSide`^2
+/// rays and steps of `step` world units, at most `maxSteps` per ray (longer rays take
+/// longer steps); `sigmaT` is the extinction per unit density. TBB-parallel; the result does
+/// not depend on the thread count.
+CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 direction, float sigmaT,
+                             float step, int raysPerSide = 32, int maxSteps = 256);
+
+} // namespace nimbus

@@ -1,0 +1,186 @@
+// The cloud's depth along the sun (core/lighting/cloud_depth.h) against closed forms on boxes,
+// and render.multiple_scattering = "auto" choosing its model from it (core/plan.cpp): photons
+// where the cloud is thin, the diffusion grid where it is thick, the same image as naming the
+// model it chose, and the photons' voxel from the cloud's occupied volume.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <tbb/task_arena.h>
+
+#include "core/fields/field.h"
+#include "core/lighting/cloud_depth.h"
+#include "core/plan.h"
+#include "render_util.h"
+#include "scenes.h"
+
+using namespace nimbus;
+
+namespace {
+
+Field boxField(const Box& b, float density) {
+    FieldDesc d;
+    d.kind = FieldKind::Homogeneous;
+    d.homogeneous.box = b;
+    d.homogeneous.density = density;
+    return makeField(d, 0.0f);
+}
+
+} // namespace
+
+TEST(CloudDepth, AlongAnAxisIsTheBoxsDepth) {
+    // a 2 x 1 x 4 box of density 0.5, sigma_t 3: along x every ray crosses 2 units
+    const Box b{vec3(-1.0f, 0.0f, -2.0f), vec3(1.0f, 1.0f, 2.0f)};
+    const CloudDepth d =
+        measureCloudDepth(boxField(b, 0.5f), b, vec3(1.0f, 0.0f, 0.0f), 3.0f, 0.05f);
+    EXPECT_EQ(d.rays, 32 * 32);
+    EXPECT_EQ(d.hits, d.rays); // the projection is the box's face: every ray hits
+    EXPECT_NEAR(d.meanTau, 3.0 * 0.5 * 2.0, 1e-3);
+    EXPECT_NEAR(d.occupiedVolume, 8.0, 1e-3);
+    // along z: 4 units
+    const CloudDepth z =
+        measureCloudDepth(boxField(b, 0.5f), b, vec3(0.0f, 0.0f, -2.0f), 3.0f, 0.05f);
+    EXPECT_NEAR(z.meanTau, 6.0, 1e-3);
+}
+
+TEST(CloudDepth, ObliqueIsMassOverProjectedArea) {
+    // any direction: the mean depth of the rays that meet the box is sigma_t rho V / A, A the
+    // box's projected area |dx| Ly Lz + |dy| Lx Lz + |dz| Lx Ly (Cauchy); the lattice of rays
+    // over the projection's bounding square counts A to within its cells
+    const Box b{vec3(0.0f), vec3(1.0f, 2.0f, 3.0f)};
+    const vec3 dir = glm::normalize(vec3(0.3f, 0.8f, -0.5f));
+    const CloudDepth d = measureCloudDepth(boxField(b, 1.0f), b, dir, 2.0f, 0.01f, 128);
+    const double area = std::abs(dir.x) * 6.0 + std::abs(dir.y) * 3.0 + std::abs(dir.z) * 2.0;
+    EXPECT_NEAR(d.meanTau, 2.0 * 6.0 / area, 0.02 * 2.0 * 6.0 / area);
+    EXPECT_NEAR(d.occupiedVolume, 6.0, 0.02 * 6.0);
+}
+
+TEST(CloudDepth, OnlyTheRaysThatMeetDensityCount) {
+    // the field fills a quarter of the bounds' width and depth: the empty rays do not dilute
+    // the mean, and the occupied volume is the field's
+    const Box field{vec3(0.0f), vec3(1.0f)};
+    const Box bounds{vec3(-1.0f), vec3(1.0f)};
+    const CloudDepth d =
+        measureCloudDepth(boxField(field, 2.0f), bounds, vec3(0.0f, 1.0f, 0.0f), 1.0f, 0.02f);
+    EXPECT_NEAR(double(d.hits) / d.rays, 0.25, 0.01);
+    EXPECT_NEAR(d.meanTau, 2.0, 0.03);
+    EXPECT_NEAR(d.occupiedVolume, 1.0, 0.03);
+    // nothing there: no hits, depth 0
+    const CloudDepth none =
+        measureCloudDepth(boxField(field, 0.0f), bounds, vec3(0.0f, 1.0f, 0.0f), 1.0f, 0.02f);
+    EXPECT_EQ(none.hits, 0);
+    EXPECT_EQ(none.meanTau, 0.0);
+}
+
+TEST(CloudDepth, SameOnAnyThreadCount) {
+    const Box b{vec3(0.0f), vec3(1.0f, 2.0f, 3.0f)};
+    const vec3 dir = glm::normalize(vec3(0.3f, 0.8f, -0.5f));
+    const Field f = boxField(b, 1.0f);
+    const CloudDepth many = measureCloudDepth(f, b, dir, 2.0f, 0.01f);
+    tbb::task_arena one(1);
+    const CloudDepth single =
+        one.execute([&] { return measureCloudDepth(f, b, dir, 2.0f, 0.01f); });
+    EXPECT_EQ(many.meanTau, single.meanTau);
+    EXPECT_EQ(many.occupiedVolume, single.occupiedVolume);
+}
+
+namespace {
+
+/// The 2-unit box of tests/scenes.h lit from the side, at the optical depth `tau` across.
+SceneDesc boxAtDepth(float tau) {
+    SceneDesc s = sunlitBox(tau / 2.0f, 16, 0.0f, 90.0f); // the sun along +x: 2 units of box
+    s.sky.kind = SkyKind::None;
+    s.render.photons = 20000;
+    return s;
+}
+
+} // namespace
+
+TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
+    SceneDesc thin = boxAtDepth(1.0f);
+    ASSERT_EQ(thin.render.multipleScattering, MultipleScattering::Auto); // the default
+    const FramePlan a = planFrame(thin, 1);
+    EXPECT_TRUE(a.msAuto);
+    EXPECT_TRUE(a.photons);
+    EXPECT_FALSE(a.diffusion); // no sky here: nothing for the grid
+    EXPECT_NEAR(a.cloudTau, 1.0, 1e-3);
+    EXPECT_NE(a.msDecision.find("photons"), std::string::npos) << a.msDecision;
+    EXPECT_NE(a.explain().find("mean optical depth along the sun 1 <="), std::string::npos)
+        << a.explain();
+
+    const SceneDesc thick = boxAtDepth(200.0f);
+    const FramePlan b = planFrame(thick, 1);
+    EXPECT_FALSE(b.photons);
+    EXPECT_TRUE(b.diffusion);
+    EXPECT_NEAR(b.cloudTau, 200.0, 0.1);
+    EXPECT_GT(b.forwardFraction, 0.0f); // the grid's model whole, delta-M beams included
+
+    // the threshold is the key's: just above and below it
+    thin.render.photonDepth = 0.99f;
+    EXPECT_FALSE(planFrame(thin, 1).photons);
+    thin.render.photonDepth = 1.01f;
+    EXPECT_TRUE(planFrame(thin, 1).photons);
+    thin.render.photonDepth = 0.0f; // 0: always the grid, nothing measured
+    const FramePlan off = planFrame(thin, 1);
+    EXPECT_FALSE(off.photons);
+    EXPECT_FALSE(off.cloudMeasured);
+}
+
+TEST(AutoMultipleScattering, RendersWhatItChose) {
+    // "auto" on the thin box is the image of "photons" named, bit for bit; on the thick box the
+    // image of "grid"
+    SceneDesc s = boxAtDepth(1.0f);
+    const Framebuffer autoThin = renderScene(s);
+    s.render.multipleScattering = MultipleScattering::Photons;
+    const Framebuffer photons = renderScene(s);
+    ASSERT_EQ(autoThin.rgba.size(), photons.rgba.size());
+    EXPECT_EQ(autoThin.rgba, photons.rgba);
+    s.render.multipleScattering = MultipleScattering::Grid;
+    EXPECT_NE(renderScene(s).rgba, photons.rgba); // (the two models differ here)
+
+    SceneDesc t = boxAtDepth(200.0f);
+    const Framebuffer autoThick = renderScene(t);
+    t.render.multipleScattering = MultipleScattering::Grid;
+    EXPECT_EQ(autoThick.rgba, renderScene(t).rgba);
+}
+
+TEST(AutoMultipleScattering, NamedModelsAreNotMeasured) {
+    for (MultipleScattering ms : {MultipleScattering::Grid, MultipleScattering::None}) {
+        SceneDesc s = boxAtDepth(1.0f);
+        s.render.multipleScattering = ms;
+        const FramePlan p = planFrame(s, 1);
+        EXPECT_FALSE(p.msAuto);
+        EXPECT_FALSE(p.photons);
+        EXPECT_FALSE(p.cloudMeasured);
+    }
+}
+
+TEST(AutoMultipleScattering, NoSunKeepsTheGrid) {
+    SceneDesc s = boxAtDepth(1.0f);
+    s.sun.enabled = false;
+    s.sky.kind = SkyKind::Uniform;
+    const FramePlan p = planFrame(s, 1);
+    EXPECT_FALSE(p.photons);
+    EXPECT_TRUE(p.diffusion);
+    EXPECT_NE(p.msDecision.find("no sun"), std::string::npos) << p.msDecision;
+}
+
+TEST(AutoMultipleScattering, PhotonVoxelFollowsTheCloudsSize) {
+    // render.photon_cell_scale = 0 (the default): the finest of 1/4 ... 4 light-volume cells at
+    // which the cloud fills at most photons / 256 voxels
+    SceneDesc s = boxAtDepth(1.0f);
+    s.render.multipleScattering = MultipleScattering::Photons;
+    s.render.lightVolumeCell = 0.1f; // the box: 20^3 cells
+    s.render.photons = 2000000;      // 7,812 voxels: 1 cell (8,000) is too many, 2 cells fit
+    FramePlan p = planFrame(s, 1);
+    EXPECT_FLOAT_EQ(p.photonCell, 0.2f);
+    EXPECT_NE(p.explain().find("at least 256 wanted"), std::string::npos) << p.explain();
+    s.render.photons = 2100000; // 8,203 voxels: the light-volume cell itself (8,000)
+    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.1f);
+    s.render.photons = 1 << 30; // as fine as 1/4 cell, no finer
+    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.025f);
+    s.render.photons = 1000; // as coarse as 4 cells
+    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.4f);
+    s.render.photonCellScale = 0.5f; // named: taken as it is
+    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.05f);
+}
