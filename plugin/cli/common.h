@@ -54,6 +54,11 @@ struct Measured {
     RenderStats stats;
     Framebuffer fb;
     float step = 0.0f, shadowStep = 0.0f; ///< march's steps as the plan chose them
+    /// march's multiple scattering as the plan chose it ("grid", "photons", "none") and, when
+    /// render.multiple_scattering = "auto" measured it, the cloud's optical depth along the sun
+    std::string msModel;
+    double cloudTau = -1.0;
+    double photonCellScale = 0.0; ///< photons: their voxel in light-volume cells
 };
 
 /// The scene with its whole step schedule scaled by f: render.step, render.step_growth and

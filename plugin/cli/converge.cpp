@@ -50,6 +50,9 @@ bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m)
     const FramePlan plan = r.plan(frame, b);
     m.step = plan.step;
     m.shadowStep = plan.shadowStep;
+    m.msModel = plan.photons ? "photons" : plan.diffusion ? "grid" : "none";
+    m.cloudTau = plan.msAuto ? plan.cloudTau : -1.0;
+    m.photonCellScale = plan.photons ? double(plan.photonCell / plan.lightVolumeCell) : 0.0;
     RenderCallbacks cb;
     cb.cancel = &gCancel;
     if (plan.bakeNoise) r.fieldFor(plan, b);

@@ -118,6 +118,8 @@ struct Result {
     double refRunSeconds = 0.0; ///< of that, rendered in this run
     int spp = 0;                ///< of the reference
     int cachedSpp = 0;          ///< of those, read from the cache
+    std::string msModel;        ///< march's multiple scattering (Measured::msModel)
+    double cloudTau = -1.0;     ///< the cloud's depth along the sun, when "auto" measured it
 };
 
 std::string albedoName(double a) {
@@ -292,6 +294,7 @@ const char* const kMarchOnly[] = {"render.shadow",
                                   "render.photon_cell_scale",
                                   "render.photon_bounces",
                                   "render.photon_sky",
+                                  "render.photon_depth",
                                   "render.ms_strength",
                                   "render.ms_p1",
                                   "render.sky_occlusion",
@@ -827,8 +830,17 @@ int runSuite(const ConvergeOptions& o) {
             r.ratio = e.mean > 0.0 ? imageError(ref.fb, mr.fb, &ref.fb).mean / e.mean : nan;
             r.marchSeconds = mr.seconds;
             r.refSeconds = ref.seconds;
-            std::fprintf(stderr, "; march %.2f s: %s (noise %s), mean ratio %.3f\n", mr.seconds,
-                         percent(r.rel).c_str(), percent(r.noiseRel).c_str(), r.ratio);
+            r.msModel = mr.msModel;
+            r.cloudTau = mr.cloudTau;
+            std::fprintf(stderr, "; march (%s%s%s) %.2f s: %s (noise %s), mean ratio %.3f\n",
+                         mr.msModel.c_str(),
+                         mr.photonCellScale > 0.0
+                             ? fmt(" on %g light-volume cells", mr.photonCellScale).c_str()
+                             : "",
+                         mr.cloudTau >= 0.0
+                             ? fmt(", auto: depth %.3g along the sun", mr.cloudTau).c_str()
+                             : "",
+                         mr.seconds, percent(r.rel).c_str(), percent(r.noiseRel).c_str(), r.ratio);
             results.push_back(r);
         }
         c.ls.reset(); // free the grid
@@ -855,7 +867,8 @@ int runSuite(const ConvergeOptions& o) {
     md << markdownHeader(sw);
     csv << "case,scene,grid,thickness,tau_target,tau_achieved,density_scale,sun,albedo,"
            "relative_rmse,relative_rmse_raw,mean_ratio,reference_noise,reference_spp,cloud_"
-           "pixels,march_seconds,reference_seconds,reference_seconds_this_run\n";
+           "pixels,march_seconds,reference_seconds,reference_seconds_this_run,march_multiple_"
+           "scattering,cloud_tau_sun\n";
     size_t pass = 0;
     double marchTotal = 0.0, refTotal = 0.0, refAll = 0.0;
     for (const Result& r : results) {
@@ -865,7 +878,8 @@ int runSuite(const ConvergeOptions& o) {
             << "," << k.thickness->tau << "," << r.tau << "," << r.densityScale << ","
             << k.sun->name << "," << k.albedo << "," << r.rel << "," << r.relRaw << "," << r.ratio
             << "," << r.noiseRel << "," << r.spp << "," << r.pixels << "," << r.marchSeconds << ","
-            << r.refSeconds << "," << r.refRunSeconds << "\n";
+            << r.refSeconds << "," << r.refRunSeconds << "," << r.msModel << ","
+            << (r.cloudTau >= 0.0 ? fmt("%.4g", r.cloudTau) : std::string()) << "\n";
         if (std::isfinite(r.rel) && r.rel <= kTarget) ++pass;
         marchTotal += r.marchSeconds;
         refTotal += r.refRunSeconds;
