@@ -420,6 +420,33 @@ TEST(CApi, PhotonStatistics) {
     EXPECT_LE(handed, traced);
 }
 
+// NIMBUS_STAT_CLOUD_DEPTH: the depth along the sun that render.multiple_scattering = "auto"
+// chose by, -1 when the scene names its model (the tiny scene names the grid).
+TEST(CApi, CloudDepthStatistic) {
+    Ctx c;
+    ASSERT_EQ(nimbus_load_string(c, tinyScene().c_str(), "tiny.toml"), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    double depth = 0.0, photons = -1.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_CLOUD_DEPTH, &depth), NIMBUS_OK);
+    EXPECT_EQ(depth, -1.0);
+    for (const char* a : {"render.multiple_scattering=\"auto\"", "render.photons=20000"})
+        ASSERT_EQ(nimbus_set(c, a), NIMBUS_OK) << a << ": " << c.error();
+    renderC(c, 3);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_CLOUD_DEPTH, &depth), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &photons), NIMBUS_OK);
+    // the cumulus layer at sigma_s 12 under a low sun: medium, so photons
+    EXPECT_GT(depth, 1.0);
+    EXPECT_LT(depth, 64.0);
+    EXPECT_EQ(photons, 20000.0);
+    ASSERT_EQ(nimbus_set(c, "render.photon_depth=1"), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    double again = 0.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_CLOUD_DEPTH, &again), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &photons), NIMBUS_OK);
+    EXPECT_EQ(again, depth); // the same cloud, now above the threshold: the grid
+    EXPECT_EQ(photons, 0.0);
+}
+
 // nimbus_output_check: absent, current after a write, stale (with the reason) after an edit of
 // the scene, for another frame number, another resolution; the statistics of the last render.
 TEST(CApi, OutputCheckAndRenderStatistics) {
