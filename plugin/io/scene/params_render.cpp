@@ -234,7 +234,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "along the sun (over the rays toward the sun that meet density) up to "
                           "which photons carry the sun's multiple scattering; above it the "
                           "diffusion grid does. Photons are exact up to their grid's voxel and "
-                          "cheap where a photon scatters a few times; the grid misses the "
+                          "their cost grows with the depth (2 M photons on smoke1, 2 cores: 1.9 s "
+                          "a frame at 4, 7.6 s at 64, 15 s at 258); the grid misses the "
                           "forward multiple scattering of thin clouds (docs/accuracy.md, "
                           "\"Photons where the cloud is thin or medium\"). 0 = always the grid.",
                           &RenderDesc::photonDepth)
