@@ -447,7 +447,7 @@ void planAdvection(const SceneDesc& s, const FrameBindings& bindings, Box& bound
 /// false with the reason when it cannot be measured before rendering.
 bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p,
                   std::string& why) {
-    if (p.cloudMeasured) return true;
+    if (p.cloudMeasured()) return true;
     if (s.field.kind == FieldKind::Automaton) {
         why = "a simulated field: its depth is not measured before it is built";
         return false;
@@ -460,13 +460,12 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
     // choice for the whole sequence (the wind moves and deforms it, the depth stays near)
     const Field f = makeField(s.field, p.advected ? 0.0f : p.time, bindings.grid(0));
     const Medium m = Medium::fromDesc(s.medium);
-    const float sigmaT = (m.sigma_t.x + m.sigma_t.y + m.sigma_t.z) / 3.0f;
-    const CloudDepth d = measureCloudDepth(f, f.bounds(), s.sun.direction, sigmaT, p.step);
+    const CloudDepth d =
+        measureCloudDepth(f, f.bounds(), s.sun.direction, meanComponent(m.sigma_t), p.step);
     if (d.hits == 0) {
         why = "no density along the sun";
         return false;
     }
-    p.cloudMeasured = true;
     p.cloudTau = d.meanTau;
     p.cloudVolume = d.occupiedVolume;
     return true;

@@ -55,10 +55,11 @@ struct FramePlan {
     bool msAuto = false;
     std::string msDecision;
     /// the cloud measured along the sun (core/lighting/cloud_depth.h), for "auto" and for
-    /// render.photon_cell_scale = 0: its mean optical depth and the volume it fills
-    bool cloudMeasured = false;
+    /// render.photon_cell_scale = 0: its mean optical depth (-1 until measured) and the volume
+    /// it fills
     double cloudTau = -1.0;
     double cloudVolume = 0.0;
+    bool cloudMeasured() const { return cloudTau >= 0.0; }
     std::string photonCellNote; ///< render.photon_cell_scale = 0: the voxel chosen and why
     /// photons: the voxel of the grid they record on (world units) and its memory (without the
     /// per-thread sums of the voxels that record; with the hand-off its sums and source on the

@@ -444,7 +444,7 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
     const int threads = s.render.threads > 0 ? s.render.threads : tbb::task_arena::automatic;
     tbb::task_arena arena(threads);
     stats = RenderStats{};
-    if (plan.msAuto && plan.cloudMeasured) stats.cloudDepth = plan.cloudTau;
+    if (plan.msAuto) stats.cloudDepth = plan.cloudTau; // (-1 when not measured)
     bool completed = true;
 
     arena.execute([&] {

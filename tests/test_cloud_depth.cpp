@@ -123,7 +123,7 @@ TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
     thin.render.photonDepth = 0.0f; // 0: always the grid, nothing measured
     const FramePlan off = planFrame(thin, 1);
     EXPECT_FALSE(off.photons);
-    EXPECT_FALSE(off.cloudMeasured);
+    EXPECT_FALSE(off.cloudMeasured());
 }
 
 TEST(AutoMultipleScattering, RendersWhatItChose) {
@@ -151,7 +151,7 @@ TEST(AutoMultipleScattering, NamedModelsAreNotMeasured) {
         const FramePlan p = planFrame(s, 1);
         EXPECT_FALSE(p.msAuto);
         EXPECT_FALSE(p.photons);
-        EXPECT_FALSE(p.cloudMeasured);
+        EXPECT_FALSE(p.cloudMeasured());
     }
 }
 
