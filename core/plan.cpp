@@ -309,7 +309,10 @@ std::string FramePlan::explain() const {
                                        : std::string()) +
                     (photonSky ? std::string(" (render.photons shared between the sun and the "
                                              "sky by their power)")
-                               : std::string("; sky: diffusion on the light-volume grid"))
+                     : diffusionOnPhotonGrid()
+                         ? std::string("; sky: diffusion on the photons' grid (finer than the "
+                                       "light-volume grid)")
+                         : std::string("; sky: diffusion on the light-volume grid"))
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
                       : "octaves only")
       << "\n";
@@ -509,7 +512,9 @@ MultipleScattering chooseMultipleScattering(const SceneDesc& s, const FrameBindi
 /// render.photon_cell_scale = 0: the photons' voxel, in light-volume cells, from the cloud's
 /// occupied volume: the finest of 1/4, 1/2, 1, 2 and 4 at which the cloud holds no more than
 /// render.photons / kPhotonsPerCell voxels (the noise of a voxel's estimate falls with the
-/// photons that cross it; docs/accuracy.md, "Photons where the cloud is thin or medium").
+/// photons that cross it, not with their scatterings there, which are correlated: counting
+/// those made deep clouds' voxels finer and their flicker twice as large; docs/accuracy.md,
+/// "Photons where the cloud is thin or medium", "The sky's grid on the photons' voxel").
 constexpr double kPhotonsPerCell = 256.0;
 float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
     std::string why;
@@ -627,6 +632,12 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.photonCell = p.lightVolumeCell * (s.render.photonCellScale > 0.0f
                                                 ? s.render.photonCellScale
                                                 : autoPhotonCellScale(s, bindings, p));
+    // the sky alone in the diffusion grid (photons carry the sun to the end): on the photons'
+    // grid where it is finer (the cloud's size decides it, autoPhotonCellScale)
+    p.diffusionCell = p.lightVolumeCell;
+    if (p.diffusion && p.photons && p.photonBounces == 0 && !p.photonSky &&
+        p.photonCell < p.lightVolumeCell)
+        p.diffusionCell = p.photonCell;
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
@@ -649,7 +660,8 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
     // (photons on a grid of their own read their densities there)
-    p.densityGrid = p.diffusion || (p.photons && !p.photonsOwnGrid());
+    p.densityGrid =
+        (p.diffusion && !p.diffusionOnPhotonGrid()) || (p.photons && !p.photonsOwnGrid());
     // what Renderer::render builds on the light-volume grid (the densities are kept for the sky
     // volume too when density integrals are built beside it)
     const int integrals = (p.sunDepthVolume ? 1 : 0) + (p.columnVolumes ? 2 : 0);

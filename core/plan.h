@@ -68,6 +68,13 @@ struct FramePlan {
     double photonGridBytes = 0.0;
     /// photons record on a grid of their own, not on the light-volume grid
     bool photonsOwnGrid() const { return photons && photonCell != lightVolumeCell; }
+    /// the diffusion grid's voxel (world units): the light-volume cell, or the photons' finer
+    /// one where photons carry the sun to the end (no hand-off) and the grid the sky alone; a
+    /// few cells across a small cloud made its sky too bright at albedo < 1 (docs/accuracy.md,
+    /// "The sky's grid on the photons' voxel")
+    float diffusionCell = 0.0f;
+    /// the diffusion is solved on the photons' own grid (its densities, no sun source)
+    bool diffusionOnPhotonGrid() const { return diffusion && diffusionCell != lightVolumeCell; }
     /// photons: the scatterings they are traced through before the diffusion grid takes their
     /// light as its source (render.photon_bounces; 0 = traced to render.max_depth, the grid
     /// carries only the sky)
@@ -116,7 +123,8 @@ struct FramePlan {
     bool shadowRoulette = false;
     /// pathtrace: the sky by next-event estimation too (render.sky_nee)
     bool skyNee = false;
-    /// march: the densities at the light-volume grid's voxel centres (diffusion, photons)
+    /// march: the densities at the light-volume grid's voxel centres (diffusion, photons, when
+    /// they are on that grid)
     bool densityGrid = false;
     /// field.kind = "automaton" (placed): the simulation is built (else nothing of it is)
     bool automaton = false;

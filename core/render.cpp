@@ -362,6 +362,12 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
     }
     if (cancelRequested(cancel)) return out;
     const Medium medium = Medium::fromDesc(s.medium);
+    // the photons' grid of their own (FramePlan::photonCell), its densities at its voxel
+    // centres; the diffusion grid too where the plan puts the sky there
+    LightVolume own;
+    std::vector<float> ownRho;
+    if (photons && plan.photonsOwnGrid())
+        own = densityGrid(field, plan.photonCell, g, ownRho, cancel);
     // photons first: with a hand-off they give the diffusion grid its source
     if (photons) {
         t0 = std::chrono::steady_clock::now();
@@ -385,12 +391,9 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
             pp.skinK = s.render.photonSkin * maxComponent(pp.sigma_s + pp.sigma_a);
         }
         if (plan.photonsOwnGrid()) {
-            // a grid of their own (FramePlan::photonCell), its densities at its voxel centres
-            std::vector<float> photonRho;
-            const LightVolume own = densityGrid(field, plan.photonCell, g, photonRho, cancel);
-            out.photons = tracePhotons(vs, medium.phase, own, photonRho, pp, surfaces, cancel);
+            out.photons = tracePhotons(vs, medium.phase, own, ownRho, pp, surfaces, cancel);
             out.photons.lookups += own.densityLookups;
-            out.photons.bytes += double(photonRho.size() * sizeof(float));
+            out.photons.bytes += double(ownRho.size() * sizeof(float));
         } else {
             out.photons =
                 tracePhotons(vs, medium.phase, volumes.front(), rho, pp, surfaces, cancel);
@@ -408,8 +411,12 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         DiffusionParams dp = diffusionParams(s, plan, medium);
         dp.cancel = cancel;
         if (out.hasPhotons && !out.photons.source.empty()) dp.source = &out.photons.source;
-        out.diffusion = solveDiffusion(volumes.front(), rho,
-                                       towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
+        // the sky alone on the photons' finer grid (FramePlan::diffusionCell; no sun source)
+        out.diffusion =
+            plan.diffusionOnPhotonGrid()
+                ? solveDiffusion(own, ownRho, {}, dp)
+                : solveDiffusion(volumes.front(), rho,
+                                 towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
         out.hasDiffusion = true;
         stats.diffusionSeconds = secondsSince(t0);
         stats.diffusionIterations = out.diffusion.iterations;

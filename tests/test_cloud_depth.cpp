@@ -184,3 +184,46 @@ TEST(AutoMultipleScattering, PhotonVoxelFollowsTheCloudsSize) {
     s.render.photonCellScale = 0.5f; // named: taken as it is
     EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.05f);
 }
+
+TEST(AutoMultipleScattering, SkyGridOnThePhotonsFinerVoxel) {
+    // photons carry the sun to the end, the diffusion grid the sky alone: on the photons' grid
+    // where it is finer than the light-volume grid, on the light-volume grid otherwise
+    SceneDesc s = boxAtDepth(8.0f);
+    s.sky.kind = SkyKind::Uniform;
+    s.sky.zenith = vec3(0.7f, 1.0f, 1.3f);
+    s.render.lightVolumeCell = 0.1f;
+    s.render.photons = 16800000; // 65,625 voxels: half a light-volume cell (40^3 on the box)
+    FramePlan p = planFrame(s, 1);
+    ASSERT_TRUE(p.photons);
+    ASSERT_TRUE(p.diffusion);
+    EXPECT_FLOAT_EQ(p.diffusionCell, 0.05f);
+    EXPECT_TRUE(p.diffusionOnPhotonGrid());
+    EXPECT_FALSE(p.densityGrid); // nothing read on the light-volume grid
+    EXPECT_NE(p.explain().find("sky: diffusion on the photons' grid"), std::string::npos)
+        << p.explain();
+    s.render.photonCellScale = 2.0f; // photons coarser: the grid stays on its own cell
+    EXPECT_FLOAT_EQ(planFrame(s, 1).diffusionCell, 0.1f);
+    s.render.photonCellScale = 0.0f;
+    s.render.photonBounces = 4; // a hand-off: its source lives on the light-volume grid
+    EXPECT_FLOAT_EQ(planFrame(s, 1).diffusionCell, 0.1f);
+    s.render.photonBounces = 0;
+
+    // the white furnace on the finer grid: albedo 1 under a uniform sky gives L (1 - T) in
+    // every pixel (a sun of 1e-6 keeps the photons, and adds nothing visible)
+    s.sun.irradiance = vec3(1e-6f);
+    s.render.photons = 20000;
+    s.render.photonCellScale = 0.5f;
+    p = planFrame(s, 1);
+    ASSERT_TRUE(p.diffusionOnPhotonGrid());
+    const Framebuffer fb = renderScene(s, nullptr, AovSet{true, false});
+    int cloudy = 0;
+    for (int i = 0; i < fb.width * fb.height; ++i) {
+        cloudy += fb.transmittance[3 * i] < 0.5f;
+        for (int c = 0; c < 3; ++c) {
+            const float expect = s.sky.zenith[c] * (1.0f - fb.transmittance[3 * i + c]);
+            ASSERT_NEAR(fb.rgba[4 * i + c], expect, 2e-3f * s.sky.zenith[c])
+                << "pixel " << i << " channel " << c;
+        }
+    }
+    EXPECT_GT(cloudy, 20) << "the furnace must look through the box";
+}

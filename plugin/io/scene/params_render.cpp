@@ -276,11 +276,13 @@ void addRenderParams(std::vector<Param>& t) {
                           "more photons) and larger. 0 = chosen each frame: the finest of 1/4, "
                           "1/2, 1, 2 and 4 at which the cloud fills at most render.photons / "
                           "256 voxels (a small cloud gets a fine grid, a wide cloud layer a "
-                          "coarse one). On the validation matrix's thin cases at 2 M photons "
-                          "this measured 50 of 54 within 10% (at most 8 photons a voxel: 47; "
-                          "1/4, 1/2 and 1 for every cloud: 39, 46, 36) and on a moving thin "
-                          "cloud 1.2% flicker frame to frame (8 a voxel: 4.8%) (docs/accuracy.md, "
-                          "\"Photons where the cloud is thin or medium\").",
+                          "coarse one); where that is finer than the light-volume cell the "
+                          "diffusion grid carrying the sky is solved on it too. On the "
+                          "validation matrix's thin cases at 2 M photons this measured 49 of 54 "
+                          "within 10% (at most 8 photons a voxel: 47; 1/4, 1/2 and 1 for every "
+                          "cloud: 39, 46, 36) and on a moving thin cloud 1.2% flicker frame to "
+                          "frame (8 a voxel: 4.8%) (docs/accuracy.md, \"Photons where the cloud "
+                          "is thin or medium\", \"The sky's grid on the photons' voxel\").",
                           &RenderDesc::photonCellScale)
                     .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
     t.push_back(ren.param("photon_bounces", closed(0, 1 << 20),
