@@ -10,6 +10,7 @@
 # RGB of consecutive frames as rendered ("raw": motion + noise) and after warping the earlier
 # frame by the known motion ("warped": what is left is noise and what the frame-fixed lighting
 # grids change as the cloud crosses them), over frames 1-4, and the seconds per frame.
+# MARCH_SET="key=value;key=value" adds settings to the "march" row (e.g. render.photons=8000000).
 #
 #   tests/bench/motion_flicker.sh          # needs build/nimbus and oiiotool
 #   SIGMA=0.8 tests/bench/motion_flicker.sh  # the cloud 10x thinner (default medium.sigma_s 8:
@@ -65,7 +66,7 @@ mean3() { awk -v a="$1" -v b="$2" -v c="$3" 'BEGIN {printf "%.4f", (a + b + c) /
 # nothing fixed to the world, so its warped figure is the floor of the measurement (the 2% of
 # shift that varies over the cloud's depth, and resampling at sub-pixel edges)
 declare -A methods=([exact]="render.jitter=false;render.multiple_scattering=\"none\""
-    [march]="" [grid]="render.multiple_scattering=\"grid\""
+    [march]="${MARCH_SET:-}" [grid]="render.multiple_scattering=\"grid\""
     [photons]="render.multiple_scattering=\"photons\";render.photons=200000;render.photon_cell_scale=1"
     [pathtrace]="render.integrator=\"pathtrace\"")
 printf '%-10s %-15s %10s %10s %10s\n' method seed_per_frame raw warped s/frame
