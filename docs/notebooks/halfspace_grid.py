@@ -13,40 +13,24 @@ usage: halfspace_grid.py mu0 muv                          (needs numpy; not a bu
 import sys
 import numpy as np
 
-g, cap = 0.8, 3.0
+from halfspace_common import CAP, grid_matrix, p1_readout
+
+g = 0.8
 mu0, muv = float(sys.argv[1]), float(sys.argv[2])
 str_ = 1.0 - g  # sigma_t' at albedo 1
 
 
 def solve(h, depth=400.0):
     n = int(depth / h) + 1
-    r = 1.5 * h * str_
     b = h / mu0
     q = np.exp(-np.arange(n) * b) * (-np.expm1(-b)) / b * h  # first scattering per cell
-    G, Gb = 1.0 / (2 * r), 1.0 / (min(r, cap) + 2.0)
-    A = np.zeros((n, n))
-    for i in range(n):
-        A[i, i] += Gb if i == 0 else 0.0
-        if i > 0:
-            A[i, i] += G
-            A[i, i - 1] -= G
-        if i < n - 1:
-            A[i, i] += G
-            A[i, i + 1] -= G
+    A, r, _ = grid_matrix(n, h, str_, 0.0)
     phi = np.linalg.solve(A, q)
-    return phi, 2 * phi[0] / (min(r, cap) + 2)
+    return phi, 2 * phi[0] / (min(r, CAP) + 2)
 
 
 def readout(h, phi, face):
-    dz = 0.001
-    z = np.arange(0, 40, dz) + dz / 2
-    xs = np.concatenate([[-0.5 * h], (np.arange(len(phi)) + 0.5) * h])
-    ys = np.concatenate([[face], phi])
-    ph = np.interp(z, xs, ys)
-    idx = np.searchsorted(xs, z) - 1
-    F = np.clip(-(ys[idx + 1] - ys[idx]) / h / (3 * str_), -ph, ph)
-    S = np.maximum((ph + 3 * g * F * (-muv)) / (4 * np.pi), 0)
-    return (S * np.exp(-z / muv) * dz / muv).sum()
+    return p1_readout(h, phi, face, str_, g, muv)
 
 
 for h in [51.2, 12.8, 6.4, 3.2, 1.6, 0.8, 0.4, 0.2]:

@@ -14,6 +14,8 @@ usage: halfspace_mc.py albedo phiv_degrees mu0 muv     (needs numpy; not a build
 import sys
 import numpy as np
 
+from halfspace_common import hg as hg_g, sample_hg as sample_hg_g
+
 rng = np.random.default_rng(1)
 g = 0.8
 a = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
@@ -23,21 +25,14 @@ muv = float(sys.argv[4]) if len(sys.argv) > 4 else 0.8
 N = 200000
 
 
+
+
 def hg(c):
-    return (1 - g * g) / (4 * np.pi * (1 + g * g - 2 * g * c) ** 1.5)
+    return hg_g(c, g)
 
 
 def sample_hg(d):
-    n = len(d)
-    u = rng.random(n)
-    c = (1 + g * g - ((1 - g * g) / (1 - g + 2 * g * u)) ** 2) / (2 * g)
-    s = np.sqrt(np.maximum(0, 1 - c * c))
-    ph = 2 * np.pi * rng.random(n)
-    t = np.where(np.abs(d[:, 0:1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-    b1 = np.cross(d, t)
-    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-    b2 = np.cross(d, b1)
-    return c[:, None] * d + (s * np.cos(ph))[:, None] * b1 + (s * np.sin(ph))[:, None] * b2
+    return sample_hg_g(rng, d, g)
 
 
 sun = np.array([np.sqrt(1 - mu0 * mu0), 0, mu0])  # propagation into the medium

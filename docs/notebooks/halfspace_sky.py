@@ -18,26 +18,12 @@ usage: halfspace_sky.py albedo muv [photons]      (needs numpy; not a build depe
 import sys
 import numpy as np
 
+from halfspace_common import CAP, grid_matrix, hg, p1_readout, sample_hg
+
 rng = np.random.default_rng(2)
-g, cap = 0.8, 3.0
+g = 0.8
 a, muv = float(sys.argv[1]), float(sys.argv[2])
 N = int(sys.argv[3]) if len(sys.argv) > 3 else 200000
-
-
-def hg(c):
-    return (1 - g * g) / (4 * np.pi * (1 + g * g - 2 * g * c) ** 1.5)
-
-
-def sample_hg(d):
-    n = len(d)
-    c = (1 + g * g - ((1 - g * g) / (1 - g + 2 * g * rng.random(n))) ** 2) / (2 * g)
-    s = np.sqrt(np.maximum(0, 1 - c * c))
-    ph = 2 * np.pi * rng.random(n)
-    t = np.where(np.abs(d[:, 0:1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-    b1 = np.cross(d, t)
-    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-    b2 = np.cross(d, b1)
-    return c[:, None] * d + (s * np.cos(ph))[:, None] * b1 + (s * np.sin(ph))[:, None] * b2
 
 
 def exact():
@@ -54,8 +40,8 @@ def exact():
             break
         idx = np.nonzero(alive)[0]
         zi, di, wi = z[idx], d[idx], w[idx]
-        L += (wi * a * hg(di @ wo) * np.exp(-zi / muv) / muv).sum()
-        dn = sample_hg(di)
+        L += (wi * a * hg(di @ wo, g) * np.exp(-zi / muv) / muv).sum()
+        dn = sample_hg(rng, di, g)
         zn = zi + dn[:, 2] * (-np.log(rng.random(len(idx))))
         z[idx], d[idx], w[idx] = zn, dn, wi * a
         alive[idx[(zn < 0) | (zn > 300)]] = False
@@ -63,34 +49,14 @@ def exact():
 
 
 def grid(h, depth=400.0):
-    sa, str_ = 1 - a, 1 - a * g
+    str_ = 1 - a * g
     n = int(depth / h) + 1
-    r = 1.5 * h * str_
-    G, Gb = 1.0 / (2 * r), 1.0 / (min(r, cap) + 2.0)
-    A = np.zeros((n, n))
+    A, r, Gb = grid_matrix(n, h, str_, 1 - a)
     q = np.zeros(n)
-    for i in range(n):
-        A[i, i] += sa * h
-        if i == 0:
-            A[i, i] += Gb
-            q[i] += Gb * 4 * np.pi
-        if i > 0:
-            A[i, i] += G
-            A[i, i - 1] -= G
-        if i < n - 1:
-            A[i, i] += G
-            A[i, i + 1] -= G
+    q[0] = Gb * 4 * np.pi  # the sky's fluence through the surface
     phi = np.linalg.solve(A, q)
-    face = 4 * np.pi + 2 * (phi[0] - 4 * np.pi) / (min(r, cap) + 2)
-    dz = 0.001
-    z = np.arange(0, 40, dz) + dz / 2
-    xs = np.concatenate([[-0.5 * h], (np.arange(n) + 0.5) * h])
-    ys = np.concatenate([[face], phi])
-    ph = np.interp(z, xs, ys)
-    idx = np.searchsorted(xs, z) - 1
-    F = np.clip(-(ys[idx + 1] - ys[idx]) / h / (3 * str_), -ph, ph)
-    S = a * np.maximum((ph + 3 * g * F * (-muv)) / (4 * np.pi), 0)
-    return (S * np.exp(-z / muv) * dz / muv).sum()
+    face = 4 * np.pi + 2 * (phi[0] - 4 * np.pi) / (min(r, CAP) + 2)
+    return p1_readout(h, phi, face, str_, g, muv, a)
 
 
 L = exact()
