@@ -11,6 +11,20 @@
 
 namespace nimbus {
 
+RayDensity integrateDensity(const Field& field, const Ray& ray, float t0, float t1, double step,
+                            int maxSteps) {
+    RayDensity r;
+    r.steps = int(std::clamp(std::ceil((t1 - t0) / std::max(step, 1e-12)), 1.0,
+                             double(std::max(maxSteps, 1))));
+    r.dt = double(t1 - t0) / r.steps;
+    for (int i = 0; i < r.steps; ++i) {
+        const float rho = field.density(ray.at(float(t0 + (i + 0.5) * r.dt)));
+        r.sum += rho;
+        r.occupied += rho > 0.0f;
+    }
+    return r;
+}
+
 CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 direction, float sigmaT,
                              float step, int raysPerSide, int maxSteps) {
     CloudDepth out;
@@ -53,22 +67,11 @@ CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 directi
             const Ray r{c + su * u + sv * v - reach * d, d};
             float t0 = 0.0f, t1 = 0.0f;
             if (!intersectBox(r, bounds, 0.0f, 2.0f * reach, t0, t1) || !(t1 > t0)) continue;
-            const float chord = t1 - t0;
-            const int steps =
-                std::clamp(int(std::ceil(chord / std::max(step, 1e-12f))), 1, maxSteps);
-            const float ds = chord / float(steps);
-            double integral = 0.0, occupied = 0.0;
-            for (int k = 0; k < steps; ++k) {
-                const float rho = field.density(r.at(t0 + (float(k) + 0.5f) * ds));
-                if (rho > 0.0f) {
-                    integral += double(rho) * ds;
-                    occupied += ds;
-                }
-            }
-            row.lookups += size_t(steps);
-            if (integral > 0.0) {
-                row.tau += integral;
-                row.occupied += occupied;
+            const RayDensity rd = integrateDensity(field, r, t0, t1, step, maxSteps);
+            row.lookups += size_t(rd.steps);
+            if (rd.sum > 0.0) {
+                row.tau += rd.integral();
+                row.occupied += rd.occupiedLength();
                 ++row.hits;
             }
         }

@@ -23,6 +23,21 @@ struct CloudDepth {
     std::size_t lookups = 0;     ///< density lookups made
 };
 
+/// The density integral of `field` along `ray` from t0 to t1 by the midpoint rule, in
+/// n = clamp(ceil((t1 - t0) / step), 1, maxSteps) equal steps of dt: sum x dt, and the length of
+/// the steps whose sample holds density (occupied x dt). Shared by measureCloudDepth and the
+/// validation matrix's thickness (plugin/cli/suite.cpp).
+struct RayDensity {
+    double sum = 0.0; ///< the densities at the steps' midpoints, added up
+    int occupied = 0; ///< steps whose midpoint has density > 0
+    int steps = 0;    ///< n
+    double dt = 0.0;  ///< the step's length
+    double integral() const { return sum * dt; }
+    double occupiedLength() const { return occupied * dt; }
+};
+RayDensity integrateDensity(const Field& field, const Ray& ray, float t0, float t1, double step,
+                            int maxSteps);
+
 /// Measures `field` over `bounds` along `direction` (any length but 0) with `raysPerSide`^2
 /// rays and steps of `step` world units, at most `maxSteps` per ray (longer rays take
 /// longer steps); `sigmaT` is the extinction per unit density. TBB-parallel; the result does

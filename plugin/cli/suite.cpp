@@ -33,6 +33,7 @@
 
 #include "core/camera.h"
 #include "core/image_error.h"
+#include "core/lighting/cloud_depth.h"
 #include "core/render.h"
 #include "plugin/cli/commands.h"
 #include "plugin/cli/common.h"
@@ -216,12 +217,8 @@ bool measureColumns(Cloud& c, double step) {
                 const Ray ray = cam.generate(float(x) + 0.5f, float(y) + 0.5f);
                 float t0, t1;
                 if (!intersectBox(ray, box, 0.0f, 1e30f, t0, t1)) continue;
-                const int n = int(std::clamp(std::ceil((t1 - t0) / step), 1.0, 1e6));
-                const double dt = double(t1 - t0) / n;
-                double sum = 0.0;
-                for (int i = 0; i < n; ++i)
-                    sum += field.density(ray.at(float(t0 + (i + 0.5) * dt)));
-                col[size_t(y) * w + x] = sum * dt;
+                col[size_t(y) * w + x] =
+                    integrateDensity(field, ray, t0, t1, step, 1000000).integral();
             }
     };
     const int threads = c.base.render.threads;
