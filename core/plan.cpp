@@ -632,11 +632,11 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.photonCell = p.lightVolumeCell * (s.render.photonCellScale > 0.0f
                                                 ? s.render.photonCellScale
                                                 : autoPhotonCellScale(s, bindings, p));
-    // the sky alone in the diffusion grid (photons carry the sun to the end): on the photons'
-    // grid where it is finer (the cloud's size decides it, autoPhotonCellScale)
+    // the sky alone in the diffusion grid (photons carry the sun to the end; with sky photons
+    // and no hand-off there is no grid): on the photons' grid where it is finer (the cloud's
+    // size decides it, autoPhotonCellScale)
     p.diffusionCell = p.lightVolumeCell;
-    if (p.diffusion && p.photons && p.photonBounces == 0 && !p.photonSky &&
-        p.photonCell < p.lightVolumeCell)
+    if (p.diffusion && p.photons && p.photonBounces == 0 && p.photonCell < p.lightVolumeCell)
         p.diffusionCell = p.photonCell;
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
