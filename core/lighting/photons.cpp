@@ -18,6 +18,11 @@ namespace {
 
 constexpr double kFixed = 1048576.0; // 2^20: fixed-point scale of the sums
 constexpr float kMaxDeposit = 1e12f; // one deposit at most (keeps the sums far from overflow)
+/// A voxel's records are weighted by rho / rhoBar + this (tracePhotons): the floor keeps voxels
+/// with a trace of density near the volume mean. Measured on the validation matrix's medium rows
+/// (docs/accuracy.md, "Photons weighted by the density"): 0.1 and 0.3 alike; 0 lets edge voxels
+/// of wispy clouds blow up, a large floor is the plain volume mean.
+constexpr float kDensityFloor = 0.3f;
 
 /// The voxel of a grid (corner lo, voxel size, res) that holds q, clamped to the grid.
 inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
@@ -107,7 +112,8 @@ double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDen
                    double handOffVoxels) {
     const ivec3 fine = photonTrackingResolution(bounds, trackingCell);
     const double voxels = double(res.x) * res.y * res.z;
-    return voxels * (sizeof(int) + 2 * sizeof(vec3) + (ownDensity ? sizeof(float) : 0)) +
+    return voxels *
+               (sizeof(int) + sizeof(float) + 2 * sizeof(vec3) + (ownDensity ? sizeof(float) : 0)) +
            double(fine.x) * fine.y * fine.z * sizeof(float) +
            handOffVoxels * (3 * sizeof(std::int64_t) + sizeof(vec3));
 }
@@ -132,8 +138,70 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         (maxComponent(p.sunIrradiance) <= 0.0f && p.sky.kind == SkyKind::None) || rho.size() != n)
         return pv;
 
-    // the voxels that record: those with density at their centre and their 26 neighbours
-    // (density can fill part of a voxel whose centre is empty)
+    // photons read the density from a grid of half the majorant cell (or of the recording
+    // voxel without a majorant grid), filled once where the majorant grid has cloud and read
+    // trilinearly: a lookup there costs a few loads, not a field evaluation, and most of a
+    // photon's time is lookups. Its values are the field's own samples, so they keep to the
+    // same majorants (clamped where a trilinear footprint reaches over a cell's edge).
+    // (the majorant grid whenever there is one: march may leave a mostly full grid unused,
+    // but tracking always gains from the tighter bounds, as pathtrace does)
+    const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
+    const vec3 ext = geo.bounds.extent();
+    const ivec3 fineRes = photonTrackingResolution(geo.bounds, mg ? minComponent(mg->cellSize)
+                                                                  : minComponent(geo.voxel));
+    const vec3 fineVoxel = ext / vec3(fineRes);
+    std::size_t fineLookups = 0;
+    std::vector<float> fine =
+        densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups, cancel);
+    pv.lookups += fineLookups;
+    // the one untransformed placement may scale the volume's density
+    const float placement = vs.instances[0].density;
+    if (placement != 1.0f)
+        for (float& v : fine) v *= placement;
+
+    // Each voxel's mean density, as photons see it: the tracking grid read trilinearly at
+    // 1.5 points per tracking cell and axis (2 to 32 a voxel's side)
+    // (sampled only in voxels that a tracking cell with density reaches with its trilinear
+    // footprint, one cell either side of its centre)
+    std::vector<float> mean(n, 0.0f);
+    {
+        std::vector<std::uint8_t> reached(n, 0);
+        for (int fz = 0; fz < fineRes.z; ++fz)
+            for (int fy = 0; fy < fineRes.y; ++fy)
+                for (int fx = 0; fx < fineRes.x; ++fx) {
+                    if (!(fine[voxelIndex(fineRes, fx, fy, fz)] > 0.0f)) continue;
+                    const vec3 c = (vec3(fx, fy, fz) + 0.5f) * fineVoxel;
+                    const ivec3 a = glm::clamp(ivec3(glm::floor((c - fineVoxel) / geo.voxel)),
+                                               ivec3(0), res - 1);
+                    const ivec3 b = glm::clamp(ivec3(glm::floor((c + fineVoxel) / geo.voxel)),
+                                               ivec3(0), res - 1);
+                    for (int z = a.z; z <= b.z; ++z)
+                        for (int y = a.y; y <= b.y; ++y)
+                            for (int x = a.x; x <= b.x; ++x) reached[voxelIndex(res, x, y, z)] = 1;
+                }
+        const ivec3 sub =
+            glm::clamp(ivec3(glm::ceil(1.5f * geo.voxel / fineVoxel)), ivec3(2), ivec3(32));
+        const float invSub = 1.0f / float(sub.x * sub.y * sub.z);
+        tbb::parallel_for(0, res.z, [&](int z) {
+            for (int y = 0; y < res.y; ++y)
+                for (int x = 0; x < res.x; ++x) {
+                    if (!reached[voxelIndex(res, x, y, z)]) continue;
+                    double acc = 0.0;
+                    for (int c = 0; c < sub.z; ++c)
+                        for (int b = 0; b < sub.y; ++b)
+                            for (int a = 0; a < sub.x; ++a)
+                                acc += sampleVoxelCentres(
+                                    fine, geo.bounds.lo, fineRes, fineVoxel,
+                                    geo.bounds.lo +
+                                        (vec3(x, y, z) + (vec3(a, b, c) + 0.5f) / vec3(sub)) *
+                                            geo.voxel);
+                    mean[voxelIndex(res, x, y, z)] = float(acc) * invSub;
+                }
+        });
+    }
+
+    // the voxels that record: those with density in them, and the 26 neighbours of those with
+    // density at their centre (the light-volume grid's density, trilinear between centres)
     std::vector<int> active(n, -1);
     std::vector<std::uint32_t> cells;
     for (int z = 0; z < res.z; ++z)
@@ -149,11 +217,36 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                 continue;
                             any = rho[voxelIndex(res, xx, yy, zz)] > 0.0f;
                         }
-                if (!any) continue;
+                if (!any && !(mean[voxelIndex(res, x, y, z)] > 0.0f)) continue;
                 active[voxelIndex(res, x, y, z)] = int(cells.size());
                 cells.push_back(std::uint32_t(voxelIndex(res, x, y, z)));
             }
     if (cells.empty()) return pv;
+
+    // What a voxel records is weighted by the density where the light is, plus a floor: march
+    // scatters rho(p) S(p) at its samples, so a voxel's mean S should weight its parts by their
+    // density. Where a voxel holds a filament or a puff and much empty space, the scattered
+    // light is brightest there and a plain volume mean dims it. The floor (kDensityFloor times
+    // rhoBar, the mean density of the voxels with density at their centre, else of those with
+    // density in them) keeps voxels with a trace of density from dividing by almost nothing.
+    // norm[v]: the voxel's mean of rho / rhoBar + the floor, what its sums are divided by.
+    double centred = 0.0, any = 0.0;
+    size_t nCentred = 0, nAny = 0;
+    for (const std::uint32_t i : cells) {
+        if (!(mean[i] > 0.0f)) continue;
+        any += mean[i];
+        ++nAny;
+        if (rho[i] > 0.0f) {
+            centred += mean[i];
+            ++nCentred;
+        }
+    }
+    const float rhoBar = nCentred ? float(centred / double(nCentred))
+                         : nAny   ? float(any / double(nAny))
+                                  : 1.0f;
+    const float invRhoBar = 1.0f / rhoBar;
+    std::vector<float>& norm = mean;
+    for (float& v : norm) v = v * invRhoBar + kDensityFloor;
 
     // photons start on a plane on the light's side of the bounds, over the rectangle that
     // covers the bounds seen from there; each carries the power of its share of it. The sun's
@@ -208,26 +301,6 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     };
     const vec3 cellCentre0 = geo.bounds.lo + 0.5f * geo.voxel;
 
-    // photons read the density from a grid of half the majorant cell (or of the recording
-    // voxel without a majorant grid), filled once where the majorant grid has cloud and read
-    // trilinearly: a lookup there costs a few loads, not a field evaluation, and most of a
-    // photon's time is lookups. Its values are the field's own samples, so they keep to the
-    // same majorants (clamped where a trilinear footprint reaches over a cell's edge).
-    // (the majorant grid whenever there is one: march may leave a mostly full grid unused,
-    // but tracking always gains from the tighter bounds, as pathtrace does)
-    const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
-    const vec3 ext = geo.bounds.extent();
-    const ivec3 fineRes = photonTrackingResolution(geo.bounds, mg ? minComponent(mg->cellSize)
-                                                                  : minComponent(geo.voxel));
-    const vec3 fineVoxel = ext / vec3(fineRes);
-    std::size_t fineLookups = 0;
-    std::vector<float> fine =
-        densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups, cancel);
-    pv.lookups += fineLookups;
-    // the one untransformed placement may scale the volume's density
-    const float placement = vs.instances[0].density;
-    if (placement != 1.0f)
-        for (float& v : fine) v *= placement;
     const float invVolume = 1.0f / (geo.voxel.x * geo.voxel.y * geo.voxel.z);
 
     tbb::enumerable_thread_specific<Tally> tallies([&] {
@@ -296,9 +369,10 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                                run.voxel = k;
                                                run.phase = phase.eval(glm::dot(ray.d, toEye));
                                            }
-                                           // weighted by the density here: the voxel keeps int rho
-                                           // S dV, what march's samples scatter
-                                           run.add(w / (sigmaMaj * pv.skin(q)));
+                                           // weighted by the density here (plus the floor):
+                                           // the voxel keeps int (rho / rhoBar + floor) S dV
+                                           run.add(w * (density * invRhoBar + kDensityFloor) /
+                                                   (sigmaMaj * pv.skin(q)));
                                        }
                                    }
                                    const float pReal = sigmaTMean * density / sigmaMaj;
@@ -355,7 +429,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const vec3 flux(flux0);
     for (size_t k = 0; k < cells.size(); ++k)
         pv.radiance[cells[k]] =
-            flux * invVolume *
+            flux * (invVolume / norm[cells[k]]) *
             vec3(float(double(sum[3 * k]) / kFixed), float(double(sum[3 * k + 1]) / kFixed),
                  float(double(sum[3 * k + 2]) / kFixed));
 
@@ -374,9 +448,10 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // trilinear lookups near the edge of the cloud do not blend toward zero
     std::vector<vec3> filled = pv.radiance;
     // what this trace held at its peak beyond the light-volume grid (photonBytes' parts)
-    pv.bytes = double(active.size() * sizeof(int) + pv.radiance.size() * sizeof(vec3) +
-                      filled.size() * sizeof(vec3) + fine.size() * sizeof(float) +
-                      handOffSum.size() * sizeof(std::int64_t) + pv.source.size() * sizeof(vec3));
+    pv.bytes = double(active.size() * sizeof(int) + norm.size() * sizeof(float) +
+                      pv.radiance.size() * sizeof(vec3) + filled.size() * sizeof(vec3) +
+                      fine.size() * sizeof(float) + handOffSum.size() * sizeof(std::int64_t) +
+                      pv.source.size() * sizeof(vec3));
     tbb::parallel_for(0, res.z, [&](int z) {
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {

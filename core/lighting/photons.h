@@ -76,7 +76,9 @@ struct PhotonVolume {
     ivec3 res{0};
     vec3 voxel{0.0f};
     /// In-scattered radiance toward the camera per unit phase-normalised scattering, at voxel
-    /// centres (voxels without density: the mean of their recorded neighbours)
+    /// centres: the voxel's mean weighted by the density (plus a floor of 0.3 times the mean
+    /// density of the voxels that record), what march's samples scatter (voxels without density:
+    /// the mean of their recorded neighbours)
     std::vector<vec3> radiance;
     const LightVolume* sunTau = nullptr; ///< skin profile (may be null: flat)
     float skinK = 0.0f, skinFloor = 0.1f;
@@ -107,10 +109,10 @@ ivec3 photonTrackingResolution(const Box& bounds, float cell);
 
 /// What FramePlan::photonGridBytes counts for photons on a grid of `res` voxels over `bounds`,
 /// tracked through cells of half `trackingCell`, with a density grid of their own or not and a
-/// hand-off grid of `handOffVoxels` voxels (0: none): per photon-grid voxel an index, the
-/// radiance and its filled copy (and a density), per tracking cell a density, per hand-off voxel
-/// its sums (three 64-bit integers) and its source (RGB). The sums of the voxels that record
-/// (three 64-bit integers each, per thread and merged) come on top.
+/// hand-off grid of `handOffVoxels` voxels (0: none): per photon-grid voxel an index, its
+/// density weight, the radiance and its filled copy (and a density), per tracking cell a density,
+/// per hand-off voxel its sums (three 64-bit integers) and its source (RGB). The sums of the voxels
+/// that record (three 64-bit integers each, per thread and merged) come on top.
 double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
                    double handOffVoxels);
 
