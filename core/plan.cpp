@@ -12,6 +12,7 @@
 #include "core/fields/grid.h"
 #include "core/fields/sdf_cloud.h"
 #include "core/lighting/cloud_depth.h"
+#include "core/lighting/diffusion.h"
 #include "core/lighting/light_volume.h"
 #include "core/lighting/photons.h"
 #include "core/lighting/sky_volume.h"
@@ -113,10 +114,10 @@ double stepsPerRay(double len, double step, double growth) {
 }
 
 /// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
-std::string megabytes(double bytes) {
+std::string megabytes(double bytes, bool atMost = false) {
     if (!(bytes > 0.0)) return "";
     char buf[48];
-    std::snprintf(buf, sizeof buf, " (%.1f MB)", bytes / 1048576.0);
+    std::snprintf(buf, sizeof buf, " (%s%.1f MB)", atMost ? "at most " : "", bytes / 1048576.0);
     return buf;
 }
 
@@ -310,10 +311,13 @@ std::string FramePlan::explain() const {
                     (photonSky ? std::string(" (render.photons shared between the sun and the "
                                              "sky by their power)")
                      : diffusionOnPhotonGrid()
-                         ? std::string("; sky: diffusion on the photons' grid (finer than the "
-                                       "light-volume grid)")
-                         : std::string("; sky: diffusion on the light-volume grid"))
-          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)"
+                         ? "; sky: diffusion on the photons' grid (finer than the "
+                           "light-volume grid)" +
+                               megabytes(diffusionBytes, !cloudMeasured())
+                         : "; sky: diffusion on the light-volume grid" +
+                               megabytes(diffusionBytes, !cloudMeasured()))
+          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)" +
+                            megabytes(diffusionBytes, !cloudMeasured())
                       : "octaves only")
       << "\n";
     if (msAuto && !pathtrace && scatters) o << "    chosen by " << msDecision << "\n";
@@ -681,6 +685,15 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.photonGridBytes =
             photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), majorantMin,
                         p.photonsOwnGrid(), p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
+    }
+    if (p.diffusion && !bounds.empty()) {
+        const ivec3 res = lightVolumeResolution(bounds, p.diffusionCell);
+        const double n = double(res.x) * res.y * res.z;
+        const vec3 v = bounds.extent() / vec3(res);
+        const double active = p.cloudMeasured() && p.cloudVolume > 0.0
+                                  ? std::min(n, p.cloudVolume / (double(v.x) * v.y * v.z))
+                                  : n;
+        p.diffusionBytes = diffusionBytes(res, active, p.photons && p.photonBounces > 0);
     }
     checkBounds(s, bounds, p);
     // motion blur: only with the shutter open and something placed that moves

@@ -66,6 +66,10 @@ struct FramePlan {
     /// light-volume grid too; 0 while a VDB field is unread)
     float photonCell = 0.0f;
     double photonGridBytes = 0.0;
+    /// the diffusion solve's memory (core/lighting/diffusion.h, diffusionBytes) on its grid:
+    /// the voxels with density counted from the cloud's measured volume, or all of them where
+    /// it was not measured (then an upper bound); 0 while a VDB field is unread
+    double diffusionBytes = 0.0;
     /// photons record on a grid of their own, not on the light-volume grid
     bool photonsOwnGrid() const { return photons && photonCell != lightVolumeCell; }
     /// the diffusion grid's voxel (world units): the light-volume cell, or the photons' finer

@@ -420,6 +420,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         out.hasDiffusion = true;
         stats.diffusionSeconds = secondsSince(t0);
         stats.diffusionIterations = out.diffusion.iterations;
+        stats.diffusionBytes = out.diffusion.bytes;
     }
     return out;
 }

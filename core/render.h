@@ -57,6 +57,7 @@ struct RenderStats {
     std::uint64_t densityGridVoxels = 0; ///< densities looked up at light-grid voxel centres
     double diffusionSeconds = 0.0;       ///< march: solving the multiple-scattering grid
     int diffusionIterations = 0;
+    double diffusionBytes = 0.0; ///< what the diffusion solve held (DiffusionVolume::bytes)
     /// render.multiple_scattering = "auto": the cloud's mean optical depth along the sun it
     /// chose the model by (FramePlan::cloudTau); -1 when not measured
     double cloudDepth = -1.0;

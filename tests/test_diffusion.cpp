@@ -303,3 +303,39 @@ TEST(Diffusion, AFaintHaloLeavesTheSolveAsWithoutIt) {
         EXPECT_GT(thin.activeVoxels, none.activeVoxels);
     }
 }
+
+TEST(Diffusion, ExplainedMemoryIsWhatTheSolveHolds) {
+    // --explain's diffusion size against the bytes the solve held, from its arrays' sizes: a box
+    // fills every voxel (the estimate exact); the cumulus layer fills part of its grid, which
+    // the plan, not having measured the cloud (the grid named), counts whole: an upper bound
+    SceneDesc box = thickBox();
+    box.render.multipleScattering = MultipleScattering::Grid;
+    const FramePlan pb = Renderer(box).plan(1);
+    ASSERT_TRUE(pb.diffusion);
+    RenderStats sb;
+    renderScene(box, &sb);
+    ASSERT_GT(sb.diffusionBytes, 0.0);
+    EXPECT_NEAR(pb.diffusionBytes / sb.diffusionBytes, 1.0, 0.01)
+        << "plan " << pb.diffusionBytes << " B, solve " << sb.diffusionBytes << " B";
+    SceneDesc layer = smallCumulusLayer();
+    const FramePlan pl = Renderer(layer).plan(1);
+    ASSERT_TRUE(pl.diffusion);
+    ASSERT_FALSE(pl.cloudMeasured());
+    RenderStats sl;
+    renderScene(layer, &sl);
+    ASSERT_GT(sl.diffusionBytes, 0.0);
+    EXPECT_GE(pl.diffusionBytes, sl.diffusionBytes);
+    // measured (multiple_scattering "auto" on a thick layer takes the grid): the voxels with
+    // density from the cloud's volume
+    layer.render.multipleScattering = MultipleScattering::Auto;
+    layer.medium.sigma_s = vec3(600.0f);
+    const FramePlan pa = Renderer(layer).plan(1);
+    ASSERT_TRUE(pa.cloudMeasured());
+    ASSERT_TRUE(pa.diffusion && !pa.photons);
+    RenderStats sa;
+    renderScene(layer, &sa);
+    ASSERT_GT(sa.diffusionBytes, 0.0);
+    // measured 0.993 (the unmeasured bound above: 6.7x)
+    EXPECT_NEAR(pa.diffusionBytes / sa.diffusionBytes, 1.0, 0.1)
+        << "plan " << pa.diffusionBytes << " B, solve " << sa.diffusionBytes << " B";
+}

@@ -84,6 +84,13 @@ static vec3 boundaryResistance(vec3 r) {
 /// free paths or thinner) the limit is never reached.
 constexpr float kSunFluenceLimit = kDiffusionMaxBoundaryResistance + 2.0f;
 
+double diffusionBytes(ivec3 res, double activeVoxels, bool source) {
+    const double n = double(res.x) * res.y * res.z;
+    return n * (sizeof(int) + sizeof(vec3)) +
+           activeVoxels *
+               (sizeof(Cell) + sizeof(vec3) + sizeof(std::uint32_t) + (source ? sizeof(vec3) : 0));
+}
+
 DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>& rho,
                                const std::vector<float>& tauSun, const DiffusionParams& p) {
     DiffusionVolume dv;
@@ -263,6 +270,10 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
                 if (count) dv.phi[i] = sum / float(count);
             }
     });
+    dv.bytes = double(active.size() * sizeof(int) + cells.size() * sizeof(Cell) +
+                      extra.size() * sizeof(vec3) + phi.size() * sizeof(vec3) +
+                      (colour[0].size() + colour[1].size()) * sizeof(std::uint32_t) +
+                      dv.phi.size() * sizeof(vec3));
     return dv;
 }
 

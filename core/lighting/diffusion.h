@@ -83,12 +83,21 @@ struct DiffusionVolume {
     int iterations = 0;
     float lastChange = 0.0f; ///< largest relative change of the last iteration
     std::size_t activeVoxels = 0;
+    /// Bytes the solve held at its peak (diffusionBytes' parts, from the arrays' sizes)
+    double bytes = 0.0;
 
     /// Trilinear lookup of the fluence at world point p.
     vec3 sample(vec3 p) const;
     /// The same with the gradient of the trilinear interpolant (per channel: d/dx, d/dy, d/dz).
     vec3 sample(vec3 p, vec3 grad[3]) const;
 };
+
+/// What FramePlan::diffusionBytes counts for a solve on a grid of `res` voxels of which
+/// `activeVoxels` hold density: per voxel an index and the fluence it returns, per voxel with
+/// density its cell (neighbours, conductances, diagonal, right-hand side), its fluence while
+/// iterating and its entry in a colour list, and with a hand-off (`source`) its share of the
+/// photons' source.
+double diffusionBytes(ivec3 res, double activeVoxels, bool source);
 
 /// Solves on the grid of `geometry` (bounds, res, voxel) with densities rho at its voxel
 /// centres and the density integral toward the sun tauSun (may be empty when there is no sun).
