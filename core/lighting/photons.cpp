@@ -18,10 +18,10 @@ namespace {
 
 constexpr double kFixed = 1048576.0; // 2^20: fixed-point scale of the sums
 constexpr float kMaxDeposit = 1e12f; // one deposit at most (keeps the sums far from overflow)
-/// A voxel's records are weighted by rho / rhoBar + this (tracePhotons): the floor keeps voxels
-/// with a trace of density near the volume mean. Measured on the validation matrix's medium rows
-/// (docs/accuracy.md, "Photons weighted by the density"): 0.1 and 0.3 alike; 0 lets edge voxels
-/// of wispy clouds blow up, a large floor is the plain volume mean.
+/// A voxel's records are weighted by rho / rhoBar + this (tracePhotons): with the floor a voxel
+/// holding a trace of density keeps about its plain volume mean. Measured on the validation
+/// matrix's medium rows (docs/accuracy.md, "Photons weighted by the density"): 0.1 and 0.3 alike;
+/// 0 lets edge voxels of wispy clouds blow up, a large floor is the plain volume mean.
 constexpr float kDensityFloor = 0.3f;
 
 /// The voxel of a grid (corner lo, voxel size, res) that holds q, clamped to the grid.

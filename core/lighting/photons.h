@@ -77,8 +77,8 @@ struct PhotonVolume {
     vec3 voxel{0.0f};
     /// In-scattered radiance toward the camera per unit phase-normalised scattering, at voxel
     /// centres: the voxel's mean weighted by the density (plus a floor of 0.3 times the mean
-    /// density of the voxels that record), what march's samples scatter (voxels without density:
-    /// the mean of their recorded neighbours)
+    /// density of the voxels with density at their centre), what march's samples scatter
+    /// (voxels that do not record: the mean of their recorded neighbours)
     std::vector<vec3> radiance;
     const LightVolume* sunTau = nullptr; ///< skin profile (may be null: flat)
     float skinK = 0.0f, skinFloor = 0.1f;
