@@ -2,7 +2,6 @@
 // (core/lighting/photons.cpp: a voxel's light is its mean weighted by the density, plus a floor).
 #include <gtest/gtest.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <glm/gtc/matrix_transform.hpp>
@@ -69,13 +68,13 @@ TEST(PhotonsVdb, VoxelsThatACloudPartlyFillsKeepItsLight) {
         {"render.multiple_scattering=\"none\"", "render.octaves=1", "render.inscatter=\"none\""});
     const ImageError ec = imageError(coarse, ref), ef = imageError(fine, ref),
                      es = imageError(single, ref), en = imageError(ref2, ref);
-    std::printf("[ photons ] cubes filling 1/64 of their voxels: coarse %.2f%% (mean ratio %.3f), "
-                "fine %.2f%% (%.3f), single scattering %.2f%% (%.3f); two reference seeds differ "
-                "by %.2f%%\n",
-                100.0 * ec.relative(), meanRgb(coarse) / meanRgb(ref), 100.0 * ef.relative(),
-                meanRgb(fine) / meanRgb(ref), 100.0 * es.relative(), meanRgb(single) / meanRgb(ref),
-                100.0 * en.relative());
     const double rc = meanRgb(coarse) / meanRgb(ref), rf = meanRgb(fine) / meanRgb(ref);
+    RecordProperty("relative_rmse_coarse", std::to_string(ec.relative()));
+    RecordProperty("mean_ratio_coarse", std::to_string(rc));
+    RecordProperty("relative_rmse_fine", std::to_string(ef.relative()));
+    RecordProperty("mean_ratio_fine", std::to_string(rf));
+    RecordProperty("relative_rmse_single", std::to_string(es.relative()));
+    RecordProperty("reference_seeds_apart", std::to_string(en.relative()));
     // multiple scattering is most of this light: single scattering alone is far off
     EXPECT_LT(meanRgb(single) / meanRgb(ref), 0.5);
     // measured: coarse 0.942 (44.8%), fine 0.943 (32.7%), two reference seeds 7.2% apart. With
