@@ -293,6 +293,8 @@ std::string FramePlan::explain() const {
           : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
                         : std::string("shadow march per sample"))
       << "\n";
+    // the diffusion's memory: "at most" where the cloud was not measured (every voxel counted)
+    const std::string diffusionMB = megabytes(diffusionBytes, !cloudMeasured());
     o << "  multiple scattering: "
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
@@ -313,11 +315,9 @@ std::string FramePlan::explain() const {
                      : diffusionOnPhotonGrid()
                          ? "; sky: diffusion on the photons' grid (finer than the "
                            "light-volume grid)" +
-                               megabytes(diffusionBytes, !cloudMeasured())
-                         : "; sky: diffusion on the light-volume grid" +
-                               megabytes(diffusionBytes, !cloudMeasured()))
-          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)" +
-                            megabytes(diffusionBytes, !cloudMeasured())
+                               diffusionMB
+                         : "; sky: diffusion on the light-volume grid" + diffusionMB)
+          : diffusion ? "diffusion solved on the light-volume grid (sun and sky)" + diffusionMB
                       : "octaves only")
       << "\n";
     if (msAuto && !pathtrace && scatters) o << "    chosen by " << msDecision << "\n";
