@@ -420,6 +420,66 @@ TEST(CApi, PhotonStatistics) {
     EXPECT_LE(handed, traced);
 }
 
+/// The number in `--explain`'s "(12.3 MB)" / "(at most 12.3 MB)" after `after` on the line
+/// that holds it; -1 when there is none.
+double explainedMb(const std::string& text, const std::string& line, const std::string& after) {
+    const size_t l = text.find(line);
+    if (l == std::string::npos) return -1.0;
+    const std::string row = text.substr(l, text.find('\n', l) - l);
+    const size_t a = row.find(after);
+    if (a == std::string::npos) return -1.0;
+    const size_t mb = row.find(" MB)", a);
+    if (mb == std::string::npos) return -1.0;
+    const size_t open = row.rfind('(', mb);
+    if (open == std::string::npos || open < a) return -1.0;
+    std::string num = row.substr(open + 1, mb - open - 1);
+    if (num.rfind("at most ", 0) == 0) num = num.substr(8);
+    return std::stod(num);
+}
+
+// NIMBUS_STAT_DIFFUSION_MB and NIMBUS_STAT_PHOTON_MB: what the frame's solve and photon pass
+// held, the figures the plan's explanation estimates (exactly where "auto" measured the cloud,
+// an upper bound where the scene names the grid); 0 for a part the frame did not run.
+TEST(CApi, MemoryStatistics) {
+    Ctx c;
+    ASSERT_EQ(nimbus_load_string(c, tinyScene().c_str(), "tiny.toml"), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    double diffusion = -1.0, photons = -1.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_DIFFUSION_MB, &diffusion), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTON_MB, &photons), NIMBUS_OK);
+    EXPECT_EQ(photons, 0.0);
+    ASSERT_GT(diffusion, 0.0);
+    const std::string named = nimbus_plan_explain(c, 3);
+    const double atMost = explainedMb(named, "multiple scattering:", "grid");
+    ASSERT_GT(atMost, 0.0) << named;
+    EXPECT_LE(diffusion, atMost + 0.05) << named;
+
+    // a grid of half the cell holds about eight times the voxels
+    ASSERT_EQ(nimbus_set(c, "render.light_volume_cell=1.0"), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    double coarse = -1.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_DIFFUSION_MB, &coarse), NIMBUS_OK);
+    ASSERT_EQ(nimbus_set(c, "render.light_volume_cell=0.5"), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    double fine = -1.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_DIFFUSION_MB, &fine), NIMBUS_OK);
+    ASSERT_GT(coarse, 0.0);
+    EXPECT_GT(fine / coarse, 5.0) << coarse << " MB -> " << fine << " MB";
+    EXPECT_LT(fine / coarse, 9.0) << coarse << " MB -> " << fine << " MB";
+
+    // photons: their voxels counted, the grid's sky solve too
+    for (const char* a : {"render.light_volume_cell=1.0", "render.multiple_scattering=\"photons\"",
+                          "render.photons=20000"})
+        ASSERT_EQ(nimbus_set(c, a), NIMBUS_OK) << a << ": " << c.error();
+    renderC(c, 3);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTON_MB, &photons), NIMBUS_OK);
+    ASSERT_GT(photons, 0.0);
+    const double explained =
+        explainedMb(nimbus_plan_explain(c, 3), "multiple scattering:", "photons");
+    ASSERT_GT(explained, 0.0) << nimbus_plan_explain(c, 3);
+    EXPECT_NEAR(photons, explained, 0.05 + 0.02 * explained);
+}
+
 // NIMBUS_STAT_CLOUD_DEPTH: the depth along the sun that render.multiple_scattering = "auto"
 // chose by, -1 when the scene names its model (the tiny scene names the grid).
 TEST(CApi, CloudDepthStatistic) {

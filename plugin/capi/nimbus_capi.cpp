@@ -453,6 +453,10 @@ double statItem(const nimbus_context* ctx, int item) {
         return double(st.photonsHandedOff);
     case NIMBUS_STAT_CLOUD_DEPTH:
         return st.cloudDepth;
+    case NIMBUS_STAT_DIFFUSION_MB:
+        return st.diffusionBytes / 1048576.0;
+    case NIMBUS_STAT_PHOTON_MB:
+        return st.photonBytes / 1048576.0;
     }
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }

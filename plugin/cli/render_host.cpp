@@ -260,9 +260,10 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
     if (double s = stat(ctx, NIMBUS_STAT_LIGHT_VOLUME_SECONDS); s > 0.0)
         append(", light grids %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_LIGHT_GRID_MB));
     if (double s = stat(ctx, NIMBUS_STAT_DIFFUSION_SECONDS); s > 0.0)
-        append(", diffusion %.2f s", s);
+        append(", diffusion %.2f s (%.1f MB)", s, stat(ctx, NIMBUS_STAT_DIFFUSION_MB));
     if (double s = stat(ctx, NIMBUS_STAT_PHOTON_SECONDS); s > 0.0) {
         append(", photons %.2f s (%.0f traced", s, stat(ctx, NIMBUS_STAT_PHOTONS));
+        append(", %.1f MB", stat(ctx, NIMBUS_STAT_PHOTON_MB), 0.0);
         if (double n = stat(ctx, NIMBUS_STAT_PHOTONS_FROM_SKY); n > 0.0)
             append(", %.0f from the sky", n, 0.0);
         if (double n = stat(ctx, NIMBUS_STAT_PHOTONS_HANDED_OFF); n > 0.0)
