@@ -61,6 +61,10 @@ struct FramePlan {
     double cloudVolume = 0.0;
     bool cloudMeasured() const { return cloudTau >= 0.0; }
     std::string photonCellNote; ///< render.photon_cell_scale = 0: the voxel chosen and why
+    /// "auto" chose the grid and render.light_volume_cell is 0: the light-volume cell refined
+    /// from the cloud's measured volume (autoGridCellScale in plan.cpp), what and why; empty
+    /// where the cell is the majorant cell
+    std::string gridCellNote;
     /// photons: the voxel of the grid they record on (world units) and its memory (without the
     /// per-thread sums of the voxels that record; with the hand-off its sums and source on the
     /// light-volume grid too; 0 while a VDB field is unread)

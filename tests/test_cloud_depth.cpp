@@ -1,7 +1,7 @@
 // The cloud's depth along the sun (core/lighting/cloud_depth.h) against closed forms on boxes,
 // and render.multiple_scattering = "auto" choosing its model from it (core/plan.cpp): photons
 // where the cloud is thin, the diffusion grid where it is thick, the same image as naming the
-// model it chose, and the photons' voxel from the cloud's occupied volume.
+// model it chose, the photons' voxel and the grid's cell from the cloud's occupied volume.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -138,10 +138,56 @@ TEST(AutoMultipleScattering, RendersWhatItChose) {
     s.render.multipleScattering = MultipleScattering::Grid;
     EXPECT_NE(renderScene(s).rgba, photons.rgba); // (the two models differ here)
 
+    // on the thick box the image of "grid" named on the cell "auto" chose for it
     SceneDesc t = boxAtDepth(200.0f);
+    const float cell = planFrame(t, 1).lightVolumeCell;
     const Framebuffer autoThick = renderScene(t);
     t.render.multipleScattering = MultipleScattering::Grid;
+    t.render.lightVolumeCell = cell;
     EXPECT_EQ(autoThick.rgba, renderScene(t).rgba);
+}
+
+TEST(AutoMultipleScattering, GridCellFollowsTheCloudsSize) {
+    // "auto" choosing the grid, render.light_volume_cell 0: the finest of 1/8 ... 1 majorant
+    // cells at which the cloud fills at most 262,144 cells
+    SceneDesc s = boxAtDepth(200.0f);
+    FramePlan p = planFrame(s, 1);
+    ASSERT_TRUE(p.diffusion);
+    ASSERT_FALSE(p.photons);
+    EXPECT_NEAR(p.cloudVolume, 8.0, 0.2); // the 2-unit box
+    // the box on its majorant cells of 0.2: 512,000 cells at 1/8, 64,000 at 1/4
+    ASSERT_FLOAT_EQ(p.majorantCell, 0.2f);
+    EXPECT_FLOAT_EQ(p.lightVolumeCell, 0.05f);
+    EXPECT_NE(p.explain().find("of the majorant cell, at which the cloud fills"), std::string::npos)
+        << p.explain();
+
+    // majorant cells of 0.1: the box fills 4.1 M cells at 1/8, 512,000 at 1/4, 64,000 at 1/2
+    s.render.majorantCell = 0.1f;
+    p = planFrame(s, 1);
+    EXPECT_FLOAT_EQ(p.lightVolumeCell, 0.05f);
+    // majorant cells of 0.03: 296,296 cells at 1 already; never coarser than the majorant cell
+    s.render.majorantCell = 0.03f;
+    EXPECT_FLOAT_EQ(planFrame(s, 1).lightVolumeCell, 0.03f);
+
+    // a named cell, a named model and a thin cloud (photons) keep the majorant cell
+    s.render.majorantCell = 0.1f;
+    s.render.lightVolumeCell = 0.1f;
+    EXPECT_FLOAT_EQ(planFrame(s, 1).lightVolumeCell, 0.1f);
+    s.render.lightVolumeCell = 0.0f;
+    s.render.multipleScattering = MultipleScattering::Grid;
+    p = planFrame(s, 1);
+    EXPECT_FLOAT_EQ(p.lightVolumeCell, 0.1f);
+    EXPECT_TRUE(p.gridCellNote.empty());
+    SceneDesc thin = boxAtDepth(1.0f);
+    thin.render.majorantCell = 0.1f;
+    EXPECT_FLOAT_EQ(planFrame(thin, 1).lightVolumeCell, 0.1f);
+
+    // the diffusion's memory follows the finer grid
+    s.render.multipleScattering = MultipleScattering::Auto;
+    const double fine = planFrame(s, 1).diffusionBytes;
+    s.render.lightVolumeCell = 0.1f;
+    const double coarse = planFrame(s, 1).diffusionBytes;
+    EXPECT_GT(fine / coarse, 6.0) << fine << " B against " << coarse << " B";
 }
 
 TEST(AutoMultipleScattering, NamedModelsAreNotMeasured) {

@@ -62,7 +62,9 @@ void addRenderParams(std::vector<Param>& t) {
     t.push_back(ren.param("light_volume_cell", atLeast(0),
                           "Voxel size of the light-attenuation volumes (sun shadows, multiple "
                           "scattering, column sky occlusion, single-scattered sky; world "
-                          "units); 0 = the majorant cell.",
+                          "units); 0 = the majorant cell, or finer where multiple_scattering "
+                          "\"auto\" chooses the grid: the finest of 1/8 to 1 majorant cell at "
+                          "which the cloud fills at most 262,144 cells (--explain says which).",
                           &RenderDesc::lightVolumeCell)
                     .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
                               "\"grid\" or \"photons\", render.sky_occlusion = "
