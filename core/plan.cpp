@@ -551,7 +551,7 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
 /// cells (daichi_smoke 10, each some 190 mean free paths across) and its multiple scattering
 /// came out 0.4 to 0.7 of the reference; the thick rows of the validation matrix went from a
 /// median of 45.3% to 36.1% with this rule, better in 42 of 48 VDB cases, worse in 4 (by 8
-/// points at most), at up to 0.5 s a case at 64x36 (docs/accuracy.md, "The diffusion grid's
+/// points at most), at up to 0.6 s a case at 64x36 (docs/accuracy.md, "The diffusion grid's
 /// cell from the cloud's size").
 constexpr double kGridCloudCells = 262144.0;
 constexpr double kGridMaxCells = 16777216.0;
