@@ -515,6 +515,23 @@ MultipleScattering chooseMultipleScattering(const SceneDesc& s, const FrameBindi
     return thin ? MultipleScattering::Photons : MultipleScattering::Grid;
 }
 
+/// How many cells of size `cell` the measured cloud fills (its occupied volume over theirs).
+double cloudCells(const FramePlan& p, double cell) {
+    return p.cloudVolume / (cell * cell * cell);
+}
+
+/// The finest of lo, 2 lo, 4 lo ... hi (shares of `cell`) at which the cloud fills at most
+/// `budget` cells and `fits(scale)` holds; hi where none does. The photons' voxel and the
+/// grid's cell are both chosen so.
+template <class Fits>
+float finestCellScale(const FramePlan& p, float cell, float lo, float hi, double budget,
+                      Fits fits) {
+    float scale = lo;
+    while (scale < hi && (cloudCells(p, double(cell) * scale) > budget || !fits(scale)))
+        scale *= 2.0f;
+    return scale;
+}
+
 /// render.photon_cell_scale = 0: the photons' voxel, in light-volume cells, from the cloud's
 /// occupied volume: the finest of 1/4, 1/2, 1, 2 and 4 at which the cloud holds no more than
 /// render.photons / kPhotonsPerCell voxels (the noise of a voxel's estimate falls with the
@@ -529,11 +546,9 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
         return 1.0f;
     }
     const double budget = double(s.render.photons) / kPhotonsPerCell;
-    float scale = 0.25f;
-    while (scale < 4.0f &&
-           p.cloudVolume / std::pow(double(p.lightVolumeCell) * scale, 3.0) > budget)
-        scale *= 2.0f;
-    const double voxels = p.cloudVolume / std::pow(double(p.lightVolumeCell) * scale, 3.0);
+    const float scale =
+        finestCellScale(p, p.lightVolumeCell, 0.25f, 4.0f, budget, [](float) { return true; });
+    const double voxels = cloudCells(p, double(p.lightVolumeCell) * scale);
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   "%g light-volume cells: the cloud fills %.3g of them, %.3g photons each (at "
@@ -556,21 +571,17 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
 constexpr double kGridCloudCells = 262144.0;
 constexpr double kGridMaxCells = 16777216.0;
 float autoGridCellScale(const Box& bounds, FramePlan& p) {
-    auto cells = [&](float scale) {
-        return p.cloudVolume / std::pow(double(p.majorantCell) * scale, 3.0);
-    };
-    auto total = [&](float scale) {
-        const ivec3 r = lightVolumeResolution(bounds, p.majorantCell * scale);
-        return double(r.x) * r.y * r.z;
-    };
-    float scale = 0.125f;
-    while (scale < 1.0f && (cells(scale) > kGridCloudCells || total(scale) > kGridMaxCells))
-        scale *= 2.0f;
+    const float scale =
+        finestCellScale(p, p.majorantCell, 0.125f, 1.0f, kGridCloudCells, [&](float sc) {
+            const ivec3 r = lightVolumeResolution(bounds, p.majorantCell * sc);
+            return double(r.x) * r.y * r.z <= kGridMaxCells;
+        });
     char buf[220];
     std::snprintf(buf, sizeof buf,
                   "cell %g: %g of the majorant cell, at which the cloud fills %.3g cells (at "
                   "most %g wanted; the finest of 1/8 to 1)",
-                  double(p.majorantCell * scale), double(scale), cells(scale), kGridCloudCells);
+                  double(p.majorantCell * scale), double(scale),
+                  cloudCells(p, double(p.majorantCell) * scale), kGridCloudCells);
     p.gridCellNote = buf;
     return scale;
 }
