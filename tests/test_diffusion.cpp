@@ -143,11 +143,17 @@ TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
         const DiffusionVolume dv = b.solve(4.0f, sigmaA, 5000);
         ASSERT_EQ(dv.activeVoxels, b.rho.size());
         const double out = b.outflow(dv, sigmaA + 4.0f * 0.5f), absorbed = b.absorbed(dv, sigmaA);
-        // what the sun's first scattering puts in: the beam's loss in the box times the albedo
+        // what the sun's first scattering puts in: the beam's loss in the box times the albedo.
+        // The grid's source is the beam's loss as the light volume's density integrals give it:
+        // 2.8% above the exact loss on these cells of 0.4 mean free paths (5.7% on cells twice
+        // as large, under 2% on cells half as large: first order in the cell, the light that
+        // clips the box's edges and leaves within a voxel), hence 4%
         const double source = 4.0 / (4.0 + sigmaA) * beamLoss(b.box, b.sunDir, 4.0f + sigmaA);
-        EXPECT_NEAR((out + absorbed) / source, 1.0, 0.02) << "sigma_a " << sigmaA;
+        RecordProperty(sigmaA == 0.0f ? "balance_albedo_1" : "balance_absorbing",
+                       std::to_string((out + absorbed) / source));
+        EXPECT_NEAR((out + absorbed) / source, 1.0, 0.04) << "sigma_a " << sigmaA;
         if (sigmaA == 0.0f)
-            EXPECT_NEAR(out / source, 1.0, 0.02);
+            EXPECT_NEAR(out / source, 1.0, 0.04);
         else
             EXPECT_LT(out / source, 0.9);
     }
@@ -156,19 +162,18 @@ TEST(Diffusion, SolveConservesEnergyAndAbsorbs) {
 TEST(Diffusion, VoxelsManyMeanFreePathsThickKeepTheSunsLight) {
     // 40 mean free paths per voxel, albedo 1: all the sun's light that meets the box scatters
     // and must leave through its boundary. Taken at the voxel centres the first-scattered light
-    // was e^-20 of it (the sun's light scatters in the first mean free path); averaged over the
-    // voxel along the sun's path, it is there.
+    // was e^-20 of it (the sun's light scatters in the first mean free path); taken along the
+    // light volume's dominant axis (y) alone, the light through the side faces was lost (the
+    // top face's share, 0.71 of it, was all that came out). The beam's flux through each
+    // voxel's six faces keeps it all.
     const SunlitBox b;
     const double out = b.outflow(b.solve(400.0f, 0.0f, 20000), 400.0f * 0.5f);
-    // The light through the faces across the sun's dominant axis (y) is all there. The light
-    // through the side faces is not: the light volume propagates slice by slice along y, and
-    // its voxels beside a side face hold the density integral of their slice column, not the
-    // short oblique path from that face (a limit noted in docs/accuracy.md).
+    const double seen = beamLoss(b.box, b.sunDir, 400.0f); // the box's whole shadow
     const vec3 e = b.box.extent();
     const double top = std::abs(b.sunDir.y) * e.x * e.z;
-    const double seen = beamLoss(b.box, b.sunDir, 400.0f); // the box's whole shadow
-    EXPECT_NEAR(out / top, 1.0, 0.02) << "out " << out << ", through the top face " << top;
-    EXPECT_LT(out, seen);
+    RecordProperty("out_over_beam_loss", std::to_string(out / seen));
+    RecordProperty("top_face_share", std::to_string(top / seen));
+    EXPECT_NEAR(out / seen, 1.0, 0.02) << "out " << out << ", the beam's loss " << seen;
 }
 
 TEST(Diffusion, FluenceStaysBoundedInVoxelsAMillionMeanFreePathsThick) {
@@ -176,10 +181,8 @@ TEST(Diffusion, FluenceStaysBoundedInVoxelsAMillionMeanFreePathsThick) {
     // stays of the order of E whatever the density (a sunlit boundary voxel holds at most
     // (kDiffusionMaxBoundaryResistance + 2) E). Before the boundary resistance was bounded and the
     // source of voxels lit through an edge was limited, it grew with sigma_t h: 4e5 E at density
-    // x1e6 in nimbus stress's cumulus. The light still leaves through the sunlit top face.
+    // x1e6 in nimbus stress's cumulus. All the light the box takes from the beam still leaves.
     const SunlitBox b;
-    const vec3 e = b.box.extent();
-    const double top = std::abs(b.sunDir.y) * e.x * e.z;
     for (float sigma : {4.0f, 400.0f, 4e4f, 4e6f}) {
         const DiffusionVolume dv = b.solve(sigma, 0.0f, 20000);
         float largest = 0.0f;
@@ -190,7 +193,8 @@ TEST(Diffusion, FluenceStaysBoundedInVoxelsAMillionMeanFreePathsThick) {
         EXPECT_LE(largest, 5.0f) << "sigma " << sigma; // (3 + 2) E
         if (sigma >= 400.0f) {
             const double out = b.outflow(dv, sigma * 0.5f);
-            EXPECT_NEAR(out / top, 1.0, 0.02) << "sigma " << sigma << ": out " << out;
+            const double seen = beamLoss(b.box, b.sunDir, sigma);
+            EXPECT_NEAR(out / seen, 1.0, 0.02) << "sigma " << sigma << ": out " << out;
         }
     }
 }

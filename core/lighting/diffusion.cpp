@@ -54,20 +54,37 @@ vec3 DiffusionVolume::sample(vec3 p, vec3 grad[3]) const {
     return glm::mix(c0, c1, f.z);
 }
 
-/// The first-scattered sun light per unit volume and irradiance, averaged over a voxel of density
-/// rho whose centre lies at density integral tauC from the sun and which the sun's path crosses
-/// over a length L: sigma_s / sigma_t (e^{-sigma_t tau_in} - e^{-sigma_t tau_out}) / L.
-static vec3 sunSource(vec3 sigmaS, vec3 sigmaT, float rho, float tauC, float L) {
-    const float tauIn = std::max(0.0f, tauC - 0.5f * rho * L);
-    vec3 q;
-    for (int c = 0; c < 3; ++c) {
-        const float b = sigmaT[c] * rho * L; // optical depth across the voxel
-        const float in = std::exp(-sigmaT[c] * tauIn);
-        // (1 - e^-b) / b -> 1 - b / 2 as b -> 0
-        const float share = b > 1e-4f ? -std::expm1(-b) / b : 1.0f - 0.5f * b;
-        q[c] = sigmaS[c] * rho * in * share;
+/// The power the sun's beam leaves in voxel q (index i) per unit irradiance: the beam's net
+/// flux through the voxel's six faces, (w . n) A T summed with its sign: in through the faces
+/// toward the sun, out through the others. A face's transmittance T = e^{-sigma* tau} is that of
+/// the voxel on its sun side, the density integral at that voxel's centre plus its density over
+/// the half step l / 2 along the sun's path to the face, so that two neighbours read the same
+/// value for the face they share and the sources of all voxels add up to what the beam loses in
+/// the grid (a face of the grid's box toward the sun lets in the whole beam: no density lies
+/// outside it; a voxel that takes no part in the solve counts as empty space, its density
+/// integral aside). sigmaStar is the beam's extinction per unit density (the forward peak kept
+/// in it taken out).
+static vec3 sunFaceFlux(const LightVolume& geo, ivec3 q, size_t i, const std::vector<float>& rho,
+                        const std::vector<int>& active, const std::vector<float>& tauSun,
+                        vec3 sunDir, vec3 sigmaStar, float halfPath) {
+    vec3 net(0.0f);
+    for (int f = 0; f < 6; ++f) {
+        const int a = f / 2;
+        const float wn = ((f & 1) ? 1.0f : -1.0f) * sunDir[a]; // w . n, n the face's outward normal
+        if (wn == 0.0f) continue;
+        float tau = tauSun[i] + rho[i] * halfPath; // leaving: this voxel is on the sun side
+        if (wn > 0.0f) {
+            ivec3 qn;
+            tau = 0.0f; // the face of the grid's box toward the sun
+            if (faceNeighbour(geo.res, q, f, qn)) {
+                const size_t j = voxelIndex(geo.res, qn.x, qn.y, qn.z);
+                tau = tauSun[j] + (active[j] >= 0 ? rho[j] * halfPath : 0.0f);
+            }
+        }
+        const float A = geo.voxel[(a + 1) % 3] * geo.voxel[(a + 2) % 3];
+        net += wn * A * glm::exp(-sigmaStar * tau);
     }
-    return q;
+    return glm::max(net, vec3(0.0f));
 }
 
 static vec3 boundaryResistance(vec3 r) {
@@ -108,10 +125,15 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     const vec3 skyMean = kFourPi * 0.5f * (p.skyUp + p.skyDown);
     const float V = geo.voxel.x * geo.voxel.y * geo.voxel.z;
     // the length of the sun's path across a voxel (along the dominant axis, as the light volume
-    // propagates it)
+    // propagates it: its centres hold the density integral to half of it)
     const vec3 ad = glm::abs(p.sunDirection);
     const int sa = ad.x >= ad.y && ad.x >= ad.z ? 0 : (ad.y >= ad.z ? 1 : 2);
     const float sunPath = geo.voxel[sa] / std::max(ad[sa], 1e-6f);
+    // the sun's beam: its extinction with the forward peak kept in it, and the share of what it
+    // loses that scatters into the diffuse field
+    const vec3 sigmaStar = sigmaT - p.forwardFraction * p.sigma_s;
+    const vec3 albedoStar =
+        p.sigma_s * (1.0f - p.forwardFraction) / glm::max(sigmaStar, vec3(1e-30f));
 
     // the voxels with density, coloured red/black by the parity of x + y + z; a voxel whose
     // diffusion resistance is below kDiffusionMinResistance along every axis and in every
@@ -162,14 +184,13 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
         // h / 2D = 1.5 h sigma_t' per axis
         const vec3 sTr = sigmaTr * rho[i];
         vec3 diag = p.sigma_a * rho[i] * V, rhs(0.0f), sunQ(0.0f);
+        const ivec3 q(x, y, z);
         if (sun) {
-            sunQ = p.sunIrradiance *
-                   sunSource(p.sigma_s * (1.0f - p.forwardFraction),
-                             sigmaT - p.forwardFraction * p.sigma_s, rho[i], tauSun[i], sunPath) *
-                   V;
+            sunQ = p.sunIrradiance * albedoStar *
+                   sunFaceFlux(geo, q, i, rho, active, tauSun, p.sunDirection, sigmaStar,
+                               0.5f * sunPath);
             rhs += sunQ;
         }
-        const ivec3 q(x, y, z);
         for (int f = 0; f < 6; ++f) {
             const int a = f / 2, b = (a + 1) % 3, cc = (a + 2) % 3;
             const float h = geo.voxel[a], A = geo.voxel[b] * geo.voxel[cc];

@@ -8,13 +8,16 @@
 /// similarity relation sigma_s' = sigma_s (1 - g) of van de Hulst for anisotropic scattering):
 ///   -div(D grad phi) + sigma_a phi = Q,   D = 1 / (3 sigma_t'),   sigma_t' = sigma_a + sigma_s',
 /// Q = sigma_s E_sun e^{-sigma_t tau_sun}, the sun light scattered for the first time (the
-/// single scattering itself is integrated exactly by march), averaged over each voxel along the
-/// sun's path across it (the light volume's step l along its dominant axis, half of which the
-/// centre's tau holds): Q = sigma_s E e^{-sigma_t tau} sinh(x) / x, x = sigma_t rho l / 2, the
-/// same as at the centre in thin voxels. Taken at the centre, a voxel many mean free paths thick
-/// lost nearly all of it: the sun's light scatters within its first mean free path. Taken at the
-/// centre instead, a voxel many mean free paths thick lost nearly all its source: the sun's light
-/// scatters in its first mean free path. Finite volumes on the voxel grid; between two voxels the
+/// single scattering itself is integrated exactly by march). A voxel's source is what the sun's
+/// beam loses in it, taken from the beam's net flux through its six faces (in through those
+/// toward the sun, out through the others), a face's transmittance that of the voxel on its sun
+/// side: neighbours read the same value for the face they share, so the sources add up to the
+/// power the beam loses in the grid, whichever faces the light comes in through. A voxel many
+/// mean free paths thick holds the light its lit faces let in, where a value at its centre
+/// (e^{-sigma_t tau}, the sun's light scatters in its first mean free path) held almost none,
+/// and a source along the light volume's dominant axis alone missed the light entering through
+/// the faces beside it (29-66% of the power kept on the matrix's thick front-lit clouds,
+/// docs/accuracy.md). Finite volumes on the voxel grid; between two voxels the
 /// flux is (phi_i - phi_j) / (h / 2D_i + h / 2D_j); a face toward empty space takes Marshak's
 /// boundary condition with the sky's radiance L_sky seen through that face as the incoming partial
 /// current, which gives the flux (phi_i - 4 pi L_sky) / (h / 2D_i + 2). An albedo-1 medium under a
