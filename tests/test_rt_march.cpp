@@ -1148,7 +1148,7 @@ TEST(RtSkip, DefaultSceneBitIdentical) {
     EXPECT_EQ(r.differing, 0u);
 }
 
-// smoke1 as it ships (the diffusion grid, 8 octaves; the shared data folder).
+// smoke1 as it ships (the diffusion grid; the shared data folder).
 TEST(RtSkip, Smoke1BitIdentical) {
     if (!sharedSmoke1Here())
         GTEST_SKIP() << "shared VDB folder " << kSharedVdb
