@@ -312,9 +312,13 @@ std::string FramePlan::explain() const {
                                        : std::string()) +
                     (photonSky ? std::string(" (render.photons shared between the sun and the "
                                              "sky by their power)")
-                     : diffusionOnPhotonGrid()
+                     : diffusionSharesPhotonGrid()
                          ? "; sky: diffusion on the photons' grid (finer than the "
                            "light-volume grid)" +
+                               diffusionMB
+                     : diffusionOnPhotonGrid()
+                         ? "; sky: diffusion on a grid of voxel " + std::to_string(diffusionCell) +
+                               " (finer than the light-volume grid, coarser than the photons')" +
                                diffusionMB
                          : "; sky: diffusion on the light-volume grid" + diffusionMB)
           : diffusion ? "diffusion solved on the light-volume grid (sun and sky)" + diffusionMB
@@ -477,6 +481,7 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
     }
     p.cloudTau = d.meanTau;
     p.cloudVolume = d.occupiedVolume;
+    p.cloudHitFraction = d.rays > 0 ? double(d.hits) / d.rays : 1.0;
     return true;
 }
 
@@ -533,28 +538,51 @@ float finestCellScale(const FramePlan& p, float cell, float lo, float hi, double
 }
 
 /// render.photon_cell_scale = 0: the photons' voxel, in light-volume cells, from the cloud's
-/// occupied volume: the finest of 1/4, 1/2, 1, 2 and 4 at which the cloud holds no more than
-/// render.photons / kPhotonsPerCell voxels (the noise of a voxel's estimate falls with the
-/// photons that cross it, not with their scatterings there, which are correlated: counting
-/// those made deep clouds' voxels finer and their flicker twice as large; docs/accuracy.md,
-/// "Photons where the cloud is thin or medium", "The sky's grid on the photons' voxel").
+/// occupied volume, the finer of two rules (docs/accuracy.md, "Photons where the cloud is thin
+/// or medium", "The sky's grid on the photons' voxel", "The photons' voxel and the density they
+/// are tracked through"):
+/// - by the photons leaving the sun (stop 45): the finest of 1/4, 1/2 ... 4 at which the cloud
+///   holds no more than render.photons / kPhotonsPerCell voxels (the noise of a voxel's estimate
+///   falls with the photons that cross it, not with their scatterings there, which are
+///   correlated: counting those made deep clouds' voxels finer and their flicker twice as
+///   large);
+/// - by the photons reaching the cloud (render.photons times the share of the rays along the sun
+///   over the bounds that meet density): the finest of 1/8 ... 4 at which it holds no more than
+///   that / kPhotonsReachingPerCell. A voxel of a quarter cell (one VDB voxel at the suite's
+///   step) left the medium backlit rows 16-28% off; an eighth brought most within 9-13%. A
+///   small cloud in wide bounds (daichi_smoke: 1% of the rays) is reached by few photons and
+///   keeps the first rule's voxel.
 constexpr double kPhotonsPerCell = 256.0;
+constexpr float kCountCellFinest = 0.25f;
+constexpr double kPhotonsReachingPerCell = 20.0;
+constexpr float kPhotonCellFinest = 0.125f;
+
+/// The first rule above, in light-volume cells (the measured cloud's).
+float countCellScale(const SceneDesc& s, const FramePlan& p) {
+    return finestCellScale(p, p.lightVolumeCell, kCountCellFinest, 4.0f,
+                           double(s.render.photons) / kPhotonsPerCell, [](float) { return true; });
+}
+
 float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
     std::string why;
     if (!measureCloud(s, bindings, p, why) || !(p.cloudVolume > 0.0)) {
         p.photonCellNote = "the light-volume cell (" + why + ")";
         return 1.0f;
     }
-    const double budget = double(s.render.photons) / kPhotonsPerCell;
-    const float scale =
-        finestCellScale(p, p.lightVolumeCell, 0.25f, 4.0f, budget, [](float) { return true; });
+    const double reaching = double(s.render.photons) * p.cloudHitFraction;
+    const float byReach =
+        finestCellScale(p, p.lightVolumeCell, kPhotonCellFinest, 4.0f,
+                        reaching / kPhotonsReachingPerCell, [](float) { return true; });
+    const float scale = std::min(countCellScale(s, p), byReach);
     const double voxels = cloudCells(p, double(p.lightVolumeCell) * scale);
-    char buf[200];
+    char buf[240];
     std::snprintf(buf, sizeof buf,
-                  "%g light-volume cells: the cloud fills %.3g of them, %.3g photons each (at "
-                  "least %g wanted)",
+                  "%g light-volume cells: the cloud fills %.3g of them, %.3g photons each, %.3g "
+                  "of them reaching it (%.0f%% of the rays along the sun meet it; at least %g "
+                  "leaving or %g reaching wanted)",
                   double(scale), voxels, double(s.render.photons) / std::max(voxels, 1.0),
-                  kPhotonsPerCell);
+                  reaching / std::max(voxels, 1.0), 100.0 * p.cloudHitFraction, kPhotonsPerCell,
+                  kPhotonsReachingPerCell);
     p.photonCellNote = buf;
     return scale;
 }
@@ -685,11 +713,16 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                                                 ? s.render.photonCellScale
                                                 : autoPhotonCellScale(s, bindings, p));
     // the sky alone in the diffusion grid (photons carry the sun to the end; with sky photons
-    // and no hand-off there is no grid): on the photons' grid where it is finer (the cloud's
-    // size decides it, autoPhotonCellScale)
+    // and no hand-off there is no grid): on a finer grid where the cloud is small, the photons'
+    // voxel but no finer than their first rule gives (countCellScale): on the photons' finest
+    // voxels the sky at albedo 0.9 came out too bright again (mean ratios up to 1.13)
     p.diffusionCell = p.lightVolumeCell;
     if (p.diffusion && p.photons && p.photonBounces == 0 && p.photonCell < p.lightVolumeCell)
-        p.diffusionCell = p.photonCell;
+        p.diffusionCell =
+            std::min(p.lightVolumeCell,
+                     std::max(p.photonCell, s.render.photonCellScale > 0.0f || !p.cloudMeasured()
+                                                ? p.photonCell
+                                                : p.lightVolumeCell * countCellScale(s, p)));
     if (p.skySingle) p.skyDirections = std::clamp(s.render.skyDirections, 1, kMaxSkyDirections);
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
@@ -723,15 +756,16 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         p.lightGridBytes = double(res.x) * res.y * res.z * p.lightGrids * sizeof(float);
     }
     if (p.photons && !bounds.empty()) {
-        // the photon grid, the density grid they are tracked through (cells of half the
-        // majorant grid's smallest, as buildMajorantGrid sizes them) and the hand-off's sums
-        // (core/lighting/photons.h); the light-volume grid's densities they share are counted
-        // with the light grids
+        // the photon grid, the density grid they are tracked through (photonTrackingCell, from
+        // the majorant grid's smallest cell as buildMajorantGrid sizes them and the photons'
+        // voxel) and the hand-off's sums (core/lighting/photons.h); the light-volume grid's
+        // densities they share are counted with the light grids
         const vec3 ext = bounds.extent();
         const float majorantMin = minComponent(ext / vec3(majorantResolution(ext, p.majorantCell)));
+        p.photonTrackingCell = photonTrackingCell(bounds, majorantMin, p.photonCell);
         const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.photonGridBytes =
-            photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), majorantMin,
+            photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), p.photonTrackingCell,
                         p.photonsOwnGrid(), p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
     }
     if (p.diffusion && !bounds.empty()) {
@@ -742,6 +776,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                                   ? std::min(n, p.cloudVolume / (double(v.x) * v.y * v.z))
                                   : n;
         p.diffusionBytes = diffusionBytes(res, active, p.photons && p.photonBounces > 0);
+        // a grid of its own (finer than the light-volume grid, coarser than the photons'):
+        // its densities
+        if (p.diffusionOnPhotonGrid() && !p.diffusionSharesPhotonGrid())
+            p.diffusionBytes += n * sizeof(float);
     }
     checkBounds(s, bounds, p);
     // motion blur: only with the shutter open and something placed that moves

@@ -59,6 +59,9 @@ struct FramePlan {
     /// it fills
     double cloudTau = -1.0;
     double cloudVolume = 0.0;
+    /// the share of the rays along the sun over the field's bounds that meet density (about the
+    /// share of the sun's photons that reach the cloud)
+    double cloudHitFraction = 1.0;
     bool cloudMeasured() const { return cloudTau >= 0.0; }
     std::string photonCellNote; ///< render.photon_cell_scale = 0: the voxel chosen and why
     /// "auto" chose the grid and render.light_volume_cell is 0: the light-volume cell refined
@@ -69,6 +72,10 @@ struct FramePlan {
     /// per-thread sums of the voxels that record; with the hand-off its sums and source on the
     /// light-volume grid too; 0 while a VDB field is unread)
     float photonCell = 0.0f;
+    /// the cell of the density grid photons are tracked through, as the plan estimates it from
+    /// the majorant cell (photonTrackingCell; tracePhotons takes the majorant grid's own cell;
+    /// 0 while a VDB field is unread)
+    float photonTrackingCell = 0.0f;
     double photonGridBytes = 0.0;
     /// the diffusion solve's memory (core/lighting/diffusion.h, diffusionBytes) on its grid:
     /// the voxels with density counted from the cloud's measured volume, or all of them where
@@ -76,13 +83,19 @@ struct FramePlan {
     double diffusionBytes = 0.0;
     /// photons record on a grid of their own, not on the light-volume grid
     bool photonsOwnGrid() const { return photons && photonCell != lightVolumeCell; }
-    /// the diffusion grid's voxel (world units): the light-volume cell, or the photons' finer
-    /// one where photons carry the sun to the end (no hand-off) and the grid the sky alone; a
-    /// few cells across a small cloud made its sky too bright at albedo < 1 (docs/accuracy.md,
-    /// "The sky's grid on the photons' voxel")
+    /// the diffusion grid's voxel (world units): the light-volume cell, or a finer one where
+    /// photons carry the sun to the end (no hand-off) and the grid the sky alone: the photons'
+    /// voxel, no finer than the photons' first rule gives (countCellScale in plan.cpp); a few cells
+    /// across a small cloud made its sky too bright at albedo < 1 (docs/accuracy.md, "The sky's
+    /// grid on the photons' voxel"), a sky grid as fine as the photons' finest voxels too bright
+    /// again ("The photons' voxel and the density they are tracked through")
     float diffusionCell = 0.0f;
-    /// the diffusion is solved on the photons' own grid (its densities, no sun source)
+    /// the diffusion is solved on a finer grid than the light-volume grid (its densities, no
+    /// sun source): the photons' own grid (diffusionSharesPhotonGrid) or one of its own
     bool diffusionOnPhotonGrid() const { return diffusion && diffusionCell != lightVolumeCell; }
+    bool diffusionSharesPhotonGrid() const {
+        return diffusionOnPhotonGrid() && photonsOwnGrid() && diffusionCell == photonCell;
+    }
     /// photons: the scatterings they are traced through before the diffusion grid takes their
     /// light as its source (render.photon_bounces; 0 = traced to render.max_depth, the grid
     /// carries only the sky)

@@ -212,39 +212,53 @@ TEST(AutoMultipleScattering, NoSunKeepsTheGrid) {
 }
 
 TEST(AutoMultipleScattering, PhotonVoxelFollowsTheCloudsSize) {
-    // render.photon_cell_scale = 0 (the default): the finest of 1/4 ... 4 light-volume cells at
-    // which the cloud fills at most photons / 256 voxels
+    // render.photon_cell_scale = 0 (the default): the finer of two rules over 1/8 ... 4
+    // light-volume cells: the finest (not below 1/4) at which the cloud fills at most
+    // photons / 256 voxels, and the finest (not below 1/8) at which it fills at most
+    // photons x the share of the rays along the sun that meet it / 20 voxels
     SceneDesc s = boxAtDepth(1.0f);
     s.render.multipleScattering = MultipleScattering::Photons;
     s.render.lightVolumeCell = 0.1f; // the box: 20^3 cells
-    s.render.photons = 2000000;      // 7,812 voxels: 1 cell (8,000) is too many, 2 cells fit
+    s.render.photons = 2000000;      // 7,812 voxels by the count; 100,000 by the photons reaching
     FramePlan p = planFrame(s, 1);
-    EXPECT_FLOAT_EQ(p.photonCell, 0.2f);
-    EXPECT_NE(p.explain().find("at least 256 wanted"), std::string::npos) << p.explain();
-    s.render.photons = 2100000; // 8,203 voxels: the light-volume cell itself (8,000)
-    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.1f);
-    s.render.photons = 1 << 30; // as fine as 1/4 cell, no finer
-    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.025f);
+    EXPECT_NEAR(p.cloudHitFraction, 1.0, 0.05) << "the box fills its bounds";
+    EXPECT_FLOAT_EQ(p.photonCell, 0.05f); // 64,000 voxels; 1/4 would be 512,000
+    EXPECT_NE(p.explain().find("at least 256 leaving or 20 reaching wanted"), std::string::npos)
+        << p.explain();
+    s.render.photons = 1 << 30; // as fine as 1/8 cell, no finer
+    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.0125f);
     s.render.photons = 1000; // as coarse as 4 cells
     EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.4f);
+    s.render.photons = 40000; // 2,000 reaching: 2 cells (1,000); 156 by the count: 4 cells
+    EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.2f);
     s.render.photonCellScale = 0.5f; // named: taken as it is
     EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.05f);
 }
 
 TEST(AutoMultipleScattering, SkyGridOnThePhotonsFinerVoxel) {
-    // photons carry the sun to the end, the diffusion grid the sky alone: on the photons' grid
-    // where it is finer than the light-volume grid, on the light-volume grid otherwise
+    // photons carry the sun to the end, the diffusion grid the sky alone: on a grid finer than
+    // the light-volume grid where the cloud is small, by the photons' rule of stop 45 (at least
+    // 1/4 cell, 256 photons a voxel): the photons' own grid where theirs is that voxel, a grid
+    // of its own where the photons' voxel is finer still; the light-volume grid otherwise
     SceneDesc s = boxAtDepth(8.0f);
     s.sky.kind = SkyKind::Uniform;
     s.sky.zenith = vec3(0.7f, 1.0f, 1.3f);
     s.render.lightVolumeCell = 0.1f;
-    s.render.photons = 16800000; // 65,625 voxels: half a light-volume cell (40^3 on the box)
+    s.render.photons = 16800000; // 65,625 voxels by the count: half a cell (40^3 on the box)
     FramePlan p = planFrame(s, 1);
     ASSERT_TRUE(p.photons);
     ASSERT_TRUE(p.diffusion);
+    EXPECT_FLOAT_EQ(p.photonCell, 0.025f); // 840,000 photons reaching: a quarter cell
     EXPECT_FLOAT_EQ(p.diffusionCell, 0.05f);
     EXPECT_TRUE(p.diffusionOnPhotonGrid());
+    EXPECT_FALSE(p.diffusionSharesPhotonGrid());
     EXPECT_FALSE(p.densityGrid); // nothing read on the light-volume grid
+    EXPECT_NE(p.explain().find("sky: diffusion on a grid of voxel 0.05"), std::string::npos)
+        << p.explain();
+    s.render.photonCellScale = 0.5f; // named: the sky on the photons' grid
+    p = planFrame(s, 1);
+    EXPECT_FLOAT_EQ(p.diffusionCell, 0.05f);
+    EXPECT_TRUE(p.diffusionSharesPhotonGrid());
     EXPECT_NE(p.explain().find("sky: diffusion on the photons' grid"), std::string::npos)
         << p.explain();
     s.render.photonCellScale = 2.0f; // photons coarser: the grid stays on its own cell
@@ -254,22 +268,33 @@ TEST(AutoMultipleScattering, SkyGridOnThePhotonsFinerVoxel) {
     EXPECT_FLOAT_EQ(planFrame(s, 1).diffusionCell, 0.1f);
     s.render.photonBounces = 0;
 
-    // the white furnace on the finer grid: albedo 1 under a uniform sky gives L (1 - T) in
+    // the white furnace on both finer grids: albedo 1 under a uniform sky gives L (1 - T) in
     // every pixel (a sun of 1e-6 keeps the photons, and adds nothing visible)
     s.sun.irradiance = vec3(1e-6f);
+    auto furnace = [&](const SceneDesc& sc) {
+        const Framebuffer fb = renderScene(sc, nullptr, AovSet{true, false});
+        int cloudy = 0;
+        for (int i = 0; i < fb.width * fb.height; ++i) {
+            cloudy += fb.transmittance[3 * i] < 0.5f;
+            for (int c = 0; c < 3; ++c) {
+                const float expect = sc.sky.zenith[c] * (1.0f - fb.transmittance[3 * i + c]);
+                ASSERT_NEAR(fb.rgba[4 * i + c], expect, 2e-3f * sc.sky.zenith[c])
+                    << "pixel " << i << " channel " << c;
+            }
+        }
+        EXPECT_GT(cloudy, 20) << "the furnace must look through the box";
+    };
     s.render.photons = 20000;
     s.render.photonCellScale = 0.5f;
+    ASSERT_TRUE(planFrame(s, 1).diffusionSharesPhotonGrid());
+    furnace(s);
+    // cells of 0.4: the count's rule 0.2 (1,000 voxels), the photons reaching 0.1 (8,000)
+    s.render.lightVolumeCell = 0.4f;
+    s.render.photonCellScale = 0.0f;
+    s.render.photons = 300000;
     p = planFrame(s, 1);
-    ASSERT_TRUE(p.diffusionOnPhotonGrid());
-    const Framebuffer fb = renderScene(s, nullptr, AovSet{true, false});
-    int cloudy = 0;
-    for (int i = 0; i < fb.width * fb.height; ++i) {
-        cloudy += fb.transmittance[3 * i] < 0.5f;
-        for (int c = 0; c < 3; ++c) {
-            const float expect = s.sky.zenith[c] * (1.0f - fb.transmittance[3 * i + c]);
-            ASSERT_NEAR(fb.rgba[4 * i + c], expect, 2e-3f * s.sky.zenith[c])
-                << "pixel " << i << " channel " << c;
-        }
-    }
-    EXPECT_GT(cloudy, 20) << "the furnace must look through the box";
+    ASSERT_FLOAT_EQ(p.photonCell, 0.1f);
+    ASSERT_FLOAT_EQ(p.diffusionCell, 0.2f);
+    ASSERT_FALSE(p.diffusionSharesPhotonGrid());
+    furnace(s);
 }

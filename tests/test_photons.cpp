@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "core/lighting/photons.h"
 #include "core/render.h"
 #include "render_util.h"
 
@@ -196,7 +197,8 @@ TEST(Photons, ExplainedMemoryIsWhatTheTraceHolds) {
     // --explain's photon-grid size: on the light-volume grid (its densities counted with the
     // light grids, not again), on a grid of their own, and with the hand-off's sums; against the
     // bytes the trace held, from its arrays' sizes
-    for (const auto& [scale, bounces] : {std::pair{1.0f, 0}, {0.5f, 0}, {1.0f, 4}}) {
+    // (at 0.125 the density grid they are tracked through is finer too: their voxel)
+    for (const auto& [scale, bounces] : {std::pair{1.0f, 0}, {0.5f, 0}, {0.125f, 0}, {1.0f, 4}}) {
         SceneDesc s = smallCumulus();
         s.render.photons = 20000;
         s.render.photonCellScale = scale;
@@ -240,6 +242,31 @@ TEST(Photons, PhotonCellScaleGivesThemAGridOfTheirOwn) {
     EXPECT_NE(big.refusal.find("render.photon_cell_scale"), std::string::npos) << big.refusal;
     s.render.multipleScattering = MultipleScattering::Grid;
     EXPECT_FLOAT_EQ(Renderer(s).plan(1).photonCell, 0.0f) << "no photons, no photon grid";
+}
+
+TEST(Photons, TrackingGridFollowsAFinerVoxel) {
+    // photons are tracked through a density grid of half the majorant cell, or of their own
+    // voxel where that is finer, and never past 2^25 cells
+    const Box box{vec3(0.0f), vec3(8.0f, 4.0f, 8.0f)};
+    EXPECT_FLOAT_EQ(photonTrackingCell(box, 0.4f, 0.4f), 0.2f);
+    EXPECT_FLOAT_EQ(photonTrackingCell(box, 0.4f, 0.1f), 0.1f);
+    EXPECT_FLOAT_EQ(photonTrackingCell(box, 0.4f, 0.05f), 0.05f);
+    EXPECT_FLOAT_EQ(photonTrackingCell(box, 0.4f, 0.025f), 0.025f);
+    EXPECT_FLOAT_EQ(photonTrackingCell(box, 0.0f, 0.1f), 0.1f) << "no majorant grid: the voxel";
+    // 0.005 would be 2 G cells, 0.01 256 M: doubled to 0.02 (32 M), within the limit
+    const float c = photonTrackingCell(box, 0.4f, 0.005f);
+    EXPECT_FLOAT_EQ(c, 0.02f);
+    const ivec3 r = photonTrackingResolution(box, c);
+    EXPECT_LE(double(r.x) * r.y * r.z, kMaxTrackingVoxels);
+
+    // the plan says which cell the trace uses
+    SceneDesc s = smallCumulus();
+    s.render.photons = 20000;
+    s.render.photonCellScale = 0.125f;
+    const FramePlan p = Renderer(s).plan(1);
+    ASSERT_TRUE(p.photons);
+    EXPECT_FLOAT_EQ(p.photonTrackingCell, p.photonCell);
+    EXPECT_LT(p.photonTrackingCell, 0.5f * p.majorantCell);
 }
 
 TEST(Photons, HandOffToTheDiffusionGridKeepsTheirLight) {

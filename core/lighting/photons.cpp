@@ -104,8 +104,21 @@ vec3 PhotonVolume::sample(vec3 p) const {
     return sampleVoxelCentres(radiance, bounds.lo, res, voxel, p) * skin(p);
 }
 
-ivec3 photonTrackingResolution(const Box& bounds, float cell) {
-    return lightVolumeResolution(bounds, 0.5f * cell);
+ivec3 photonTrackingResolution(const Box& bounds, float trackingCell) {
+    return lightVolumeResolution(bounds, trackingCell);
+}
+
+float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell) {
+    float cell = majorantCell > 0.0f ? 0.5f * majorantCell : photonCell;
+    if (photonCell > 0.0f) cell = std::min(cell, photonCell);
+    const float coarsest = majorantCell > 0.0f ? 0.5f * majorantCell : cell;
+    auto voxels = [&](float c) {
+        const ivec3 r = lightVolumeResolution(bounds, c);
+        return double(r.x) * r.y * r.z;
+    };
+    while (cell < coarsest && voxels(cell) > kMaxTrackingVoxels)
+        cell = std::min(2.0f * cell, coarsest);
+    return cell;
 }
 
 double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
@@ -138,17 +151,18 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         (maxComponent(p.sunIrradiance) <= 0.0f && p.sky.kind == SkyKind::None) || rho.size() != n)
         return pv;
 
-    // photons read the density from a grid of half the majorant cell (or of the recording
-    // voxel without a majorant grid), filled once where the majorant grid has cloud and read
-    // trilinearly: a lookup there costs a few loads, not a field evaluation, and most of a
-    // photon's time is lookups. Its values are the field's own samples, so they keep to the
-    // same majorants (clamped where a trilinear footprint reaches over a cell's edge).
-    // (the majorant grid whenever there is one: march may leave a mostly full grid unused,
-    // but tracking always gains from the tighter bounds, as pathtrace does)
+    // photons read the density from a grid of half the majorant cell, or of the recording
+    // voxel where that is finer (photonTrackingCell), filled once where
+    // the majorant grid has cloud and read trilinearly: a lookup there costs a few loads, not a
+    // field evaluation, and most of a photon's time is lookups. Its values are the field's own
+    // samples, so they keep to the same majorants (clamped where a trilinear footprint reaches over
+    // a cell's edge). (the majorant grid whenever there is one: march may leave a mostly full grid
+    // unused, but tracking always gains from the tighter bounds, as pathtrace does)
     const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
     const vec3 ext = geo.bounds.extent();
-    const ivec3 fineRes = photonTrackingResolution(geo.bounds, mg ? minComponent(mg->cellSize)
-                                                                  : minComponent(geo.voxel));
+    const ivec3 fineRes = photonTrackingResolution(
+        geo.bounds, photonTrackingCell(geo.bounds, mg ? minComponent(mg->cellSize) : 0.0f,
+                                       minComponent(geo.voxel)));
     const vec3 fineVoxel = ext / vec3(fineRes);
     std::size_t fineLookups = 0;
     std::vector<float> fine =

@@ -103,12 +103,23 @@ struct PhotonVolume {
     vec3 sample(vec3 p) const;
 };
 
-/// The voxels per axis of the density grid photons are tracked through over `bounds`: cells of
-/// half `cell` (the majorant grid's smallest cell; the photon grid's voxel without one).
-ivec3 photonTrackingResolution(const Box& bounds, float cell);
+/// The voxels per axis of the density grid photons are tracked through over `bounds`, cells of
+/// `trackingCell` (photonTrackingCell chooses it).
+ivec3 photonTrackingResolution(const Box& bounds, float trackingCell);
+
+/// The cell of the density grid photons are tracked through: half the majorant grid's smallest
+/// cell `majorantCell` (the photon grid's voxel `photonCell` without a majorant grid, 0), or the
+/// photon voxel where that is finer, so that photons see the density at the resolution they
+/// record the light at; coarser again (by 2) while the grid over `bounds` would exceed
+/// kMaxTrackingVoxels. On the validation matrix's medium backlit rows, photons on voxels of
+/// half a VDB voxel tracked through cells of one VDB voxel were 16.1% and 12.8% off
+/// (blender_mantaflow, gaffer_fogsphere_small), through cells of their own voxel 10.4% and 9.0%
+/// (docs/accuracy.md, "The photons' voxel and the density they are tracked through").
+constexpr double kMaxTrackingVoxels = 33554432.0; // 2^25: 128 MiB of floats
+float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell);
 
 /// What FramePlan::photonGridBytes counts for photons on a grid of `res` voxels over `bounds`,
-/// tracked through cells of half `trackingCell`, with a density grid of their own or not and a
+/// tracked through cells of `trackingCell`, with a density grid of their own or not and a
 /// hand-off grid of `handOffVoxels` voxels (0: none): per photon-grid voxel an index, its
 /// density weight, the radiance and its filled copy (and a density), per tracking cell a density,
 /// per hand-off voxel its sums (three 64-bit integers) and its source (RGB). The sums of the voxels
