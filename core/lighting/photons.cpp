@@ -151,13 +151,13 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         (maxComponent(p.sunIrradiance) <= 0.0f && p.sky.kind == SkyKind::None) || rho.size() != n)
         return pv;
 
-    // photons read the density from a grid of half the majorant cell, or of the recording
-    // voxel where that is finer (photonTrackingCell), filled once where
-    // the majorant grid has cloud and read trilinearly: a lookup there costs a few loads, not a
-    // field evaluation, and most of a photon's time is lookups. Its values are the field's own
-    // samples, so they keep to the same majorants (clamped where a trilinear footprint reaches over
-    // a cell's edge). (the majorant grid whenever there is one: march may leave a mostly full grid
-    // unused, but tracking always gains from the tighter bounds, as pathtrace does)
+    // photons read the density from a grid of half the majorant cell, or of the recording voxel
+    // where that is finer (photonTrackingCell), filled once where the majorant grid has cloud and
+    // read trilinearly: a lookup there costs a few loads, not a field evaluation, and most of a
+    // photon's time is lookups. Its values are the field's own samples, so they keep to the same
+    // majorants (clamped where a trilinear footprint reaches over a cell's edge). (the majorant
+    // grid whenever there is one: march may leave a mostly full grid unused, but tracking always
+    // gains from the tighter bounds, as pathtrace does)
     const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
     const vec3 ext = geo.bounds.extent();
     const ivec3 fineRes = photonTrackingResolution(
