@@ -32,29 +32,48 @@ inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
 constexpr double kFourPi = 4.0 * 3.14159265358979;
 
 /// The rectangle that covers a box seen along -d (d: toward the light), on the plane through
-/// the box's centre: its axes u, v (an orthonormal frame with d) and its extent lo..hi along
-/// them.
+/// `origin`: its axes u, v (an orthonormal frame with d) and its
+/// extent lo..hi along them, relative to the origin.
 struct Footprint {
     vec3 u{0.0f}, v{0.0f};
     vec2 lo{0.0f}, hi{0.0f};
     float area() const { return (hi.x - lo.x) * (hi.y - lo.y); }
 };
 
-Footprint footprint(const Box& b, vec3 d) {
+Footprint footprint(const Box& b, vec3 d, vec3 origin) {
     Footprint f;
     f.u = kern::phaseDirection(d, 0.0f, 0.0f);
     f.v = glm::cross(d, f.u);
-    const vec3 centre = 0.5f * (b.lo + b.hi);
     f.lo = vec2(std::numeric_limits<float>::max());
     f.hi = vec2(-std::numeric_limits<float>::max());
     for (int c = 0; c < 8; ++c) {
         const vec3 q((c & 1) ? b.hi.x : b.lo.x, (c & 2) ? b.hi.y : b.lo.y,
                      (c & 4) ? b.hi.z : b.lo.z);
-        const vec2 uv(glm::dot(q - centre, f.u), glm::dot(q - centre, f.v));
+        const vec2 uv(glm::dot(q - origin, f.u), glm::dot(q - origin, f.v));
         f.lo = glm::min(f.lo, uv);
         f.hi = glm::max(f.hi, uv);
     }
     return f;
+}
+
+/// The box of the majorant grid's cells that hold density (bound above 0), within `outer`;
+/// `outer` without a grid or without such a cell. No density lies outside it, so photons aimed
+/// at its footprint alone are the ones that can meet the cloud: a small cloud in wide bounds
+/// (daichi_smoke: 1% of the rays along the sun over its bounds meet it) gets all of them.
+Box occupiedBox(const MajorantGrid* mg, const Box& outer) {
+    if (!mg || mg->cellCount() == 0) return outer;
+    ivec3 lo(std::numeric_limits<int>::max()), hi(-1);
+    for (int z = 0; z < mg->res.z; ++z)
+        for (int y = 0; y < mg->res.y; ++y)
+            for (int x = 0; x < mg->res.x; ++x)
+                if (mg->at(ivec3(x, y, z)) > 0.0f) {
+                    lo = glm::min(lo, ivec3(x, y, z));
+                    hi = glm::max(hi, ivec3(x, y, z));
+                }
+    if (hi.x < 0) return outer;
+    const Box occupied{mg->bounds.lo + vec3(lo) * mg->cellSize,
+                       mg->bounds.lo + vec3(hi + 1) * mg->cellSize};
+    return Box{glm::max(occupied.lo, outer.lo), glm::min(occupied.hi, outer.hi)};
 }
 
 /// The majorant segments of a walk with every bound scaled (an instance's density scale).
@@ -263,14 +282,17 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     for (float& v : norm) v = v * invRhoBar + kDensityFloor;
 
     // photons start on a plane on the light's side of the bounds, over the rectangle that
-    // covers the bounds seen from there; each carries the power of its share of it. The sun's
-    // and the sky's photons share p.photons in proportion to their power (the sky's from its
-    // radiance over 256 directions); every photon's weight is relative to the mean power per
+    // covers the box holding density seen from there; each carries the power of its share of it.
+    // The sun's and the sky's photons share p.photons in proportion to their power (the sky's from
+    // its radiance over 256 directions); every photon's weight is relative to the mean power per
     // photon, flux0, so that the fixed-point sums see weights about 1.
+    // (over the footprint of the box that holds density, occupiedBox, from outside the bounds,
+    // so that surfaces between the light and the cloud still stop them)
     const vec3 sunTo = glm::normalize(p.sunDirection);
-    const Footprint sunRect = footprint(geo.bounds, sunTo);
     const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
     const float radius = 0.5f * glm::length(geo.bounds.extent());
+    const Box emit = occupiedBox(mg, geo.bounds);
+    const Footprint sunRect = footprint(emit, sunTo, centre);
     const vec3 sunPower = p.sunIrradiance * sunRect.area();
     const bool skyOn = p.sky.kind != SkyKind::None && p.sky.ambient > 0.0f;
     const float skyGain = p.sky.ambient;
@@ -280,7 +302,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         for (int k = 0; k < kDirs; ++k) {
             const vec3 d = kern::fibonacciDirection(k, kDirs);
             skyPower += double(meanComponent(skyRadiance(p.sky, d)) * skyGain) *
-                        footprint(geo.bounds, d).area() * (kFourPi / kDirs);
+                        footprint(emit, d, centre).area() * (kFourPi / kDirs);
         }
     }
     const double sunMean = double(meanComponent(sunPower));
@@ -307,7 +329,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         // the sky: a uniform direction toward it, then a point of the rectangle seen from it
         const float z = 1.0f - 2.0f * rng.next();
         const vec3 d = kern::phaseDirection(vec3(0.0f, 0.0f, 1.0f), z, rng.next());
-        const Footprint f = footprint(geo.bounds, d);
+        const Footprint f = footprint(emit, d, centre);
         const float a = f.lo.x + (f.hi.x - f.lo.x) * rng.next();
         const float b = f.lo.y + (f.hi.y - f.lo.y) * rng.next();
         ray = Ray{centre + d * (radius + 1.0f) + a * f.u + b * f.v, -d};
