@@ -13,8 +13,9 @@
 /// the cell average of the in-scattered radiance int p(omega . omega_o) L_ms(x, omega) d omega
 /// of the light that has scattered at least once, omega_o the direction from the voxel centre to
 /// the camera (fixed per voxel: the camera is far from most voxels, and a voxel sees it under a
-/// small angle). Phi = E_sun A / N is each photon's flux through the sun-facing area A of the
-/// bounds. No spherical-harmonic truncation: the phase function is evaluated exactly, so forward
+/// small angle). Phi = E_sun A / N is each photon's flux through A, the area of the rectangle
+/// that covers the box holding density (the majorant grid's cells above 0) seen from the sun.
+/// No spherical-harmonic truncation: the phase function is evaluated exactly, so forward
 /// peaks and the Mie table's features are kept. The first scattering is left to march, which
 /// integrates single scattering exactly; march adds sigma_s rho S(x) to it.
 ///
