@@ -413,17 +413,16 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         if (out.hasPhotons && !out.photons.source.empty()) dp.source = &out.photons.source;
         // the sky alone on a finer grid (FramePlan::diffusionCell; no sun source): the photons'
         // own, or one of its own where the photons' voxel is finer still
-        if (plan.diffusionOnPhotonGrid() && !plan.diffusionSharesPhotonGrid()) {
+        if (plan.diffusionSharesPhotonGrid()) {
+            out.diffusion = solveDiffusion(own, ownRho, {}, dp);
+        } else if (plan.diffusionOnPhotonGrid()) {
             std::vector<float> skyRho;
             const LightVolume skyGrid = densityGrid(field, plan.diffusionCell, g, skyRho, cancel);
             out.diffusion = solveDiffusion(skyGrid, skyRho, {}, dp);
             out.diffusion.bytes += double(skyRho.size() * sizeof(float));
         } else {
-            out.diffusion =
-                plan.diffusionOnPhotonGrid()
-                    ? solveDiffusion(own, ownRho, {}, dp)
-                    : solveDiffusion(volumes.front(), rho,
-                                     towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
+            out.diffusion = solveDiffusion(
+                volumes.front(), rho, towardVolume ? towardVolume->tau : std::vector<float>{}, dp);
         }
         out.hasDiffusion = true;
         stats.diffusionSeconds = secondsSince(t0);

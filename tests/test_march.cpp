@@ -257,6 +257,16 @@ TEST(March, StepWalkVisitsTheEdgesOfEmptyStretches) {
     EXPECT_EQ(walk(EdgeSteps::kFromStart, 4.95), fromStart);
 }
 
+TEST(March, MajorantGridKnowsTheBoxThatHoldsDensity) {
+    // cells 2, 3 and 6 of 8 hold density: [2, 7] x [0, 1] x [0, 1]; none: an empty box
+    MajorantGrid g = threeCellGrid();
+    const Box b = g.occupiedBounds();
+    EXPECT_EQ(b.lo, vec3(2.0f, 0.0f, 0.0f));
+    EXPECT_EQ(b.hi, vec3(7.0f, 1.0f, 1.0f));
+    g.maj.assign(g.maj.size(), 0.0f);
+    EXPECT_TRUE(g.occupiedBounds().empty());
+}
+
 TEST(March, MajorantIteratorGivesKnownSpans) {
     // 8 x 1 x 1 cells over [0,8] x [0,1] x [0,1]; cells 2, 3 and 6 hold density
     const MajorantGrid g = threeCellGrid();

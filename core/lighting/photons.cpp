@@ -32,8 +32,8 @@ inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
 constexpr double kFourPi = 4.0 * 3.14159265358979;
 
 /// The rectangle that covers a box seen along -d (d: toward the light), on the plane through
-/// `origin`: its axes u, v (an orthonormal frame with d) and its
-/// extent lo..hi along them, relative to the origin.
+/// `origin`: its axes u, v (an orthonormal frame with d) and its extent lo..hi along them,
+/// relative to the origin.
 struct Footprint {
     vec3 u{0.0f}, v{0.0f};
     vec2 lo{0.0f}, hi{0.0f};
@@ -54,26 +54,6 @@ Footprint footprint(const Box& b, vec3 d, vec3 origin) {
         f.hi = glm::max(f.hi, uv);
     }
     return f;
-}
-
-/// The box of the majorant grid's cells that hold density (bound above 0), within `outer`;
-/// `outer` without a grid or without such a cell. No density lies outside it, so photons aimed
-/// at its footprint alone are the ones that can meet the cloud: a small cloud in wide bounds
-/// (daichi_smoke: 1% of the rays along the sun over its bounds meet it) gets all of them.
-Box occupiedBox(const MajorantGrid* mg, const Box& outer) {
-    if (!mg || mg->cellCount() == 0) return outer;
-    ivec3 lo(std::numeric_limits<int>::max()), hi(-1);
-    for (int z = 0; z < mg->res.z; ++z)
-        for (int y = 0; y < mg->res.y; ++y)
-            for (int x = 0; x < mg->res.x; ++x)
-                if (mg->at(ivec3(x, y, z)) > 0.0f) {
-                    lo = glm::min(lo, ivec3(x, y, z));
-                    hi = glm::max(hi, ivec3(x, y, z));
-                }
-    if (hi.x < 0) return outer;
-    const Box occupied{mg->bounds.lo + vec3(lo) * mg->cellSize,
-                       mg->bounds.lo + vec3(hi + 1) * mg->cellSize};
-    return Box{glm::max(occupied.lo, outer.lo), glm::min(occupied.hi, outer.hi)};
 }
 
 /// The majorant segments of a walk with every bound scaled (an instance's density scale).
@@ -128,16 +108,15 @@ ivec3 photonTrackingResolution(const Box& bounds, float trackingCell) {
 }
 
 float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell) {
-    float cell = majorantCell > 0.0f ? 0.5f * majorantCell : photonCell;
-    if (photonCell > 0.0f) cell = std::min(cell, photonCell);
-    const float coarsest = majorantCell > 0.0f ? 0.5f * majorantCell : cell;
-    auto voxels = [&](float c) {
-        const ivec3 r = lightVolumeResolution(bounds, c);
-        return double(r.x) * r.y * r.z;
-    };
-    while (cell < coarsest && voxels(cell) > kMaxTrackingVoxels)
+    // without a majorant grid: the photons' voxel, whose grid they record on already
+    if (!(majorantCell > 0.0f)) return photonCell;
+    const float coarsest = 0.5f * majorantCell;
+    float cell = photonCell > 0.0f ? std::min(coarsest, photonCell) : coarsest;
+    for (;;) {
+        const ivec3 r = lightVolumeResolution(bounds, cell);
+        if (cell >= coarsest || double(r.x) * r.y * r.z <= kMaxTrackingVoxels) return cell;
         cell = std::min(2.0f * cell, coarsest);
-    return cell;
+    }
 }
 
 double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
@@ -281,17 +260,20 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     std::vector<float>& norm = mean;
     for (float& v : norm) v = v * invRhoBar + kDensityFloor;
 
-    // photons start on a plane on the light's side of the bounds, over the rectangle that
-    // covers the box holding density seen from there; each carries the power of its share of it.
-    // The sun's and the sky's photons share p.photons in proportion to their power (the sky's from
-    // its radiance over 256 directions); every photon's weight is relative to the mean power per
-    // photon, flux0, so that the fixed-point sums see weights about 1.
-    // (over the footprint of the box that holds density, occupiedBox, from outside the bounds,
-    // so that surfaces between the light and the cloud still stop them)
+    // photons start on a plane on the light's side of the bounds (so that surfaces between the
+    // light and the cloud still stop them), over the rectangle that covers the box holding
+    // density (MajorantGrid::occupiedBounds) seen from there: only photons aimed at it can meet
+    // the cloud, and a small cloud in wide bounds (daichi_smoke: 1% of the rays along the sun
+    // over its bounds meet it) gets all of them. Each carries the power of its share of that
+    // rectangle. The sun's and the sky's photons share p.photons in proportion to their power
+    // (the sky's from its radiance over 256 directions); every photon's weight is relative to
+    // the mean power per photon, flux0, so that the fixed-point sums see weights about 1.
     const vec3 sunTo = glm::normalize(p.sunDirection);
     const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
     const float radius = 0.5f * glm::length(geo.bounds.extent());
-    const Box emit = occupiedBox(mg, geo.bounds);
+    Box emit = mg ? mg->occupiedBounds() : Box{};
+    emit = emit.empty() ? geo.bounds
+                        : Box{glm::max(emit.lo, geo.bounds.lo), glm::min(emit.hi, geo.bounds.hi)};
     const Footprint sunRect = footprint(emit, sunTo, centre);
     const vec3 sunPower = p.sunIrradiance * sunRect.area();
     const bool skyOn = p.sky.kind != SkyKind::None && p.sky.ambient > 0.0f;

@@ -16,6 +16,19 @@ double MajorantGrid::emptyFraction() const {
     return double(n) / double(maj.size());
 }
 
+Box MajorantGrid::occupiedBounds() const {
+    ivec3 lo(std::numeric_limits<int>::max()), hi(-1);
+    for (int z = 0; z < res.z; ++z)
+        for (int y = 0; y < res.y; ++y)
+            for (int x = 0; x < res.x; ++x)
+                if (at(ivec3(x, y, z)) > 0.0f) {
+                    lo = glm::min(lo, ivec3(x, y, z));
+                    hi = glm::max(hi, ivec3(x, y, z));
+                }
+    if (hi.x < 0) return Box{};
+    return Box{bounds.lo + vec3(lo) * cellSize, bounds.lo + vec3(hi + 1) * cellSize};
+}
+
 void MajorantGrid::buildBlocks() {
     blockRes = (res + ivec3(kBlock - 1)) / kBlock;
     const size_t n = size_t(blockRes.x) * blockRes.y * blockRes.z;

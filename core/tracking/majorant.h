@@ -43,6 +43,9 @@ struct MajorantGrid {
     size_t cellCount() const { return maj.size(); }
     /// Fraction of cells whose bound is 0 (skippable).
     double emptyFraction() const;
+    /// The box of the cells whose bound is above 0: no density lies outside it. Empty (a
+    /// default Box) when no cell has one.
+    Box occupiedBounds() const;
 };
 
 /// Cells per axis of a majorant grid over an extent `ext` with cells of at most `cell`: at
