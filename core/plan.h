@@ -59,8 +59,8 @@ struct FramePlan {
     /// it fills
     double cloudTau = -1.0;
     double cloudVolume = 0.0;
-    /// the share of the rays along the sun over the field's bounds that meet density (about the
-    /// share of the sun's photons that reach the cloud)
+    /// the share of the rays along the sun over the box that holds density that meet it (about
+    /// the share of the sun's photons that reach the cloud: they leave over that box)
     double cloudHitFraction = 1.0;
     bool cloudMeasured() const { return cloudTau >= 0.0; }
     std::string photonCellNote; ///< render.photon_cell_scale = 0: the voxel chosen and why

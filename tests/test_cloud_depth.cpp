@@ -65,11 +65,40 @@ TEST(CloudDepth, OnlyTheRaysThatMeetDensityCount) {
     EXPECT_NEAR(double(d.hits) / d.rays, 0.25, 0.01);
     EXPECT_NEAR(d.meanTau, 2.0, 0.03);
     EXPECT_NEAR(d.occupiedVolume, 1.0, 0.03);
-    // nothing there: no hits, depth 0
+    // the box of the samples with density is the field's, grown by at most half the lattice's
+    // spacing (2/32) and clipped to the bounds
+    for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(d.occupiedBox.lo[a], 0.0f, 0.0625f) << a;
+        EXPECT_NEAR(d.occupiedBox.hi[a], 1.0f, 0.0625f) << a;
+        EXPECT_LE(d.occupiedBox.lo[a], 0.0f) << a << ": it holds every sample with density";
+        EXPECT_GE(d.occupiedBox.hi[a], 1.0f) << a;
+    }
+    EXPECT_NEAR(d.hitFraction(), 0.25, 0.01);
+    // nothing there: no hits, depth 0, no box
     const CloudDepth none =
         measureCloudDepth(boxField(field, 0.0f), bounds, vec3(0.0f, 1.0f, 0.0f), 1.0f, 0.02f);
     EXPECT_EQ(none.hits, 0);
     EXPECT_EQ(none.meanTau, 0.0);
+    EXPECT_TRUE(none.occupiedBox.empty());
+}
+
+TEST(CloudDepth, MeasuredAgainOverItsOccupiedBoxNearlyEveryRayHits) {
+    // a small cloud in wide bounds (daichi_smoke: 1% of the rays along the sun over its bounds
+    // meet it): the photons leave over the box holding density, and the plan measures the share
+    // of them that reach it over the box measureCloudDepth found (core/plan.cpp)
+    const Box cloud{vec3(0.5f, 0.2f, -1.0f), vec3(2.5f, 2.2f, 1.0f)};
+    const Box bounds{vec3(-4.0f), vec3(4.0f)};
+    const vec3 sun = glm::normalize(vec3(0.3f, 1.0f, 0.2f));
+    const Field f = boxField(cloud, 1.0f);
+    const CloudDepth wide = measureCloudDepth(f, bounds, sun, 1.0f, 0.02f);
+    EXPECT_LT(wide.hitFraction(), 0.1);
+    const CloudDepth tight = measureCloudDepth(f, wide.occupiedBox, sun, 1.0f, 0.02f);
+    // the box's projection along an oblique sun is a hexagon in a rectangle: the rays over the
+    // rectangle's corners miss, and the box grew by up to a lattice cell of the wide pass (0.43)
+    EXPECT_GT(tight.hitFraction(), 0.5);
+    RecordProperty("wide_hit_fraction", std::to_string(wide.hitFraction()));
+    RecordProperty("tight_hit_fraction", std::to_string(tight.hitFraction()));
+    EXPECT_NEAR(tight.meanTau, wide.meanTau, 0.1 * wide.meanTau) << "the same cloud";
 }
 
 TEST(CloudDepth, SameOnAnyThreadCount) {

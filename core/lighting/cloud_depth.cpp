@@ -20,7 +20,11 @@ RayDensity integrateDensity(const Field& field, const Ray& ray, float t0, float 
     for (int i = 0; i < r.steps; ++i) {
         const float rho = field.density(ray.at(float(t0 + (i + 0.5) * r.dt)));
         r.sum += rho;
-        r.occupied += rho > 0.0f;
+        if (rho > 0.0f) {
+            if (r.occupied == 0) r.first = i;
+            r.last = i;
+            ++r.occupied;
+        }
     }
     return r;
 }
@@ -58,6 +62,7 @@ CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 directi
         double tau = 0.0, occupied = 0.0;
         int hits = 0;
         std::size_t lookups = 0;
+        vec3 lo{std::numeric_limits<float>::max()}, hi{-std::numeric_limits<float>::max()};
     };
     std::vector<Row> rows(static_cast<size_t>(n));
     tbb::parallel_for(0, n, [&](int j) {
@@ -73,16 +78,27 @@ CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 directi
                 row.tau += rd.integral();
                 row.occupied += rd.occupiedLength();
                 ++row.hits;
+                // the first and last samples with density bound this ray's part of the box
+                const float grow = 0.5f * float(std::max({du, dv, rd.dt}));
+                for (int k : {rd.first, rd.last}) {
+                    const vec3 q = r.at(float(t0 + (k + 0.5) * rd.dt));
+                    row.lo = glm::min(row.lo, q - grow);
+                    row.hi = glm::max(row.hi, q + grow);
+                }
             }
         }
     });
     double tau = 0.0, occupied = 0.0;
+    vec3 lo{std::numeric_limits<float>::max()}, hi{-std::numeric_limits<float>::max()};
     for (const Row& row : rows) {
         tau += row.tau;
         occupied += row.occupied;
         out.hits += row.hits;
         out.lookups += row.lookups;
+        lo = glm::min(lo, row.lo);
+        hi = glm::max(hi, row.hi);
     }
+    if (out.hits > 0) out.occupiedBox = Box{glm::max(lo, bounds.lo), glm::min(hi, bounds.hi)};
     out.rays = n * n;
     if (out.hits > 0) out.meanTau = double(sigmaT) * tau / out.hits;
     out.occupiedVolume = occupied * du * dv;

@@ -21,6 +21,10 @@ struct CloudDepth {
     int rays = 0;                ///< rays cast
     int hits = 0;                ///< of those, rays that met density
     std::size_t lookups = 0;     ///< density lookups made
+    /// the box of the samples with density, each grown by half the larger of the lattice's
+    /// spacing and the step, within the bounds measured (empty when no ray hit)
+    Box occupiedBox;
+    double hitFraction() const { return rays > 0 ? double(hits) / rays : 0.0; }
 };
 
 /// The density integral of `field` along `ray` from t0 to t1 by the midpoint rule, in
@@ -31,6 +35,8 @@ struct RayDensity {
     double sum = 0.0; ///< the densities at the steps' midpoints, added up
     int occupied = 0; ///< steps whose midpoint has density > 0
     int steps = 0;    ///< n
+    int first = -1;   ///< the first step whose midpoint has density (-1: none)
+    int last = -1;    ///< the last one
     double dt = 0.0;  ///< the step's length
     double integral() const { return sum * dt; }
     double occupiedLength() const { return occupied * dt; }
