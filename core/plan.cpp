@@ -581,12 +581,11 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
                         reaching / kPhotonsReachingPerCell, [](float) { return true; });
     const float scale = std::min(countCellScale(s, p), byReach);
     const double voxels = cloudCells(p, double(p.lightVolumeCell) * scale);
-    char buf[240];
+    char buf[320];
     std::snprintf(buf, sizeof buf,
                   "%g light-volume cells: the cloud fills %.3g of them, %.3g photons each, %.3g "
                   "of them reaching it (%.0f%% of the rays along the sun over the box holding it "
-                  "meet it; at least %g "
-                  "leaving or %g reaching wanted)",
+                  "meet it; at least %g leaving or %g reaching wanted)",
                   double(scale), voxels, double(s.render.photons) / std::max(voxels, 1.0),
                   reaching / std::max(voxels, 1.0), 100.0 * p.cloudHitFraction, kPhotonsPerCell,
                   kPhotonsReachingPerCell);
