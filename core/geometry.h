@@ -41,6 +41,8 @@ struct Box {
         return p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y &&
                p.z <= hi.z;
     }
+    /// The part of this box inside `o` (empty() when they do not overlap).
+    Box within(const Box& o) const { return Box{glm::max(lo, o.lo), glm::min(hi, o.hi)}; }
 };
 
 /// Slab test; returns false when the ray misses. On a hit [t0, t1] is clipped to [tmin, tmax].

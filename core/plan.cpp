@@ -485,8 +485,11 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
     // of them that meet it is measured over that box, here the box of the samples with density
     // (the photons' is the majorant grid's, a little larger). Over the whole bounds a small
     // smoke in wide bounds (daichi_smoke) read 1%, and the voxel rule kept it coarse.
-    const CloudDepth o =
-        measureCloudDepth(f, d.occupiedBox, s.sun.direction, meanComponent(m.sigma_t), p.step);
+    // (where that box is the bounds, the same rays again: not cast twice)
+    const bool sameBox = d.occupiedBox.lo == f.bounds().lo && d.occupiedBox.hi == f.bounds().hi;
+    const CloudDepth o = sameBox ? d
+                                 : measureCloudDepth(f, d.occupiedBox, s.sun.direction,
+                                                     meanComponent(m.sigma_t), p.step);
     p.cloudHitFraction = o.hits > 0 ? o.hitFraction() : d.hitFraction();
     return true;
 }

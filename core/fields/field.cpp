@@ -131,7 +131,7 @@ float Field::density(vec3 p) const {
 }
 
 float Field::majorant(const Box& b) const {
-    const Box c{glm::max(b.lo, box.lo), glm::min(b.hi, box.hi)};
+    const Box c = b.within(box);
     if (c.lo.x > c.hi.x || c.lo.y > c.hi.y || c.lo.z > c.hi.z) return 0.0f;
     switch (kind) {
     case FieldKind::Homogeneous:
@@ -154,7 +154,7 @@ float Field::majorant(const Box& b) const {
 
 bool Field::tightMajorant(const Box& b, float& m) const {
     if (kind != FieldKind::Vdb) return false;
-    const Box c{glm::max(b.lo, box.lo), glm::min(b.hi, box.hi)};
+    const Box c = b.within(box);
     if (c.lo.x > c.hi.x || c.lo.y > c.hi.y || c.lo.z > c.hi.z) {
         m = 0.0f;
         return true;

@@ -98,7 +98,7 @@ CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 directi
         lo = glm::min(lo, row.lo);
         hi = glm::max(hi, row.hi);
     }
-    if (out.hits > 0) out.occupiedBox = Box{glm::max(lo, bounds.lo), glm::min(hi, bounds.hi)};
+    if (out.hits > 0) out.occupiedBox = Box{lo, hi}.within(bounds);
     out.rays = n * n;
     if (out.hits > 0) out.meanTau = double(sigmaT) * tau / out.hits;
     out.occupiedVolume = occupied * du * dv;

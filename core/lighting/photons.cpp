@@ -271,9 +271,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const vec3 sunTo = glm::normalize(p.sunDirection);
     const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
     const float radius = 0.5f * glm::length(geo.bounds.extent());
-    Box emit = mg ? mg->occupiedBounds() : Box{};
-    emit = emit.empty() ? geo.bounds
-                        : Box{glm::max(emit.lo, geo.bounds.lo), glm::min(emit.hi, geo.bounds.hi)};
+    const Box occupied = mg ? mg->occupiedBounds() : Box{};
+    const Box emit = occupied.empty() ? geo.bounds : occupied.within(geo.bounds);
     const Footprint sunRect = footprint(emit, sunTo, centre);
     const vec3 sunPower = p.sunIrradiance * sunRect.area();
     const bool skyOn = p.sky.kind != SkyKind::None && p.sky.ambient > 0.0f;
