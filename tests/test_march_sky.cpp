@@ -132,6 +132,25 @@ TEST(MarchSky, HalfSpaceUnderUniformSkyGivesTheClosedForm) {
     EXPECT_NEAR(meanRgb(fb) / expect, 1.0, 0.02) << meanRgb(fb) << " against " << expect;
 }
 
+TEST(MarchSky, SkyMarchedAtSystematicallyPickedSamplesIsUnbiased) {
+    // an optically thin box (0.5 mean free paths across) at steps of 1/200 of a mean free path:
+    // every sample's share of the ray's light is far below march.cpp's kSkyMarchShare, so only
+    // about one in eight marches the sky, weighted by the inverse of its chance; the image's
+    // mean must still be pathtrace's at max_depth = 1 (without the weight it is about 1/8)
+    SceneDesc base = skyBox(0.25f, 16);
+    base.render.step = 0.02f;
+    base.render.shadowStep = 0.02f;
+    double noise = 0.0;
+    const Framebuffer ref = pathtraceHalves(base, 4096, noise);
+    const Framebuffer fb = renderScene(withSky(base, SkyScattering::Single));
+    const ImageError e = imageError(fb, ref);
+    const double rel = withoutNoise(e.rmse, noise) / e.mean;
+    std::printf("thin box, picked samples: mean ratio %.4f, %.1f%% (reference noise %.1f%%)\n",
+                meanRgb(fb) / meanRgb(ref), 100.0 * rel, 100.0 * noise / e.mean);
+    EXPECT_NEAR(meanRgb(fb) / meanRgb(ref), 1.0, 0.03);
+    EXPECT_LT(rel, 0.1);
+}
+
 TEST(MarchSky, VolumeOnAFineGridMatchesPathtrace) {
     // fixed directions with their density integrals on a grid of voxels small against the mean
     // free path (0.15 of it): as good as the shadow marches here; on a grid of 1.2 mean free
