@@ -103,6 +103,12 @@ struct FramePlan {
     /// photons: the sky's light is traced by photons too (render.photon_sky); march adds the
     /// sky's single scattering itself and the diffusion grid has no sky boundary
     bool photonSky = false;
+    /// photonSky chosen by render.multiple_scattering = "auto" (the medium absorbs), not by the
+    /// key
+    bool photonSkyAuto = false;
+    /// photons traced per frame, the sun's and the sky's together: render.photons, twice that
+    /// when "auto" traces the sky too
+    std::int64_t photonCount = 0;
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;

@@ -377,7 +377,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.sunDirection = s.sun.direction;
         pp.sunIrradiance = plan.shadows ? s.sun.irradiance * s.render.msStrength : vec3(0.0f);
         pp.eye = s.camera.position;
-        pp.photons = s.render.photons;
+        pp.photons = plan.photonCount;
         pp.maxDepth = s.render.maxDepth;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
         if (plan.photonSky) pp.sky = s.sky;

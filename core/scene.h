@@ -415,6 +415,10 @@ struct RenderDesc {
     /// Photons: the sky's light traced by photons too (its orders above the first; march
     /// integrates its single scattering), so the diffusion grid keeps no sky boundary
     bool photonSky = false;
+    /// Not a key: whether multipleScattering = Auto may turn photonSky on by itself where the
+    /// medium absorbs (core/plan.cpp). The GLSL hosts (`nimbus rt`, `export-glsl`) clear it: the
+    /// GPU march has no shadow-marched sky.
+    bool autoPhotonSky = true;
     float msStrength = 1.0f;
     float msP1 = 1.0f;
     /// Sky light inside the medium: Height = darkened toward the base of the layer (v1);

@@ -326,3 +326,53 @@ TEST(AutoMultipleScattering, SkyGridOnThePhotonsFinerVoxel) {
     ASSERT_FALSE(p.diffusionSharesPhotonGrid());
     furnace(s);
 }
+
+TEST(AutoMultipleScattering, SkyByPhotonsWhereTheMediumAbsorbs) {
+    // "auto" choosing photons traces the sky by photons too where some channel's albedo is
+    // below 1 (the grid's sky is exact only at albedo 1) and the cloud's depth along the sun is
+    // above 4, with twice render.photons shared between the lights; not at albedo 1, not in a
+    // thin cloud, not under a named model, not for the GLSL hosts
+    SceneDesc s = boxAtDepth(8.0f);
+    s.sky.kind = SkyKind::Uniform;
+    s.render.photons = 30000;
+    FramePlan p = planFrame(s, 1);
+    ASSERT_TRUE(p.photons);
+    EXPECT_FALSE(p.photonSky);
+    EXPECT_TRUE(p.diffusion) << "the grid carries the sky at albedo 1";
+    EXPECT_EQ(p.photonCount, 30000);
+
+    s.medium.sigma_a = vec3(0.0f, 0.0f, 0.05f) * s.medium.sigma_s; // one channel absorbs
+    p = planFrame(s, 1);
+    EXPECT_TRUE(p.photonSky && p.photonSkyAuto && p.skySingle);
+    EXPECT_FALSE(p.diffusion) << "no grid: the photons carry the sky";
+    EXPECT_EQ(p.photonCount, 60000);
+    EXPECT_NE(p.explain().find("60000 photons shared between the sun and the sky"),
+              std::string::npos)
+        << p.explain();
+    RenderStats st;
+    renderScene(s, &st);
+    EXPECT_EQ(st.photonsTraced, 60000u);
+    EXPECT_GT(st.photonsFromSky, 0u);
+
+    SceneDesc thin = boxAtDepth(1.0f); // absorbing but thin: the grid's sky, as many photons
+    thin.sky.kind = SkyKind::Uniform;
+    thin.medium.sigma_a = s.medium.sigma_a;
+    thin.render.photons = 30000;
+    p = planFrame(thin, 1);
+    EXPECT_TRUE(p.photons && p.diffusion);
+    EXPECT_FALSE(p.photonSky);
+    EXPECT_EQ(p.photonCount, 30000);
+
+    s.render.autoPhotonSky = false; // nimbus rt, export-glsl
+    p = planFrame(s, 1);
+    EXPECT_FALSE(p.photonSky);
+    EXPECT_EQ(p.photonCount, 30000);
+    s.render.autoPhotonSky = true;
+    s.render.multipleScattering = MultipleScattering::Photons; // named: the key decides
+    EXPECT_FALSE(planFrame(s, 1).photonSky);
+    s.render.photonSky = true;
+    p = planFrame(s, 1);
+    EXPECT_TRUE(p.photonSky);
+    EXPECT_FALSE(p.photonSkyAuto);
+    EXPECT_EQ(p.photonCount, 30000) << "the key's photons, shared as documented";
+}

@@ -42,6 +42,8 @@ bool writeBytes(const std::string& path, const void* data, std::size_t n) {
 int runExportGlsl(const ExportGlslOptions& o) {
     host::Session session;
     if (int rc = loadScene(o.scene, o.overrides, -1, session)) return rc;
+    // the GPU march has no shadow-marched sky: "auto" keeps the grid's sky here (core/scene.h)
+    session.file().scene.render.autoPhotonSky = false;
     int frame = 0;
     if (o.frame) {
         frame = *o.frame;

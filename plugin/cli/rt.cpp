@@ -24,6 +24,8 @@ namespace nimbus::cli {
 int runRt(const RtOptions& o) {
     host::Session session;
     if (int rc = loadScene(o.scene, o.overrides, -1, session)) return rc;
+    // the GPU march has no shadow-marched sky: "auto" keeps the grid's sky here (core/scene.h)
+    session.file().scene.render.autoPhotonSky = false;
     if (!o.output.empty()) {
         if (o.output.size() < 4 || o.output.substr(o.output.size() - 4) != ".exr") {
             std::fprintf(stderr, "nimbus: error: rt: output path \"%s\" must end in .exr\n",
