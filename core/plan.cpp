@@ -608,9 +608,9 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
     return scale;
 }
 
-/// "auto" choosing the diffusion grid with render.light_volume_cell = 0: the light-volume
-/// cell as a share of the majorant cell, from the cloud's measured volume: the finest of 1/8,
-/// 1/4, 1/2 and 1 at which the cloud fills at most kGridCloudCells cells and the grid's box
+/// The diffusion grid ("auto" choosing it, or named) with render.light_volume_cell = 0: the
+/// light-volume cell as a share of the majorant cell, from the cloud's measured volume: the finest
+/// of 1/8, 1/4, 1/2 and 1 at which the cloud fills at most kGridCloudCells cells and the grid's box
 /// holds at most kGridMaxCells. On the majorant cell a small thick cloud filled 10 to 2,000
 /// cells (daichi_smoke 10, each some 190 mean free paths across) and its multiple scattering
 /// came out 0.4 to 0.7 of the reference; the thick rows of the validation matrix went from a
@@ -698,10 +698,15 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // sigma_s times it)
     const bool inScatter = marching && p.scatters;
     const MultipleScattering ms = chooseMultipleScattering(s, bindings, inScatter, oneVolume, p);
-    // the grid chosen for a thick cloud: its cell from the cloud's size, not the majorant's
-    if (ms == MultipleScattering::Grid && p.msAuto && s.render.lightVolumeCell <= 0.0f &&
-        p.cloudMeasured() && p.cloudVolume > 0.0 && !bounds.empty())
-        p.lightVolumeCell = p.majorantCell * autoGridCellScale(bounds, p);
+    // the diffusion grid, chosen by "auto" or named, with no cell named: its cell from the
+    // cloud's size, not the majorant's (a named grid has its cloud measured for it here; a
+    // simulated field cannot be and keeps the majorant cell)
+    if (ms == MultipleScattering::Grid && inScatter && oneVolume &&
+        s.render.lightVolumeCell <= 0.0f && !bounds.empty()) {
+        std::string why;
+        if (measureCloud(s, bindings, p, why) && p.cloudVolume > 0.0)
+            p.lightVolumeCell = p.majorantCell * autoGridCellScale(bounds, p);
+    }
     // (photons need a light to leave: the sun, or the sky when they trace it too)
     p.photons = inScatter && oneVolume && (p.shadows || (p.ambient && s.render.photonSky)) &&
                 ms == MultipleScattering::Photons;

@@ -148,10 +148,11 @@ TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
     EXPECT_FALSE(planFrame(thin, 1).photons);
     thin.render.photonDepth = 1.01f;
     EXPECT_TRUE(planFrame(thin, 1).photons);
-    thin.render.photonDepth = 0.0f; // 0: always the grid, nothing measured
+    thin.render.photonDepth = 0.0f; // 0: always the grid, whatever the depth
     const FramePlan off = planFrame(thin, 1);
     EXPECT_FALSE(off.photons);
-    EXPECT_FALSE(off.cloudMeasured());
+    EXPECT_TRUE(off.diffusion);
+    EXPECT_NE(off.msDecision.find("render.photon_depth = 0"), std::string::npos) << off.msDecision;
 }
 
 TEST(AutoMultipleScattering, RendersWhatItChose) {
@@ -197,15 +198,27 @@ TEST(AutoMultipleScattering, GridCellFollowsTheCloudsSize) {
     s.render.majorantCell = 0.03f;
     EXPECT_FLOAT_EQ(planFrame(s, 1).lightVolumeCell, 0.03f);
 
-    // a named cell, a named model and a thin cloud (photons) keep the majorant cell
+    // a named cell is kept, and a thin cloud (photons) keeps the majorant cell
     s.render.majorantCell = 0.1f;
     s.render.lightVolumeCell = 0.1f;
     EXPECT_FLOAT_EQ(planFrame(s, 1).lightVolumeCell, 0.1f);
     s.render.lightVolumeCell = 0.0f;
+    // the grid named takes the same cell as the grid "auto" chose
     s.render.multipleScattering = MultipleScattering::Grid;
     p = planFrame(s, 1);
+    EXPECT_FALSE(p.msAuto);
+    EXPECT_FLOAT_EQ(p.lightVolumeCell, 0.05f);
+    EXPECT_FALSE(p.gridCellNote.empty());
+    EXPECT_NE(p.explain().find("of the majorant cell, at which the cloud fills"), std::string::npos)
+        << p.explain();
+    // ... and at albedo 0 nothing in-scatters: no grid, no measurement, the majorant cell
+    SceneDesc absorbing = s;
+    absorbing.medium.sigma_a = absorbing.medium.sigma_s + absorbing.medium.sigma_a;
+    absorbing.medium.sigma_s = vec3(0.0f);
+    p = planFrame(absorbing, 1);
     EXPECT_FLOAT_EQ(p.lightVolumeCell, 0.1f);
-    EXPECT_TRUE(p.gridCellNote.empty());
+    EXPECT_FALSE(p.cloudMeasured());
+    s.render.multipleScattering = MultipleScattering::Auto;
     SceneDesc thin = boxAtDepth(1.0f);
     thin.render.majorantCell = 0.1f;
     EXPECT_FLOAT_EQ(planFrame(thin, 1).lightVolumeCell, 0.1f);
@@ -218,14 +231,16 @@ TEST(AutoMultipleScattering, GridCellFollowsTheCloudsSize) {
     EXPECT_GT(fine / coarse, 6.0) << fine << " B against " << coarse << " B";
 }
 
-TEST(AutoMultipleScattering, NamedModelsAreNotMeasured) {
+TEST(AutoMultipleScattering, NamedModelsAreNotChosen) {
+    // a named model is taken as named; the grid's cloud is measured for its cell only
     for (MultipleScattering ms : {MultipleScattering::Grid, MultipleScattering::None}) {
         SceneDesc s = boxAtDepth(1.0f);
         s.render.multipleScattering = ms;
         const FramePlan p = planFrame(s, 1);
         EXPECT_FALSE(p.msAuto);
         EXPECT_FALSE(p.photons);
-        EXPECT_FALSE(p.cloudMeasured());
+        EXPECT_EQ(p.diffusion, ms == MultipleScattering::Grid);
+        EXPECT_EQ(p.cloudMeasured(), ms == MultipleScattering::Grid);
     }
 }
 

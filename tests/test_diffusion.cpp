@@ -311,7 +311,8 @@ TEST(Diffusion, AFaintHaloLeavesTheSolveAsWithoutIt) {
 TEST(Diffusion, ExplainedMemoryIsWhatTheSolveHolds) {
     // --explain's diffusion size against the bytes the solve held, from its arrays' sizes: a box
     // fills every voxel (the estimate exact); the cumulus layer fills part of its grid, which
-    // the plan, not having measured the cloud (the grid named), counts whole: an upper bound
+    // the plan, not having measured the cloud (the grid's cell named), counts whole: an upper
+    // bound
     SceneDesc box = thickBox();
     box.render.multipleScattering = MultipleScattering::Grid;
     const FramePlan pb = Renderer(box).plan(1);
@@ -322,6 +323,7 @@ TEST(Diffusion, ExplainedMemoryIsWhatTheSolveHolds) {
     EXPECT_NEAR(pb.diffusionBytes / sb.diffusionBytes, 1.0, 0.01)
         << "plan " << pb.diffusionBytes << " B, solve " << sb.diffusionBytes << " B";
     SceneDesc layer = smallCumulusLayer();
+    layer.render.lightVolumeCell = Renderer(layer).plan(1).majorantCell;
     const FramePlan pl = Renderer(layer).plan(1);
     ASSERT_TRUE(pl.diffusion);
     ASSERT_FALSE(pl.cloudMeasured());
@@ -329,8 +331,9 @@ TEST(Diffusion, ExplainedMemoryIsWhatTheSolveHolds) {
     renderScene(layer, &sl);
     ASSERT_GT(sl.diffusionBytes, 0.0);
     EXPECT_GE(pl.diffusionBytes, sl.diffusionBytes);
-    // measured (multiple_scattering "auto" on a thick layer takes the grid): the voxels with
-    // density from the cloud's volume
+    // measured (multiple_scattering "auto" on a thick layer takes the grid, its cell not
+    // named): the voxels with density from the cloud's volume
+    layer.render.lightVolumeCell = 0.0f;
     layer.render.multipleScattering = MultipleScattering::Auto;
     layer.medium.sigma_s = vec3(600.0f);
     const FramePlan pa = Renderer(layer).plan(1);

@@ -59,24 +59,26 @@ void addRenderParams(std::vector<Param>& t) {
                           "(Fizimayer 2008) and read trilinearly.",
                           &RenderDesc::shadow)
                     .usedWhen("render.integrator = \"march\"", marching));
-    t.push_back(ren.param("light_volume_cell", atLeast(0),
-                          "Voxel size of the light-attenuation volumes (sun shadows, multiple "
-                          "scattering, column sky occlusion, single-scattered sky; world "
-                          "units); 0 = the majorant cell, or finer where multiple_scattering "
-                          "\"auto\" chooses the grid: the finest of 1/8 to 1 majorant cell at "
-                          "which the cloud fills at most 262,144 cells (--explain says which).",
-                          &RenderDesc::lightVolumeCell)
-                    .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
-                              "\"grid\" or \"photons\", render.sky_occlusion = "
-                              "\"column\" or render.sky_shadow = \"volume\"",
-                              [](const SceneFile& f) {
-                                  const RenderDesc& r = f.scene.render;
-                                  return r.shadow == ShadowMethod::Volume ||
-                                         r.multipleScattering != MultipleScattering::None ||
-                                         r.skyOcclusion == SkyOcclusion::Column ||
-                                         (r.skyScattering == SkyScattering::Single &&
-                                          r.skyShadow == SkyShadow::Volume);
-                              }));
+    t.push_back(
+        ren.param("light_volume_cell", atLeast(0),
+                  "Voxel size of the light-attenuation volumes (sun shadows, multiple "
+                  "scattering, column sky occlusion, single-scattered sky; world "
+                  "units); 0 = the majorant cell, or finer where the diffusion grid carries "
+                  "the multiple scattering (multiple_scattering \"grid\", or \"auto\" "
+                  "choosing it): the finest of 1/8 to 1 majorant cell at which the "
+                  "cloud fills at most 262,144 cells (--explain says which).",
+                  &RenderDesc::lightVolumeCell)
+            .usedWhen("render.shadow = \"volume\", render.multiple_scattering = "
+                      "\"grid\" or \"photons\", render.sky_occlusion = "
+                      "\"column\" or render.sky_shadow = \"volume\"",
+                      [](const SceneFile& f) {
+                          const RenderDesc& r = f.scene.render;
+                          return r.shadow == ShadowMethod::Volume ||
+                                 r.multipleScattering != MultipleScattering::None ||
+                                 r.skyOcclusion == SkyOcclusion::Column ||
+                                 (r.skyScattering == SkyScattering::Single &&
+                                  r.skyShadow == SkyShadow::Volume);
+                      }));
     auto hasVdb = [](const SceneFile& f) {
         return f.scene.field.kind == FieldKind::Vdb || !f.scene.volumes.empty();
     };
