@@ -619,7 +619,7 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
 /// cell from the cloud's size").
 constexpr double kGridCloudCells = 262144.0;
 constexpr double kGridMaxCells = 16777216.0;
-float autoGridCellScale(const Box& bounds, FramePlan& p) {
+float gridCellScale(const Box& bounds, FramePlan& p) {
     const float scale =
         finestCellScale(p, p.majorantCell, 0.125f, 1.0f, kGridCloudCells, [&](float sc) {
             const ivec3 r = lightVolumeResolution(bounds, p.majorantCell * sc);
@@ -705,7 +705,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         s.render.lightVolumeCell <= 0.0f && !bounds.empty()) {
         std::string why;
         if (measureCloud(s, bindings, p, why) && p.cloudVolume > 0.0)
-            p.lightVolumeCell = p.majorantCell * autoGridCellScale(bounds, p);
+            p.lightVolumeCell = p.majorantCell * gridCellScale(bounds, p);
     }
     // (photons need a light to leave: the sun, or the sky when they trace it too)
     p.photons = inScatter && oneVolume && (p.shadows || (p.ambient && s.render.photonSky)) &&

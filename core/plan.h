@@ -64,9 +64,9 @@ struct FramePlan {
     double cloudHitFraction = 1.0;
     bool cloudMeasured() const { return cloudTau >= 0.0; }
     std::string photonCellNote; ///< render.photon_cell_scale = 0: the voxel chosen and why
-    /// "auto" chose the grid and render.light_volume_cell is 0: the light-volume cell refined
-    /// from the cloud's measured volume (autoGridCellScale in plan.cpp), what and why; empty
-    /// where the cell is the majorant cell
+    /// the diffusion grid (named or chosen by "auto") with render.light_volume_cell 0: the
+    /// light-volume cell refined from the cloud's measured volume (gridCellScale in plan.cpp),
+    /// what and why; empty where the cell is the majorant cell
     std::string gridCellNote;
     /// photons: the voxel of the grid they record on (world units) and its memory (without the
     /// per-thread sums of the voxels that record; with the hand-off its sums and source on the
