@@ -299,8 +299,10 @@ std::string FramePlan::explain() const {
       << (pathtrace   ? "path traced (delta tracking, to render.max_depth)"
           : !scatters ? "none (medium.sigma_s = 0: the medium only absorbs)"
           : photons
-              ? std::string(photonSky ? "sun and sky" : "sun") +
-                    ": photons traced through the field, recorded on a grid of voxel " +
+              ? std::string(photonSky ? "sun and sky" : "sun") + ": " +
+                    std::to_string(photonCount) + " photons" +
+                    (photonCountNote.empty() ? std::string() : " (" + photonCountNote + ")") +
+                    " traced through the field, recorded on a grid of voxel " +
                     std::to_string(photonCell) +
                     (photonCellNote.empty() ? std::string() : " (" + photonCellNote + ")") +
                     megabytes(photonGridBytes) +
@@ -310,10 +312,9 @@ std::string FramePlan::explain() const {
                                              " scatterings, the higher orders from their light "
                                              "diffused on the light-volume grid"
                                        : std::string()) +
-                    (photonSky ? std::string(" (") + std::to_string(photonCount) +
-                                     " photons shared between the sun and the sky by their "
-                                     "power" +
-                                     (photonSkyAuto ? ", twice render.photons: \"auto\" traces "
+                    (photonSky ? std::string(" (the photons shared between the sun and the "
+                                             "sky by their power") +
+                                     (photonSkyAuto ? ", twice the sun's count: \"auto\" traces "
                                                       "the sky too where the medium absorbs)"
                                                     : ")")
                      : diffusionSharesPhotonGrid()
@@ -505,6 +506,39 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
 /// worse by its noise) for twice the photons; its medium rows lie at 10.6-20.
 constexpr float kAutoPhotonSkyAlbedo = 0.999f;
 constexpr double kAutoPhotonSkyDepth = 4.0;
+
+/// render.photons = 0: the photons a frame traces (before "auto" doubles them for the sky), by
+/// the cloud's mean optical depth tau along the sun: kPhotonsThin up to a depth of kThinDepth,
+/// growing in proportion to it up to kDeepPhotonFactor times that at 4 kThinDepth and above (so a
+/// cloud that thickens over a sequence changes its count smoothly). On the validation matrix's 48
+/// medium VDB cases (depths 10.6-20) 8 M photons took 42 within 10% (median 6.2%) against 31
+/// (8.5%) at 2 M and 37 (7.4%) at 4 M, for four times the photons' time; on its thin ones (depths
+/// 0.5-1.8) 8 M gained little (median 6.0% -> 5.2%) and took two albedo-0.9 cases just over 10%
+/// (docs/accuracy.md, "Photons by the cloud's depth"). A cloud not measured (a simulated field)
+/// takes kPhotonsThin.
+constexpr std::int64_t kPhotonsThin = 2000000;
+constexpr double kThinDepth = 2.0;
+constexpr double kDeepPhotonFactor = 4.0;
+
+std::int64_t photonsFor(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
+    if (s.render.photons > 0) return s.render.photons;
+    std::string why;
+    if (!measureCloud(s, bindings, p, why)) {
+        p.photonCountNote = "render.photons = 0: " + std::to_string(kPhotonsThin) +
+                            ", the cloud's depth not measured (" + why + ")";
+        return kPhotonsThin;
+    }
+    const double factor = std::clamp(p.cloudTau / kThinDepth, 1.0, kDeepPhotonFactor);
+    const auto n = std::int64_t(std::llround(double(kPhotonsThin) * factor));
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "render.photons = 0: from the cloud's mean optical depth along the sun, %.3g: "
+                  "%g M up to %g, %g M from %g",
+                  p.cloudTau, double(kPhotonsThin) * 1e-6, kThinDepth,
+                  double(kPhotonsThin) * kDeepPhotonFactor * 1e-6, kThinDepth * kDeepPhotonFactor);
+    p.photonCountNote = buf;
+    return n;
+}
 
 /// render.multiple_scattering as the frame takes it: "auto" becomes photons where the cloud is
 /// optically thin along the sun (its mean optical depth at most render.photon_depth), where
@@ -725,7 +759,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                       s.render.autoPhotonSky && minComponent(albedo) < kAutoPhotonSkyAlbedo &&
                       p.cloudMeasured() && p.cloudTau > kAutoPhotonSkyDepth;
     p.photonSky = p.photons && p.ambient && (s.render.photonSky || p.photonSkyAuto);
-    p.photonCount = p.photons ? std::int64_t(s.render.photons) * (p.photonSkyAuto ? 2 : 1) : 0;
+    p.photonCount = p.photons ? photonsFor(s, bindings, p) * (p.photonSkyAuto ? 2 : 1) : 0;
     // the sky's multiple scattering is the diffusion grid's in either model (unless photons
     // trace it; then the grid carries only what photons hand off)
     p.diffusion = inScatter && oneVolume &&

@@ -106,9 +106,11 @@ struct FramePlan {
     /// photonSky chosen by render.multiple_scattering = "auto" (the medium absorbs), not by the
     /// key
     bool photonSkyAuto = false;
-    /// photons traced per frame, the sun's and the sky's together: render.photons, twice that
-    /// when "auto" traces the sky too
+    /// photons traced per frame, the sun's and the sky's together: render.photons (with 0, 2 M
+    /// where the cloud is thin along the sun, 8 M where it is deep), twice that when "auto"
+    /// traces the sky too
     std::int64_t photonCount = 0;
+    std::string photonCountNote; ///< render.photons = 0: the count chosen and why
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)
     float forwardFraction = 0.0f;

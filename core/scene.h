@@ -401,7 +401,9 @@ struct RenderDesc {
     /// (measured by the plan each frame, core/lighting/cloud_depth.h), the grid elsewhere.
     MultipleScattering multipleScattering = MultipleScattering::Auto;
     float photonDepth = 64.0f;
-    int photons = 2000000; ///< Photons: photons leaving the sun per frame
+    /// Photons: photons leaving the sun per frame; 0 = chosen per frame by the cloud's depth
+    /// along the sun (FramePlan::photonCount, core/plan.cpp)
+    int photons = 0;
     /// Photons: the multiply scattered light inside a voxel is taken to fall off as
     /// max(exp(-photonSkin sigma_t tau_sun), 0.1) with the density integral toward the sun
     /// (core/lighting/photons.h); 0 = flat over the voxel

@@ -112,7 +112,7 @@ inline nimbus::SceneDesc smallCumulusLayer() {
     s.render.shadowStep = 0.05f;
     s.render.inScatter = nimbus::InScatter::None;
     s.render.background = nimbus::Background::Transparent;
-    // the diffusion grid, named: "auto" would trace 2 M photons a frame through this noise
+    // the diffusion grid, named: "auto" would trace 2-8 M photons a frame through this noise
     s.render.multipleScattering = nimbus::MultipleScattering::Grid;
     return s;
 }
@@ -157,7 +157,7 @@ inline std::string tinySceneText(const std::string& extra = "") {
            "[field]\nkind = \"cumulus\"\nbounds_min = [-30.0, 1.2, -20.0]\n"
            "bounds_max = [30.0, 5.2, 40.0]\nbase_octaves = 2\ndetail_octaves = 1\n"
            // the default scene's lighting model (what these tests check is not the lighting;
-           // "auto" would trace 2 M photons a frame here)
+           // "auto" would trace 2-8 M photons a frame here)
            "[render]\nstep = 0.2\nshadow_step = 0.2\nthreads = 2\nmultiple_scattering = "
            "\"grid\"\n" +
            extra;

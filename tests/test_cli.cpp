@@ -37,7 +37,7 @@ std::string tinyScene(const fs::path& dir, const std::string& extraRender = "") 
            "bounds_max = [30.0, 5.2, 40.0]\nwind = [0.6, 0.0, 0.15]\nbase_octaves = 3\n"
            "detail_octaves = 2\n"
            "[render]\nstep = 0.08\nstep_growth = 0.004\nshadow_step = 0.1\n"
-           "multiple_scattering = \"grid\"\n" + // the default scene's model, not 2 M photons
+           "multiple_scattering = \"grid\"\n" + // the default scene's model, not 2-8 M photons
 
            extraRender +
            "[output]\npath = \"" + (dir / "tiny.####.exr").string() +

@@ -361,8 +361,8 @@ TEST(AutoMultipleScattering, SkyByPhotonsWhereTheMediumAbsorbs) {
     EXPECT_TRUE(p.photonSky && p.photonSkyAuto && p.skySingle);
     EXPECT_FALSE(p.diffusion) << "no grid: the photons carry the sky";
     EXPECT_EQ(p.photonCount, 60000);
-    EXPECT_NE(p.explain().find("60000 photons shared between the sun and the sky"),
-              std::string::npos)
+    EXPECT_NE(p.explain().find("sun and sky: 60000 photons"), std::string::npos) << p.explain();
+    EXPECT_NE(p.explain().find("shared between the sun and the sky"), std::string::npos)
         << p.explain();
     RenderStats st;
     renderScene(s, &st);
@@ -390,4 +390,47 @@ TEST(AutoMultipleScattering, SkyByPhotonsWhereTheMediumAbsorbs) {
     EXPECT_TRUE(p.photonSky);
     EXPECT_FALSE(p.photonSkyAuto);
     EXPECT_EQ(p.photonCount, 30000) << "the key's photons, shared as documented";
+}
+
+TEST(AutoMultipleScattering, PhotonCountFollowsTheCloudsDepth) {
+    // render.photons = 0 (the default): 2 M photons up to a depth of 2 along the sun, 1 M per
+    // unit of depth above, 8 M from 8; "auto" tracing the sky too doubles the count; a count
+    // named is the count
+    EXPECT_EQ(SceneDesc{}.render.photons, 0);
+    auto count = [](float tau) {
+        SceneDesc s = boxAtDepth(tau);
+        s.render.photons = 0;
+        return planFrame(s, 1);
+    };
+    const FramePlan thin = count(1.0f);
+    ASSERT_TRUE(thin.photons);
+    EXPECT_EQ(thin.photonCount, 2000000);
+    EXPECT_NE(thin.explain().find("render.photons = 0: from the cloud's mean optical depth"),
+              std::string::npos)
+        << thin.explain();
+    EXPECT_NEAR(double(count(2.0f).photonCount), 2.0e6, 2.0e3);
+    EXPECT_NEAR(double(count(5.0f).photonCount), 5.0e6, 2.0e3); // the box's depth to 1e-3
+    EXPECT_EQ(count(8.5f).photonCount, 8000000);
+    EXPECT_EQ(count(40.0f).photonCount, 8000000);
+    // between the two the count grows with the depth, never down
+    std::int64_t last = 0;
+    for (float tau = 1.0f; tau <= 10.0f; tau += 0.5f) {
+        const std::int64_t n = count(tau).photonCount;
+        EXPECT_GE(n, last) << "depth " << tau;
+        last = n;
+    }
+
+    SceneDesc sky = boxAtDepth(20.0f); // absorbing and deep: "auto" traces the sky too
+    sky.render.photons = 0;
+    sky.sky.kind = SkyKind::Uniform;
+    sky.medium.sigma_a = 0.1f * sky.medium.sigma_s;
+    const FramePlan both = planFrame(sky, 1);
+    ASSERT_TRUE(both.photonSkyAuto);
+    EXPECT_EQ(both.photonCount, 16000000);
+
+    SceneDesc named = boxAtDepth(20.0f);
+    named.render.photons = 30000;
+    const FramePlan n = planFrame(named, 1);
+    EXPECT_EQ(n.photonCount, 30000);
+    EXPECT_TRUE(n.photonCountNote.empty()) << n.photonCountNote;
 }

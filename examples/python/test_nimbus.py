@@ -46,7 +46,7 @@ detail_octaves = 1
 step = 0.2
 shadow_step = 0.2
 threads = 2
-multiple_scattering = "grid"  # the default scene's model ("auto": 2 M photons a frame here)
+multiple_scattering = "grid"  # the default scene's model ("auto": 2-8 M photons a frame here)
 """
 
 
