@@ -511,7 +511,7 @@ constexpr double kAutoPhotonSkyDepth = 4.0;
 /// the cloud's mean optical depth tau along the sun: kPhotonsThin up to a depth of kThinDepth,
 /// growing in proportion to it up to kDeepPhotonFactor times that at 4 kThinDepth and above (so a
 /// cloud that thickens over a sequence changes its count smoothly). On the validation matrix's 48
-/// medium VDB cases (depths 10.6-20) 8 M photons took 42 within 10% (median 6.2%) against 31
+/// medium VDB cases (depths 10.6-35.8) 8 M photons took 42 within 10% (median 6.2%) against 31
 /// (8.5%) at 2 M and 37 (7.4%) at 4 M, for four times the photons' time; on its thin ones (depths
 /// 0.5-1.8) 8 M gained little (median 6.0% -> 5.2%) and took two albedo-0.9 cases just over 10%
 /// (docs/accuracy.md, "Photons by the cloud's depth"). A cloud not measured (a simulated field)

@@ -269,8 +269,8 @@ void addRenderParams(std::vector<Param>& t) {
                   "along the sun tau: 2 M up to tau 2, 1 M per unit of tau above, 8 M from tau 8 "
                   "(the frame's log line says how many). On the "
                   "validation matrix's medium VDB clouds 8 M took 42 of 48 cases within "
-                  "10% against 31 at 2 M, for 4x the photons' time; on its thin ones 2 M "
-                  "are as good "
+                  "10% against 31 at 2 M, for 4x the photons' time; on its thin ones 8 M "
+                  "gained little "
                   "(docs/accuracy.md, \"Photons by the cloud's depth\").",
                   &RenderDesc::photons)
             .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
