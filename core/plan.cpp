@@ -305,7 +305,7 @@ std::string FramePlan::explain() const {
                     " traced through the field, recorded on a grid of voxel " +
                     std::to_string(photonCell) +
                     (photonCellNote.empty() ? std::string() : " (" + photonCellNote + ")") +
-                    megabytes(photonGridBytes) +
+                    megabytes(photonGridBytes, photonsOwnGrid()) +
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
                     (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
@@ -607,10 +607,18 @@ float finestCellScale(const FramePlan& p, float cell, float lo, float hi, double
 ///   quarter cell (one VDB voxel at the suite's step) left the medium backlit rows 16-28% off;
 ///   an eighth brought most within 9-13%. The share over the whole bounds (daichi_smoke, a
 ///   small smoke in wide bounds: 1% of the rays) kept it on a quarter cell, 18-27% off backlit.
+///   Where the cloud's mean optical depth along the sun is above kThinDepth (so that photons
+///   scatter many times and each voxel's estimate gathers many tracks) the finest is a
+///   sixteenth: on the matrix's 48 medium VDB cases (8 M photons) the six backlit ones on an
+///   eighth went from 8.2-19.7% to 5.6-12.3% (five of them over 10% before, two after), and
+///   the front- and side-lit ones that moved stayed within 10% (up by 0.3-2.1 points); on the
+///   thin rows (depths 0.5-1.8, 2 M) a sixteenth took daichi_smoke's backlit rows from 2.7-4.1%
+///   to 10.0-10.4% (docs/accuracy.md, "A sixteenth of a cell for deep clouds' photons").
 constexpr double kPhotonsPerCell = 256.0;
 constexpr float kCountCellFinest = 0.25f;
 constexpr double kPhotonsReachingPerCell = 20.0;
 constexpr float kPhotonCellFinest = 0.125f;
+constexpr float kDeepPhotonCellFinest = 0.0625f;
 
 /// The first rule above, in light-volume cells (the measured cloud's).
 float countCellScale(const FramePlan& p) {
@@ -625,19 +633,22 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
         return 1.0f;
     }
     const double reaching = double(p.photonCount) * p.cloudHitFraction;
+    const float finest = p.cloudTau > kThinDepth ? kDeepPhotonCellFinest : kPhotonCellFinest;
     const float byReach =
-        finestCellScale(p, p.lightVolumeCell, kPhotonCellFinest, 4.0f,
-                        reaching / kPhotonsReachingPerCell, [](float) { return true; });
+        finestCellScale(p, p.lightVolumeCell, finest, 4.0f, reaching / kPhotonsReachingPerCell,
+                        [](float) { return true; });
     const float scale = std::min(countCellScale(p), byReach);
     const double voxels = cloudCells(p, double(p.lightVolumeCell) * scale);
-    char buf[320];
+    char buf[400];
     std::snprintf(buf, sizeof buf,
                   "%g light-volume cells: the cloud fills %.3g of them, %.3g photons each, %.3g "
                   "of them reaching it (%.0f%% of the rays along the sun over the box holding it "
-                  "meet it; at least %g leaving or %g reaching wanted)",
+                  "meet it; at least %g leaving or %g reaching wanted; not below %g, the depth "
+                  "along the sun %s %g)",
                   double(scale), voxels, double(p.photonCount) / std::max(voxels, 1.0),
                   reaching / std::max(voxels, 1.0), 100.0 * p.cloudHitFraction, kPhotonsPerCell,
-                  kPhotonsReachingPerCell);
+                  kPhotonsReachingPerCell, double(finest),
+                  p.cloudTau > kThinDepth ? ">" : "<=", kThinDepth);
     p.photonCellNote = buf;
     return scale;
 }

@@ -70,7 +70,9 @@ struct FramePlan {
     std::string gridCellNote;
     /// photons: the voxel of the grid they record on (world units) and its memory (without the
     /// per-thread sums of the voxels that record; with the hand-off its sums and source on the
-    /// light-volume grid too; 0 while a VDB field is unread)
+    /// light-volume grid too; 0 while a VDB field is unread). A grid of their own covers only
+    /// the box of the majorant cells with density (densityGridWithin), which the plan does not
+    /// know: its memory is counted over the field's bounds, at most what the frame takes.
     float photonCell = 0.0f;
     /// the cell of the density grid photons are tracked through, as the plan estimates it from
     /// the majorant cell (photonTrackingCell; tracePhotons takes the majorant grid's own cell;

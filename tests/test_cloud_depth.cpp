@@ -255,10 +255,11 @@ TEST(AutoMultipleScattering, NoSunKeepsTheGrid) {
 }
 
 TEST(AutoMultipleScattering, PhotonVoxelFollowsTheCloudsSize) {
-    // render.photon_cell_scale = 0 (the default): the finer of two rules over 1/8 ... 4
+    // render.photon_cell_scale = 0 (the default): the finer of two rules over 1/16 ... 4
     // light-volume cells: the finest (not below 1/4) at which the cloud fills at most
-    // photons / 256 voxels, and the finest (not below 1/8) at which it fills at most
-    // photons x the share of the rays along the sun that meet it / 20 voxels
+    // photons / 256 voxels, and the finest (not below 1/8, 1/16 where the cloud is deeper than 2
+    // along the sun) at which it fills at most photons x the share of the rays along the sun
+    // that meet it / 20 voxels
     SceneDesc s = boxAtDepth(1.0f);
     s.render.multipleScattering = MultipleScattering::Photons;
     s.render.lightVolumeCell = 0.1f; // the box: 20^3 cells
@@ -268,8 +269,21 @@ TEST(AutoMultipleScattering, PhotonVoxelFollowsTheCloudsSize) {
     EXPECT_FLOAT_EQ(p.photonCell, 0.05f); // 64,000 voxels; 1/4 would be 512,000
     EXPECT_NE(p.explain().find("at least 256 leaving or 20 reaching wanted"), std::string::npos)
         << p.explain();
-    s.render.photons = 1 << 30; // as fine as 1/8 cell, no finer
+    s.render.photons = 1 << 30; // as fine as 1/8 cell, no finer in a cloud this thin
     EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.0125f);
+    {
+        SceneDesc deep = boxAtDepth(20.0f); // deeper than 2 along the sun: down to 1/16
+        deep.render.multipleScattering = MultipleScattering::Photons;
+        deep.render.lightVolumeCell = 0.1f;
+        deep.render.photons = 1 << 30;
+        const FramePlan d = planFrame(deep, 1);
+        EXPECT_FLOAT_EQ(d.photonCell, 0.00625f);
+        EXPECT_NE(d.explain().find("not below 0.0625, the depth along the sun > 2"),
+                  std::string::npos)
+            << d.explain();
+        deep.render.photons = 2000000; // 100,000 reaching: as in the thin box, 1/2 cell
+        EXPECT_FLOAT_EQ(planFrame(deep, 1).photonCell, 0.05f);
+    }
     s.render.photons = 1000; // as coarse as 4 cells
     EXPECT_FLOAT_EQ(planFrame(s, 1).photonCell, 0.4f);
     s.render.photons = 40000; // 2,000 reaching: 2 cells (1,000); 156 by the count: 4 cells

@@ -144,6 +144,29 @@ LightVolume densityGrid(const Field& field, float cell, const MajorantGrid* grid
     return lv;
 }
 
+LightVolume densityGridWithin(const Field& field, float cell, const Box& within,
+                              const MajorantGrid* grid, std::vector<float>& rho,
+                              const std::atomic<bool>* cancel) {
+    LightVolume lv = lightVolumeGrid(field, cell);
+    const Box part = within.within(lv.bounds);
+    if (!part.empty()) {
+        const ivec3 lo = glm::clamp(ivec3(glm::floor((part.lo - lv.bounds.lo) / lv.voxel)) - 1,
+                                    ivec3(0), lv.res);
+        const ivec3 hi =
+            glm::clamp(ivec3(glm::ceil((part.hi - lv.bounds.lo) / lv.voxel)) + 1, lo + 1, lv.res);
+        // at least 2 voxels an axis, as lightVolumeResolution gives
+        const ivec3 n = glm::min(glm::max(hi - lo, ivec3(2)), lv.res);
+        const ivec3 first = glm::min(lo, lv.res - n);
+        const Box cropped{lv.bounds.lo + vec3(first) * lv.voxel,
+                          lv.bounds.lo + vec3(first + n) * lv.voxel};
+        lv.bounds = Box{cropped.lo, glm::min(cropped.hi, lv.bounds.hi)};
+        lv.res = n;
+        lv.voxel = lv.bounds.extent() / vec3(lv.res);
+    }
+    rho = densityAtCentres(field, lv.bounds, lv.res, grid, lv.densityLookups, cancel);
+    return lv;
+}
+
 std::vector<LightVolume> buildLightVolumes(const Field& field, const std::vector<vec3>& dirs,
                                            float cell, const MajorantGrid* grid,
                                            std::vector<float>* rhoOut,

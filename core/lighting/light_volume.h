@@ -53,6 +53,14 @@ LightVolume lightVolumeGrid(const Field& field, float cell);
 LightVolume densityGrid(const Field& field, float cell, const MajorantGrid* grid,
                         std::vector<float>& rho, const std::atomic<bool>* cancel = nullptr);
 
+/// densityGrid's voxels (the same lattice) cropped to those that meet `within`, with one more
+/// on every side (within the field's bounds): a grid of fine voxels for a small cloud in wide
+/// bounds (photons on their own grid) holds the cloud, not its bounds. The whole grid where
+/// `within` is empty or does not overlap the bounds.
+LightVolume densityGridWithin(const Field& field, float cell, const Box& within,
+                              const MajorantGrid* grid, std::vector<float>& rho,
+                              const std::atomic<bool>* cancel = nullptr);
+
 /// Fills lv.tau with the density integral toward `direction` from the densities `rho` at its
 /// voxel centres (the slice-by-slice propagation described above). Stops early once `cancel`
 /// is set.

@@ -157,9 +157,12 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // grid whenever there is one: march may leave a mostly full grid unused, but tracking always
     // gains from the tighter bounds, as pathtrace does)
     const MajorantGrid* mg = vs.grids[0].cellCount() ? &vs.grids[0] : nullptr;
+    // (the cell as the plan chose it over the field's bounds; the grid over the photons' grid,
+    // which may cover only the cloud: densityGridWithin)
+    const Box fieldBounds = vs.fields[0].bounds();
     const vec3 ext = geo.bounds.extent();
     const ivec3 fineRes = photonTrackingResolution(
-        geo.bounds, photonTrackingCell(geo.bounds, mg ? minComponent(mg->cellSize) : 0.0f,
+        geo.bounds, photonTrackingCell(fieldBounds, mg ? minComponent(mg->cellSize) : 0.0f,
                                        minComponent(geo.voxel)));
     const vec3 fineVoxel = ext / vec3(fineRes);
     std::size_t fineLookups = 0;
@@ -269,8 +272,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // (the sky's from its radiance over 256 directions); every photon's weight is relative to
     // the mean power per photon, flux0, so that the fixed-point sums see weights about 1.
     const vec3 sunTo = glm::normalize(p.sunDirection);
-    const vec3 centre = 0.5f * (geo.bounds.lo + geo.bounds.hi);
-    const float radius = 0.5f * glm::length(geo.bounds.extent());
+    const vec3 centre = 0.5f * (fieldBounds.lo + fieldBounds.hi);
+    const float radius = 0.5f * glm::length(fieldBounds.extent());
     const Box occupied = mg ? mg->occupiedBounds() : Box{};
     const Box emit = occupied.empty() ? geo.bounds : occupied.within(geo.bounds);
     const Footprint sunRect = footprint(emit, sunTo, centre);

@@ -286,27 +286,29 @@ void addRenderParams(std::vector<Param>& t) {
                           "homogeneous box with voxels of two mean free paths it did not help.",
                           &RenderDesc::photonSkin)
                     .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
-    t.push_back(ren.param("photon_cell_scale", closed(0, 4),
-                          "The voxel of the grid photons record on, in light-volume cells: 1 = "
-                          "that grid itself; below 1 a finer grid of their own, for the light "
-                          "near lit surfaces and in small clouds, noisier per voxel (it needs "
-                          "more photons) and larger. 0 = chosen each frame, the finer of: the "
-                          "finest of 1/4, 1/2, 1, 2 and 4 at which the cloud fills at most "
-                          "render.photons / 256 voxels, and the finest of 1/8 ... 4 at which it "
-                          "fills at most the photons reaching it (render.photons times the share "
-                          "of rays along the sun over the box holding density that meet it) / 20 "
-                          "(a small cloud gets a fine grid, a wide cloud layer a coarse one); "
-                          "photons are tracked through "
-                          "the density on a grid of that voxel (half the majorant cell at most). "
-                          "Where the voxel is finer than the light-volume cell the diffusion grid "
-                          "carrying the sky is solved on a finer grid too (no finer than the first "
-                          "rule). On the validation matrix at 2 M photons this measured 25 of the "
-                          "54 medium cases within 10% (the first rule alone: 13) and 52 of the 54 "
-                          "thin ones (docs/accuracy.md, \"Photons where the cloud is thin or "
-                          "medium\", \"The photons' voxel and the density they are tracked "
-                          "through\").",
-                          &RenderDesc::photonCellScale)
-                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+    t.push_back(
+        ren.param("photon_cell_scale", closed(0, 4),
+                  "The voxel of the grid photons record on, in light-volume cells: 1 = "
+                  "that grid itself; below 1 a finer grid of their own, for the light "
+                  "near lit surfaces and in small clouds, noisier per voxel (it needs "
+                  "more photons) and larger. 0 = chosen each frame, the finer of: the "
+                  "finest of 1/4, 1/2, 1, 2 and 4 at which the cloud fills at most "
+                  "render.photons / 256 voxels, and the finest of 1/8 ... 4 (1/16 ... 4 "
+                  "where the cloud's mean optical depth along the sun is above 2) at "
+                  "which it fills at most the photons reaching it (render.photons times the share "
+                  "of rays along the sun over the box holding density that meet it) / 20 "
+                  "(a small cloud gets a fine grid, a wide cloud layer a coarse one); "
+                  "photons are tracked through "
+                  "the density on a grid of that voxel (half the majorant cell at most). "
+                  "Where the voxel is finer than the light-volume cell the diffusion grid "
+                  "carrying the sky is solved on a finer grid too (no finer than the first "
+                  "rule). On the validation matrix at 2 M photons this measured 25 of the "
+                  "54 medium cases within 10% (the first rule alone: 13) and 52 of the 54 "
+                  "thin ones (docs/accuracy.md, \"Photons where the cloud is thin or "
+                  "medium\", \"The photons' voxel and the density they are tracked "
+                  "through\").",
+                  &RenderDesc::photonCellScale)
+            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
     t.push_back(ren.param("photon_bounces", closed(0, 1 << 20),
                           "Photons: the scatterings each photon is traced through; at its next "
                           "one the light it carries becomes a source of the diffusion grid, "
