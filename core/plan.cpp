@@ -633,7 +633,8 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
         return 1.0f;
     }
     const double reaching = double(p.photonCount) * p.cloudHitFraction;
-    const float finest = p.cloudTau > kThinDepth ? kDeepPhotonCellFinest : kPhotonCellFinest;
+    const bool deep = p.cloudTau > kThinDepth;
+    const float finest = deep ? kDeepPhotonCellFinest : kPhotonCellFinest;
     const float byReach =
         finestCellScale(p, p.lightVolumeCell, finest, 4.0f, reaching / kPhotonsReachingPerCell,
                         [](float) { return true; });
@@ -647,8 +648,7 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
                   "along the sun %s %g)",
                   double(scale), voxels, double(p.photonCount) / std::max(voxels, 1.0),
                   reaching / std::max(voxels, 1.0), 100.0 * p.cloudHitFraction, kPhotonsPerCell,
-                  kPhotonsReachingPerCell, double(finest),
-                  p.cloudTau > kThinDepth ? ">" : "<=", kThinDepth);
+                  kPhotonsReachingPerCell, double(finest), deep ? ">" : "<=", kThinDepth);
     p.photonCellNote = buf;
     return scale;
 }

@@ -148,18 +148,18 @@ LightVolume densityGridWithin(const Field& field, float cell, const Box& within,
                               const MajorantGrid* grid, std::vector<float>& rho,
                               const std::atomic<bool>* cancel) {
     LightVolume lv = lightVolumeGrid(field, cell);
-    const Box part = within.within(lv.bounds);
+    const Box whole = lv.bounds;
+    const Box part = within.within(whole);
     if (!part.empty()) {
-        const ivec3 lo = glm::clamp(ivec3(glm::floor((part.lo - lv.bounds.lo) / lv.voxel)) - 1,
-                                    ivec3(0), lv.res);
+        const ivec3 lo =
+            glm::clamp(ivec3(glm::floor((part.lo - whole.lo) / lv.voxel)) - 1, ivec3(0), lv.res);
         const ivec3 hi =
-            glm::clamp(ivec3(glm::ceil((part.hi - lv.bounds.lo) / lv.voxel)) + 1, lo + 1, lv.res);
+            glm::clamp(ivec3(glm::ceil((part.hi - whole.lo) / lv.voxel)) + 1, ivec3(0), lv.res);
         // at least 2 voxels an axis, as lightVolumeResolution gives
-        const ivec3 n = glm::min(glm::max(hi - lo, ivec3(2)), lv.res);
+        const ivec3 n = glm::clamp(hi - lo, ivec3(2), lv.res);
         const ivec3 first = glm::min(lo, lv.res - n);
-        const Box cropped{lv.bounds.lo + vec3(first) * lv.voxel,
-                          lv.bounds.lo + vec3(first + n) * lv.voxel};
-        lv.bounds = Box{cropped.lo, glm::min(cropped.hi, lv.bounds.hi)};
+        lv.bounds = Box{whole.lo + vec3(first) * lv.voxel,
+                        glm::min(whole.lo + vec3(first + n) * lv.voxel, whole.hi)};
         lv.res = n;
         lv.voxel = lv.bounds.extent() / vec3(lv.res);
     }
