@@ -83,14 +83,23 @@ void chooseSteps(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p
     const std::string shadow = one(r.shadowStep, r.shadowStepVoxels, "render.shadow_step",
                                    "render.shadow_step_voxels", p.shadowStep);
     p.stepDecision = "primary " + primary + ", shadow " + shadow;
-    p.stepTau = r.stepTau;
-    if (p.stepTau > 0.0f) {
-        std::snprintf(buf, sizeof buf,
-                      ", steps split where their optical depth times the transmittance before "
-                      "them exceeds %g (render.step_tau)",
-                      double(p.stepTau));
-        p.stepDecision += buf;
-    }
+}
+
+/// The optical depth above which march splits a step: render.step_tau, or
+/// render.photon_step_tau where photons carry the sun's multiple scattering (their light is
+/// close enough to exact that the single scattering's step error shows; docs/accuracy.md,
+/// "Finer steps where photons carry the light"). Called once the model is chosen.
+void chooseStepTau(const SceneDesc& s, FramePlan& p) {
+    p.stepTau = p.photons ? s.render.photonStepTau : s.render.stepTau;
+    if (!(p.stepTau > 0.0f)) return;
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  ", steps split where their optical depth times the transmittance before them "
+                  "exceeds %g (%s)",
+                  double(p.stepTau),
+                  p.photons ? "render.photon_step_tau: photons carry the light"
+                            : "render.step_tau");
+    p.stepDecision += buf;
 }
 
 /// Cells of a grid over `b` with cells of about `cell` (doubles: no int overflow).
@@ -756,6 +765,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.photons = inScatter && oneVolume && (p.shadows || (p.ambient && s.render.photonSky)) &&
                 ms == MultipleScattering::Photons;
     if (p.photons) p.photonBounces = std::max(0, s.render.photonBounces);
+    chooseStepTau(s, p);
     // the sky traced by photons too: its first scattering is march's (as with
     // render.sky_scattering = "single"), the orders above it the photons'
     // "auto" traces the sky by photons too where the medium absorbs (albedo below 1 in a

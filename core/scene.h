@@ -343,6 +343,7 @@ struct RenderDesc {
     /// kern::MAX_SUBSTEPS), each sampled at its own turn of the jitter (kern::substepOffset);
     /// 0 = never split (docs/accuracy.md, "Thick steps split")
     float stepTau = 0.5f;
+    float photonStepTau = 0.125f; ///< render.photon_step_tau: stepTau where photons carry the sun
     bool jitter = true;
     /// march: camera rays per pixel, stratified over the filter's width and weighted by it;
     /// 1 = one ray through the pixel centre (no filter)

@@ -176,6 +176,34 @@ TEST(AutoMultipleScattering, RendersWhatItChose) {
     EXPECT_EQ(autoThick.rgba, renderScene(t).rgba);
 }
 
+// Where photons carry the sun's multiple scattering, march splits its steps at
+// render.photon_step_tau, elsewhere at render.step_tau: the plan says which, and the image
+// follows that key alone (docs/accuracy.md, "Finer steps where photons carry the light").
+TEST(AutoMultipleScattering, PhotonsSplitStepsAtTheirOwnDepth) {
+    SceneDesc s = boxAtDepth(30.0f); // photons: 30 along the sun is below photon_depth
+    s.render.step = 0.5f;            // steps of 7.5 mean free paths: split
+    s.render.shadowStep = 0.5f;
+    s.render.stepTau = 0.5f;
+    s.render.photonStepTau = 0.125f;
+    const FramePlan a = planFrame(s, 1);
+    ASSERT_TRUE(a.photons);
+    EXPECT_EQ(a.stepTau, 0.125f);
+    EXPECT_NE(a.explain().find("exceeds 0.125 (render.photon_step_tau"), std::string::npos)
+        << a.explain();
+    const SceneDesc thick = boxAtDepth(200.0f); // the grid
+    const FramePlan b = planFrame(thick, 1);
+    ASSERT_FALSE(b.photons);
+    EXPECT_EQ(b.stepTau, thick.render.stepTau);
+    EXPECT_NE(b.explain().find("(render.step_tau)"), std::string::npos) << b.explain();
+
+    // under photons step_tau leaves the image as it was, bit for bit; photon_step_tau moves it
+    const Framebuffer base = renderScene(s);
+    s.render.stepTau = 0.0f;
+    EXPECT_EQ(renderScene(s).rgba, base.rgba);
+    s.render.photonStepTau = 0.0f; // whole steps
+    EXPECT_NE(renderScene(s).rgba, base.rgba);
+}
+
 TEST(AutoMultipleScattering, GridCellFollowsTheCloudsSize) {
     // "auto" choosing the grid, render.light_volume_cell 0: the finest of 1/8 ... 1 majorant
     // cells at which the cloud fills at most 262,144 cells

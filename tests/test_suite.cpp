@@ -254,7 +254,8 @@ TEST_F(Suite, CacheKeyFollowsContentNotTime) {
                            "render.sky_scattering='\"single\"' --set render.sky_directions=4 "
                            "--set render.sky_shadow='\"volume\"' --set "
                            "render.forward_scattering='\"none\"' --set render.octaves=1 "
-                           "--set render.octave_gate=0.25 --set render.shadow_step_voxels=2");
+                           "--set render.octave_gate=0.25 --set render.shadow_step_voxels=2 "
+                           "--set render.step_tau=0.25 --set render.photon_step_tau=0.25");
     ASSERT_EQ(marchOnly.exitCode, 0) << marchOnly.output;
     EXPECT_FALSE(renderedNow()) << marchOnly.output;
 
