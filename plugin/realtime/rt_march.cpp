@@ -766,7 +766,10 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
             if (error)
                 *error = "the march pass runs out of the GL's loop budget (Mesa llvmpipe: 65535 "
                          "loop iterations per batch of invocations) within one camera step of a "
-                         "ray: the shadow march over the field is too long for this GL";
+                         "ray: the shadow march over the field is too long for this GL (thick "
+                         "steps split "
+                         "into sub-steps count too: raise render.step_tau, or "
+                         "render.photon_step_tau where photons carry the light)";
             return false;
         }
         ++stats.budgetRetries;
