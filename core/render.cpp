@@ -40,8 +40,8 @@ template <class Context>
 bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, RenderStats& stats,
                  const RenderCallbacks& cb);
 
-/// The diffusion solve's medium and lights: the sky of each face direction as march's column
-/// model sees the hemispheres (core/media/sky.h).
+/// The diffusion solve's medium and lights: the sky of each face direction as the current it
+/// carries into the face (skyBoundaryRadiance, core/media/sky.h).
 DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan, const Medium& m) {
     DiffusionParams p;
     p.sigma_s = m.sigma_s;
@@ -53,10 +53,10 @@ DiffusionParams diffusionParams(const SceneDesc& s, const FramePlan& plan, const
     p.sunDirection = s.sun.direction;
     p.forwardFraction = plan.forwardFraction;
     if (plan.ambient && !plan.photonSky) {
-        const SkyMeans sky = skyMeans(s.sky);
+        const SkyFaces sky = skyBoundaryRadiance(s.sky);
         p.skyUp = sky.up;
         p.skyDown = sky.down;
-        p.skySide = 0.5f * (p.skyUp + p.skyDown);
+        p.skySide = sky.side;
     }
     return p;
 }

@@ -7,6 +7,7 @@
 
 #include "core/lighting/diffusion.h"
 #include "core/lighting/light_volume.h"
+#include "core/media/sky.h"
 #include "core/render.h"
 #include "render_util.h"
 
@@ -196,6 +197,51 @@ TEST(Diffusion, FluenceStaysBoundedInVoxelsAMillionMeanFreePathsThick) {
             const double seen = beamLoss(b.box, b.sunDir, sigma);
             EXPECT_NEAR(out / seen, 1.0, 0.02) << "sigma " << sigma << ": out " << out;
         }
+    }
+}
+
+TEST(Diffusion, TheSkyEntersAFaceAsTheCurrentItCarries) {
+    // Marshak's boundary balances the current into a face, so the sky a face takes is its
+    // irradiance on the face over pi. For the gradient sky (horizon H below the horizon, H + (Z
+    // - H) sqrt(y) above it) in closed form: up H + 0.8 (Z - H), down H, sideways H + (Z - H)
+    // B(3/4, 3/2) / pi. The plain hemisphere mean the boundary took before (H + 2/3 (Z - H) up)
+    // is 24% brighter in red on this sky.
+    SkyDesc sky;
+    sky.kind = SkyKind::Gradient;
+    sky.zenith = vec3(0.16f, 0.32f, 0.70f);
+    sky.horizon = vec3(0.60f, 0.70f, 0.82f);
+    sky.ambient = 1.5f;
+    const vec3 H = sky.horizon * sky.ambient, Z = sky.zenith * sky.ambient;
+    const double beta = std::tgamma(0.75) * std::tgamma(1.5) / std::tgamma(2.25);
+    const vec3 up = H + 0.8f * (Z - H), side = H + float(beta / M_PI) * (Z - H);
+    const SkyFaces f = skyBoundaryRadiance(sky);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(f.up[c], up[c], 2e-3f * up[c]) << c;
+        EXPECT_NEAR(f.down[c], H[c], 2e-3f * H[c]) << c;
+        EXPECT_NEAR(f.side[c], side[c], 2e-3f * side[c]) << c;
+    }
+    // the solve takes them: a wide slab, 10 mean free paths thick, albedo 1, isotropic, between
+    // the sky above (up) and below (down). Its fluence is linear in y between 4 pi up and 4 pi
+    // down, reached one extrapolation length 2D = 2 / (3 sigma) beyond each face
+    const Box box{vec3(-3.0f, -0.5f, -3.0f), vec3(3.0f, 0.5f, 3.0f)};
+    std::vector<float> rho;
+    const Field field = makeField(homogeneousField(box), 0.0f);
+    const LightVolume lv = buildLightVolumes(field, {vec3(0, 1, 0)}, 0.1f, nullptr, &rho)[0];
+    DiffusionParams p;
+    p.sigma_s = vec3(10.0f);
+    p.skyUp = f.up;
+    p.skyDown = f.down;
+    p.skySide = f.side;
+    p.tolerance = 1e-7f;
+    p.maxIterations = 5000;
+    const DiffusionVolume dv = solveDiffusion(lv, rho, {}, p);
+    const float ext = 2.0f / (3.0f * 10.0f), span = 1.0f + 2.0f * ext;
+    for (float y : {-0.25f, 0.0f, 0.25f}) {
+        const float w = (y + 0.5f + ext) / span; // 0 at the lower end, 1 at the upper
+        const vec3 expect = 4.0f * float(M_PI) * glm::mix(f.down, f.up, w);
+        const vec3 got = dv.sample(vec3(0.0f, y, 0.0f));
+        for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(got[c], expect[c], 0.01f * expect[c]) << "y " << y << " channel " << c;
     }
 }
 

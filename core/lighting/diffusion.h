@@ -71,7 +71,8 @@ struct DiffusionParams {
     const std::vector<vec3>* source = nullptr;
     vec3 sunDirection{0.0f, 1.0f, 0.0f}; ///< toward the sun (unit)
     /// Sky radiance seen through a face of a voxel, by the face's outward normal: up, down,
-    /// sideways (the means over those hemispheres); 0 = no sky.
+    /// sideways (the isotropic radiance carrying the sky's current into the face:
+    /// skyBoundaryRadiance, core/media/sky.h); 0 = no sky.
     vec3 skyUp{0.0f}, skyDown{0.0f}, skySide{0.0f};
     int maxIterations = 400;
     float tolerance = 1e-3f; ///< stop when no voxel changes by more than this share of the max

@@ -19,9 +19,10 @@ inline vec3 skyRadiance(const SkyDesc& sky, vec3 d) {
 }
 
 /// Mean sky radiance over the sphere and over the upper and lower hemispheres, times the sky's
-/// ambient scale: what an isotropic medium in-scatters (march's ambient term, the diffusion's
-/// boundary light). A gradient sky mixes horizon and zenith by sqrt(y), whose mean over the
-/// upper hemisphere (y uniform in [0, 1]) is 2/3; below the horizon it is the horizon radiance.
+/// ambient scale: what an isotropic medium in-scatters (march's ambient term; the diffusion's
+/// boundary takes skyBoundaryRadiance below). A gradient sky mixes horizon and zenith by sqrt(y),
+/// whose mean over the upper hemisphere (y uniform in [0, 1]) is 2/3; below the horizon it is the
+/// horizon radiance.
 struct SkyMeans {
     vec3 sphere{0.0f};
     vec3 up{0.0f};
@@ -81,5 +82,30 @@ class SkyIrradiance {
   private:
     std::vector<vec3> table_;
 };
+
+/// The sky as the diffusion grid's boundary takes it (core/lighting/diffusion.h): for a voxel face
+/// of outward normal up (+y), down (-y) and sideways (+x, the sky depends on y alone), the
+/// isotropic radiance that carries the same current into the face as the sky does, its
+/// irradiance on that face over pi (the cosine-weighted mean over the hemisphere the face looks
+/// at), times the ambient scale. Marshak's condition balances currents, so this is its sky; the
+/// plain mean over the hemisphere (SkyMeans) weighs the horizon as much as the zenith on an
+/// upward face, where the current weighs it by cos = 0 (gradient sky: 0.2 horizon + 0.8 zenith
+/// against 1/3 + 2/3). A uniform sky gives its own radiance on every face (the white furnace).
+struct SkyFaces {
+    vec3 up{0.0f};
+    vec3 down{0.0f};
+    vec3 side{0.0f};
+};
+
+inline SkyFaces skyBoundaryRadiance(const SkyDesc& sky) {
+    SkyFaces m;
+    if (sky.kind == SkyKind::None) return m;
+    const SkyIrradiance irr(sky);
+    const float s = sky.ambient / 3.14159265358979f;
+    m.up = irr(vec3(0.0f, 1.0f, 0.0f)) * s;
+    m.down = irr(vec3(0.0f, -1.0f, 0.0f)) * s;
+    m.side = irr(vec3(1.0f, 0.0f, 0.0f)) * s;
+    return m;
+}
 
 } // namespace nimbus
