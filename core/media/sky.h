@@ -100,7 +100,8 @@ struct SkyFaces {
 inline SkyFaces skyBoundaryRadiance(const SkyDesc& sky) {
     SkyFaces m;
     if (sky.kind == SkyKind::None) return m;
-    const SkyIrradiance irr(sky);
+    // three entries: the table's normals y = -1, 0, 1, the same quadrature as the full table's
+    const SkyIrradiance irr(sky, 3);
     const float s = sky.ambient / 3.14159265358979f;
     m.up = irr(vec3(0.0f, 1.0f, 0.0f)) * s;
     m.down = irr(vec3(0.0f, -1.0f, 0.0f)) * s;
