@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "core/kernels/kernels.h"
@@ -53,7 +54,7 @@ inline SkyMeans skyMeans(const SkyDesc& sky) {
 class SkyIrradiance {
   public:
     explicit SkyIrradiance(const SkyDesc& sky, int entries = 65) : table_(size_t(entries)) {
-        constexpr float kPi = 3.14159265358979f;
+        constexpr float kPi = std::numbers::pi_v<float>;
         const int nt = 48, np = 96; // midpoint quadrature over (cos theta, phi)
         for (int e = 0; e < entries; ++e) {
             const float ny = -1.0f + 2.0f * float(e) / float(entries - 1);
@@ -102,7 +103,7 @@ inline SkyFaces skyBoundaryRadiance(const SkyDesc& sky) {
     if (sky.kind == SkyKind::None) return m;
     // three entries: the table's normals y = -1, 0, 1, the same quadrature as the full table's
     const SkyIrradiance irr(sky, 3);
-    const float s = sky.ambient / 3.14159265358979f;
+    const float s = sky.ambient / std::numbers::pi_v<float>;
     m.up = irr(vec3(0.0f, 1.0f, 0.0f)) * s;
     m.down = irr(vec3(0.0f, -1.0f, 0.0f)) * s;
     m.side = irr(vec3(1.0f, 0.0f, 0.0f)) * s;
