@@ -8,6 +8,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/partitioner.h>
+
+#include <utility>
 
 namespace nimbus {
 
@@ -101,11 +104,111 @@ static vec3 boundaryResistance(vec3 r) {
 /// free paths or thinner) the limit is never reached.
 constexpr float kSunFluenceLimit = kDiffusionMaxBoundaryResistance + 2.0f;
 
+/// The vectors of one value per voxel with density that the solve holds: the fluence, the
+/// residual, the search direction and the operator applied to it.
+constexpr int kSolveVectors = 4;
+
+using dvec3 = glm::dvec3;
+
+/// Sums f(k) over [0, n) in a fixed order of fixed blocks, whatever the number of threads, so
+/// that a solve gives the same bits every time.
+template <class F> dvec3 sumCells(size_t n, F f) {
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, n, 4096), dvec3(0.0),
+        [&](const tbb::blocked_range<size_t>& br, dvec3 acc) {
+            for (size_t k = br.begin(); k != br.end(); ++k) acc += f(k);
+            return acc;
+        },
+        [](dvec3 a, dvec3 b) { return a + b; }, tbb::simple_partitioner());
+}
+
+/// The balance of cell k for the fluence x: diagonal x_k - sum of G x_neighbour.
+static vec3 applyCell(const std::vector<Cell>& cells, const std::vector<vec3>& x, size_t k) {
+    const Cell& c = cells[k];
+    vec3 y = x[k] / c.invDiag;
+    for (int f = 0; f < 6; ++f)
+        if (c.nb[f] >= 0) y -= c.G[f] * x[size_t(c.nb[f])];
+    return y;
+}
+
+/// Conjugate gradients preconditioned by the diagonal, one system per channel: the matrix is
+/// symmetric (a face's conductance is the same seen from both sides) and positive definite
+/// (every connected part of the medium touches empty space or absorbs), so the iteration
+/// converges; it stops when the residual's norm has fallen below `tolerance` of the
+/// right-hand side's in every channel. Red-black SOR with a stop on the relative change of an
+/// iteration, used before, stopped far from the answer on fine grids of thin clouds, where the
+/// fluence is nearly uniform and its level, set by the little the boundary lets out, is the
+/// slowest mode to settle (docs/accuracy.md); conjugate gradients finds that mode in a few
+/// iterations, and the residual says how far from the answer the iteration still is.
+static void solveCells(const std::vector<Cell>& cells, std::vector<vec3>& x,
+                       const DiffusionParams& p, DiffusionVolume& dv) {
+    const size_t n = cells.size();
+    if (n == 0) return;
+    std::vector<vec3> r(n), d(n), q(n);
+    auto dot = [](vec3 a, vec3 b) { return dvec3(a) * dvec3(b); };
+    const dvec3 bb = sumCells(n, [&](size_t k) { return dot(cells[k].rhs, cells[k].rhs); });
+    dvec3 rz = sumCells(n, [&](size_t k) {
+        r[k] = cells[k].rhs - applyCell(cells, x, k);
+        d[k] = r[k] * cells[k].invDiag;
+        return dot(r[k], d[k]);
+    });
+    const double tol2 = double(p.tolerance) * double(p.tolerance);
+    auto residual = [&](dvec3 rr) {
+        double worst = 0.0;
+        for (int c = 0; c < 3; ++c)
+            if (bb[c] > 0.0)
+                worst = std::max(worst, rr[c] / bb[c]);
+            else if (rr[c] > 0.0)
+                worst = std::max(worst, 1.0);
+        return worst;
+    };
+    dvec3 rr = sumCells(n, [&](size_t k) { return dot(r[k], r[k]); });
+    dv.residual = float(std::sqrt(residual(rr)));
+    for (int it = 0; it < p.maxIterations && residual(rr) > tol2; ++it) {
+        if (cancelRequested(p.cancel)) break;
+        const dvec3 dq = sumCells(n, [&](size_t k) {
+            q[k] = applyCell(cells, d, k);
+            return dot(d[k], q[k]);
+        });
+        vec3 alpha(0.0f);
+        for (int c = 0; c < 3; ++c) alpha[c] = dq[c] > 0.0 ? float(rz[c] / dq[c]) : 0.0f;
+        const auto both = tbb::parallel_deterministic_reduce(
+            tbb::blocked_range<size_t>(0, n, 4096), std::pair<dvec3, dvec3>(),
+            [&](const tbb::blocked_range<size_t>& br, std::pair<dvec3, dvec3> acc) {
+                for (size_t k = br.begin(); k != br.end(); ++k) {
+                    x[k] += alpha * d[k];
+                    r[k] -= alpha * q[k];
+                    acc.first += dot(r[k], r[k] * cells[k].invDiag);
+                    acc.second += dot(r[k], r[k]);
+                }
+                return acc;
+            },
+            [](std::pair<dvec3, dvec3> a, std::pair<dvec3, dvec3> b) {
+                return std::pair<dvec3, dvec3>(a.first + b.first, a.second + b.second);
+            },
+            tbb::simple_partitioner());
+        rr = both.second;
+        vec3 beta(0.0f);
+        for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0.0 ? float(both.first[c] / rz[c]) : 0.0f;
+        rz = both.first;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096),
+                          [&](const tbb::blocked_range<size_t>& br) {
+                              for (size_t k = br.begin(); k != br.end(); ++k)
+                                  d[k] = r[k] * cells[k].invDiag + beta * d[k];
+                          });
+        dv.iterations = it + 1;
+        dv.residual = float(std::sqrt(residual(rr)));
+    }
+    // the answer of an M-matrix with a right-hand side >= 0 is >= 0; the iterate, short of it,
+    // may dip below in a voxel
+    tbb::parallel_for(size_t(0), n, [&](size_t k) { x[k] = glm::max(x[k], vec3(0.0f)); });
+}
+
 double diffusionBytes(ivec3 res, double activeVoxels, bool source) {
     const double n = double(res.x) * res.y * res.z;
     return n * (sizeof(int) + sizeof(vec3)) +
            activeVoxels *
-               (sizeof(Cell) + sizeof(vec3) + sizeof(std::uint32_t) + (source ? sizeof(vec3) : 0));
+               (sizeof(Cell) + kSolveVectors * sizeof(vec3) + (source ? sizeof(vec3) : 0));
 }
 
 DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>& rho,
@@ -221,44 +324,7 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
     });
 
     std::vector<vec3> phi(cells.size(), skyMean);
-    std::vector<std::uint32_t> colour[2];
-    for (size_t k = 0; k < cells.size(); ++k) {
-        const size_t i = cells[k].idx;
-        const int x = int(i % res.x), y = int((i / res.x) % res.y),
-                  z = int(i / (size_t(res.x) * res.y));
-        colour[(x + y + z) & 1].push_back(std::uint32_t(k));
-    }
-    const float omega = 1.85f; // over-relaxation; SOR converges for 0 < omega < 2 (SPD system)
-    for (int it = 0; it < p.maxIterations && !cells.empty(); ++it) {
-        if (cancelRequested(p.cancel)) break;
-        float change = 0.0f, scale = 0.0f;
-        for (int col = 0; col < 2; ++col) {
-            const std::vector<std::uint32_t>& list = colour[col];
-            auto r = tbb::parallel_reduce(
-                tbb::blocked_range<size_t>(0, list.size(), 1024), glm::vec2(0.0f),
-                [&](const tbb::blocked_range<size_t>& br, glm::vec2 acc) {
-                    for (size_t m = br.begin(); m != br.end(); ++m) {
-                        const std::uint32_t k = list[m];
-                        const Cell& c = cells[k];
-                        vec3 sum = c.rhs;
-                        for (int f = 0; f < 6; ++f)
-                            if (c.nb[f] >= 0) sum += c.G[f] * phi[c.nb[f]];
-                        const vec3 gs = sum * c.invDiag;
-                        const vec3 next = glm::max(vec3(0.0f), phi[k] + omega * (gs - phi[k]));
-                        acc.x = std::max(acc.x, maxComponent(glm::abs(next - phi[k])));
-                        acc.y = std::max(acc.y, maxComponent(next));
-                        phi[k] = next;
-                    }
-                    return acc;
-                },
-                [](glm::vec2 a, glm::vec2 b) { return glm::max(a, b); });
-            change = std::max(change, r.x);
-            scale = std::max(scale, r.y);
-        }
-        dv.iterations = it + 1;
-        dv.lastChange = scale > 0.0f ? change / scale : 0.0f;
-        if (dv.lastChange < p.tolerance) break;
-    }
+    solveCells(cells, phi, p, dv);
 
     // fluence at every voxel centre: solved where there is density; in empty voxels next to
     // the medium the mean of the Marshak face values phi_f = 4 pi L + 2 (phi - 4 pi L) / (r + 2)
@@ -292,8 +358,7 @@ DiffusionVolume solveDiffusion(const LightVolume& geo, const std::vector<float>&
             }
     });
     dv.bytes = double(active.size() * sizeof(int) + cells.size() * sizeof(Cell) +
-                      extra.size() * sizeof(vec3) + phi.size() * sizeof(vec3) +
-                      (colour[0].size() + colour[1].size()) * sizeof(std::uint32_t) +
+                      extra.size() * sizeof(vec3) + kSolveVectors * phi.size() * sizeof(vec3) +
                       dv.phi.size() * sizeof(vec3));
     return dv;
 }

@@ -22,7 +22,7 @@
 /// boundary condition with the sky's radiance L_sky seen through that face as the incoming partial
 /// current, which gives the flux (phi_i - 4 pi L_sky) / (h / 2D_i + 2). An albedo-1 medium under a
 /// uniform sky thus solves to phi = 4 pi L_sky everywhere: the white furnace holds exactly. Solved
-/// by red-black successive over-relaxation.
+/// by conjugate gradients with a diagonal preconditioner, stopped on the residual.
 ///
 /// march then adds phi / 4 pi (isotropic in-scattered radiance) to the exact single scattering
 /// of the sun; the sky needs no separate ambient term.
@@ -51,10 +51,10 @@ constexpr float kDiffusionMaxBoundaryResistance = 3.0f;
 /// part in the solve: it counts as empty space. Between two such voxels the conductance
 /// A / (r_i + r_j) grows without bound as the density falls, so a faint halo of them around a
 /// cloud (the residue of advection, a VDB's long tail) conducted light around the cloud's
-/// surface and out through the halo's larger outer area, and made the system so stiff that SOR
-/// stopped on its relative-change test far from the answer (docs/accuracy.md, "A near-empty
-/// halo"). Their own scattering is still integrated by march; their multiple scattering is a
-/// second-order effect of a density this thin.
+/// surface and out through the halo's larger outer area, and made the system so stiff that the
+/// SOR used then stopped on its relative-change test far from the answer (docs/accuracy.md, "A
+/// near-empty halo"). Their own scattering is still integrated by march; their multiple scattering
+/// is a second-order effect of a density this thin.
 constexpr float kDiffusionMinResistance = 1e-3f;
 
 struct DiffusionParams {
@@ -74,8 +74,9 @@ struct DiffusionParams {
     /// sideways (the isotropic radiance carrying the sky's current into the face:
     /// skyBoundaryRadiance, core/media/sky.h); 0 = no sky.
     vec3 skyUp{0.0f}, skyDown{0.0f}, skySide{0.0f};
-    int maxIterations = 400;
-    float tolerance = 1e-3f; ///< stop when no voxel changes by more than this share of the max
+    int maxIterations = 2000;
+    /// stop when the residual's norm is below this share of the right-hand side's, per channel
+    float tolerance = 1e-5f;
     const std::atomic<bool>* cancel = nullptr; ///< stop iterating once set (core/cancel.h)
 };
 
@@ -85,7 +86,7 @@ struct DiffusionVolume {
     vec3 voxel{0.0f};
     std::vector<vec3> phi; ///< fluence at voxel centres (empty voxels: their faces' values)
     int iterations = 0;
-    float lastChange = 0.0f; ///< largest relative change of the last iteration
+    float residual = 0.0f; ///< the residual's norm over the right-hand side's (worst channel)
     std::size_t activeVoxels = 0;
     /// Bytes the solve held at its peak (diffusionBytes' parts, from the arrays' sizes)
     double bytes = 0.0;
