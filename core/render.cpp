@@ -433,6 +433,8 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         out.hasDiffusion = true;
         stats.diffusionSeconds = secondsSince(t0);
         stats.diffusionIterations = out.diffusion.iterations;
+        stats.diffusionResidual = out.diffusion.residual;
+        stats.diffusionConverged = out.diffusion.converged;
         stats.diffusionBytes = out.diffusion.bytes;
     }
     return out;

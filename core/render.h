@@ -57,6 +57,10 @@ struct RenderStats {
     std::uint64_t densityGridVoxels = 0; ///< densities looked up at light-grid voxel centres
     double diffusionSeconds = 0.0;       ///< march: solving the multiple-scattering grid
     int diffusionIterations = 0;
+    /// the solve's residual over its right-hand side (DiffusionVolume::residual), and whether it
+    /// reached DiffusionParams::tolerance before the iteration cap (or a cancel) stopped it
+    float diffusionResidual = 0.0f;
+    bool diffusionConverged = true;
     double diffusionBytes = 0.0; ///< what the diffusion solve held (DiffusionVolume::bytes)
     /// render.multiple_scattering = "auto": the cloud's mean optical depth along the sun it
     /// chose the model by (FramePlan::cloudTau); -1 when not measured

@@ -199,6 +199,7 @@ static void solveCells(const std::vector<Cell>& cells, std::vector<vec3>& x,
         dv.iterations = it + 1;
         dv.residual = float(std::sqrt(residual(rr)));
     }
+    dv.converged = residual(rr) <= tol2;
     // the answer of an M-matrix with a right-hand side >= 0 is >= 0; the iterate, short of it,
     // may dip below in a voxel
     tbb::parallel_for(size_t(0), n, [&](size_t k) { x[k] = glm::max(x[k], vec3(0.0f)); });

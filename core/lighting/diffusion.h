@@ -87,6 +87,9 @@ struct DiffusionVolume {
     std::vector<vec3> phi; ///< fluence at voxel centres (empty voxels: their faces' values)
     int iterations = 0;
     float residual = 0.0f; ///< the residual's norm over the right-hand side's (worst channel)
+    /// the residual reached DiffusionParams::tolerance (false: stopped by maxIterations or a
+    /// cancel first)
+    bool converged = true;
     std::size_t activeVoxels = 0;
     /// Bytes the solve held at its peak (diffusionBytes' parts, from the arrays' sizes)
     double bytes = 0.0;

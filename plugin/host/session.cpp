@@ -12,6 +12,7 @@
 
 #include <sys/resource.h>
 
+#include "core/lighting/diffusion.h"
 #include "core/tracking/volumes.h"
 #include "plugin/geom/embree_geometry.h"
 #include "plugin/io/frames.h"
@@ -306,6 +307,17 @@ Status Session::render(int frame, Framebuffer& fb, RenderStats& stats, const Pro
         return Status::error(StatusCode::interrupted, "interrupted during frame " +
                                                           std::to_string(frame) +
                                                           "; no output written for it");
+    }
+    if (!stats.diffusionConverged) {
+        char text[320];
+        std::snprintf(text, sizeof text,
+                      "warning: frame %d: the multiple-scattering grid's solve stopped at its cap "
+                      "of %d iterations with its residual at %.3g of the light it balances "
+                      "(wanted %.3g): its light may be off; a coarser render.light_volume_cell "
+                      "gives it fewer voxels",
+                      frame, stats.diffusionIterations, double(stats.diffusionResidual),
+                      double(DiffusionParams{}.tolerance));
+        warnings_.push_back(text);
     }
     return Status::success();
 }
