@@ -15,6 +15,17 @@ using namespace nimbus;
 
 namespace {
 
+/// A homogeneous box of density 1 on a light grid of `cell` propagated toward `dir`, with the
+/// densities at the voxel centres.
+struct GridBox {
+    std::vector<float> rho;
+    LightVolume lv;
+    GridBox(const Box& box, float cell, vec3 dir = vec3(0.0f, 1.0f, 0.0f)) {
+        const Field field = makeField(homogeneousField(box), 0.0f);
+        lv = buildLightVolumes(field, {dir}, cell, nullptr, &rho)[0];
+    }
+};
+
 /// A thick homogeneous box (optical depth 20 edge to edge), albedo 1, g = 0.5, low sun from
 /// the camera's right and a uniform sky.
 SceneDesc thickBox() {
@@ -85,15 +96,12 @@ double beamLoss(const Box& box, vec3 d, float sigmaT) {
 
 /// A homogeneous box of density 1 lit by the sun from an oblique direction, and its light grid
 /// (cells of 0.1) with the densities at the voxel centres.
-struct SunlitBox {
-    Box box{vec3(-1.0f, -0.6f, -0.8f), vec3(1.0f, 0.6f, 0.8f)};
-    vec3 sunDir = glm::normalize(vec3(0.3f, 0.8f, -0.2f));
-    std::vector<float> rho;
-    LightVolume lv;
-    SunlitBox() {
-        const Field field = makeField(homogeneousField(box), 0.0f);
-        lv = buildLightVolumes(field, {sunDir}, 0.1f, nullptr, &rho)[0];
-    }
+struct SunlitBox : GridBox {
+    Box box;
+    vec3 sunDir;
+    SunlitBox(Box b = Box{vec3(-1.0f, -0.6f, -0.8f), vec3(1.0f, 0.6f, 0.8f)},
+              vec3 dir = glm::normalize(vec3(0.3f, 0.8f, -0.2f)))
+        : GridBox(b, 0.1f, dir), box(b), sunDir(dir) {}
     /// The diffusion solved to 1e-6 for extinction sigma_s + sigma_a per unit density, g 0.5.
     DiffusionVolume solve(float sigmaS, float sigmaA, int maxIterations) const {
         DiffusionParams p;
@@ -224,9 +232,7 @@ TEST(Diffusion, TheSkyEntersAFaceAsTheCurrentItCarries) {
     // the sky above (up) and below (down). Its fluence is linear in y between 4 pi up and 4 pi
     // down, reached one extrapolation length 2D = 2 / (3 sigma) beyond each face
     const Box box{vec3(-3.0f, -0.5f, -3.0f), vec3(3.0f, 0.5f, 3.0f)};
-    std::vector<float> rho;
-    const Field field = makeField(homogeneousField(box), 0.0f);
-    const LightVolume lv = buildLightVolumes(field, {vec3(0, 1, 0)}, 0.1f, nullptr, &rho)[0];
+    const GridBox slab(box, 0.1f);
     DiffusionParams p;
     p.sigma_s = vec3(10.0f);
     p.skyUp = f.up;
@@ -234,7 +240,7 @@ TEST(Diffusion, TheSkyEntersAFaceAsTheCurrentItCarries) {
     p.skySide = f.side;
     p.tolerance = 1e-7f;
     p.maxIterations = 5000;
-    const DiffusionVolume dv = solveDiffusion(lv, rho, {}, p);
+    const DiffusionVolume dv = solveDiffusion(slab.lv, slab.rho, {}, p);
     const float ext = 2.0f / (3.0f * 10.0f), span = 1.0f + 2.0f * ext;
     for (float y : {-0.25f, 0.0f, 0.25f}) {
         const float w = (y + 0.5f + ext) / span; // 0 at the lower end, 1 at the upper
@@ -392,21 +398,6 @@ TEST(Diffusion, ExplainedMemoryIsWhatTheSolveHolds) {
     EXPECT_NEAR(pa.diffusionBytes / sa.diffusionBytes, 1.0, 0.1)
         << "plan " << pa.diffusionBytes << " B, solve " << sa.diffusionBytes << " B";
 }
-
-namespace {
-
-/// A homogeneous box of density 1 on a light grid of `cell`, with the densities at the voxel
-/// centres.
-struct GridBox {
-    std::vector<float> rho;
-    LightVolume lv;
-    GridBox(const Box& box, float cell) {
-        const Field field = makeField(homogeneousField(box), 0.0f);
-        lv = buildLightVolumes(field, {vec3(0.0f, 1.0f, 0.0f)}, cell, nullptr, &rho)[0];
-    }
-};
-
-} // namespace
 
 TEST(Diffusion, ThinBoxUnderAGradientSkyConvergesOnFineCells) {
     // a box 2 x 2 x 2 one mean free path across (albedo 1, g 0.8) under the suite's gradient

@@ -10,8 +10,6 @@
 #include <tbb/parallel_reduce.h>
 #include <tbb/partitioner.h>
 
-#include <utility>
-
 namespace nimbus {
 
 namespace {
@@ -111,16 +109,22 @@ constexpr int kSolveVectors = 4;
 using dvec3 = glm::dvec3;
 
 /// Sums f(k) over [0, n) in a fixed order of fixed blocks, whatever the number of threads, so
-/// that a solve gives the same bits every time.
-template <class F> dvec3 sumCells(size_t n, F f) {
+/// that a solve gives the same bits every time. T: dvec3, or Sums for two at once.
+template <class T = dvec3, class F> T sumCells(size_t n, F f) {
     return tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<size_t>(0, n, 4096), dvec3(0.0),
-        [&](const tbb::blocked_range<size_t>& br, dvec3 acc) {
-            for (size_t k = br.begin(); k != br.end(); ++k) acc += f(k);
+        tbb::blocked_range<size_t>(0, n, 4096), T{},
+        [&](const tbb::blocked_range<size_t>& br, T acc) {
+            for (size_t k = br.begin(); k != br.end(); ++k) acc = acc + f(k);
             return acc;
         },
-        [](dvec3 a, dvec3 b) { return a + b; }, tbb::simple_partitioner());
+        [](const T& a, const T& b) { return a + b; }, tbb::simple_partitioner());
 }
+
+/// Two per-channel sums taken in one pass: r . z (z the preconditioned residual) and r . r.
+struct Sums {
+    dvec3 rz{0.0}, rr{0.0};
+    Sums operator+(const Sums& o) const { return {rz + o.rz, rr + o.rr}; }
+};
 
 /// The balance of cell k for the fluence x: diagonal x_k - sum of G x_neighbour.
 static vec3 applyCell(const std::vector<Cell>& cells, const std::vector<vec3>& x, size_t k) {
@@ -172,25 +176,15 @@ static void solveCells(const std::vector<Cell>& cells, std::vector<vec3>& x,
         });
         vec3 alpha(0.0f);
         for (int c = 0; c < 3; ++c) alpha[c] = dq[c] > 0.0 ? float(rz[c] / dq[c]) : 0.0f;
-        const auto both = tbb::parallel_deterministic_reduce(
-            tbb::blocked_range<size_t>(0, n, 4096), std::pair<dvec3, dvec3>(),
-            [&](const tbb::blocked_range<size_t>& br, std::pair<dvec3, dvec3> acc) {
-                for (size_t k = br.begin(); k != br.end(); ++k) {
-                    x[k] += alpha * d[k];
-                    r[k] -= alpha * q[k];
-                    acc.first += dot(r[k], r[k] * cells[k].invDiag);
-                    acc.second += dot(r[k], r[k]);
-                }
-                return acc;
-            },
-            [](std::pair<dvec3, dvec3> a, std::pair<dvec3, dvec3> b) {
-                return std::pair<dvec3, dvec3>(a.first + b.first, a.second + b.second);
-            },
-            tbb::simple_partitioner());
-        rr = both.second;
+        const Sums next = sumCells<Sums>(n, [&](size_t k) {
+            x[k] += alpha * d[k];
+            r[k] -= alpha * q[k];
+            return Sums{dot(r[k], r[k] * cells[k].invDiag), dot(r[k], r[k])};
+        });
+        rr = next.rr;
         vec3 beta(0.0f);
-        for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0.0 ? float(both.first[c] / rz[c]) : 0.0f;
-        rz = both.first;
+        for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0.0 ? float(next.rz[c] / rz[c]) : 0.0f;
+        rz = next.rz;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096),
                           [&](const tbb::blocked_range<size_t>& br) {
                               for (size_t k = br.begin(); k != br.end(); ++k)
