@@ -854,11 +854,13 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         // voxel) and the hand-off's sums (core/lighting/photons.h); the light-volume grid's
         // densities they share are counted with the light grids
         const vec3 ext = bounds.extent();
-        const float majorantMin = minComponent(ext / vec3(majorantResolution(ext, p.majorantCell)));
+        const ivec3 mr = majorantResolution(ext, p.majorantCell);
+        const float majorantMin = minComponent(ext / vec3(mr));
         p.photonTrackingCell = photonTrackingCell(bounds, majorantMin, p.photonCell);
         const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.photonGridBytes =
             photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), p.photonTrackingCell,
+                        p.skipEmpty && p.majorantCell > 0.0f ? double(mr.x) * mr.y * mr.z : 0.0,
                         p.photonsOwnGrid(), p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
     }
     if (p.diffusion && !bounds.empty()) {

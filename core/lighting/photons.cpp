@@ -97,7 +97,48 @@ struct Run {
     }
 };
 
+/// The photons' own density bounds over the cells of the majorant grid they walk
+/// (photonTrackingBounds).
+struct TrackingBounds {
+    const MajorantGrid* grid = nullptr;
+    std::vector<float> bound;
+    /// The bound of the cell holding q.
+    float at(vec3 q) const {
+        const ivec3 c = glm::clamp(ivec3(glm::floor((q - grid->bounds.lo) / grid->cellSize)),
+                                   ivec3(0), grid->res - ivec3(1));
+        return bound[voxelIndex(grid->res, c.x, c.y, c.z)];
+    }
+};
+
 } // namespace
+
+std::vector<float> photonTrackingBounds(const MajorantGrid& mg, const std::vector<float>& fine,
+                                        vec3 lo, ivec3 res, vec3 voxel) {
+    std::vector<float> bound(mg.maj.size(), 0.0f);
+    const vec3 pad = 0.05f * mg.cellSize;
+    tbb::parallel_for(0, mg.res.z, [&](int z) {
+        for (int y = 0; y < mg.res.y; ++y)
+            for (int x = 0; x < mg.res.x; ++x) {
+                const size_t c = voxelIndex(mg.res, x, y, z);
+                if (!(mg.maj[c] > 0.0f)) continue;
+                const vec3 cLo = mg.bounds.lo + vec3(x, y, z) * mg.cellSize - pad;
+                const vec3 cHi = cLo + mg.cellSize + 2.0f * pad;
+                // the centres a lookup in [cLo, cHi] interpolates (sampleVoxelCentres: i0 =
+                // floor(u), i1 = i0 + 1, u = (p - lo) / voxel - 0.5 clamped to the grid)
+                const ivec3 a = glm::clamp(ivec3(glm::floor((cLo - lo) / voxel - 0.5f)), ivec3(0),
+                                           res - ivec3(1));
+                const ivec3 b = glm::clamp(ivec3(glm::floor((cHi - lo) / voxel - 0.5f)) + 1,
+                                           ivec3(0), res - ivec3(1));
+                float m = 0.0f;
+                for (int k = a.z; k <= b.z; ++k)
+                    for (int j = a.y; j <= b.y; ++j)
+                        for (int i = a.x; i <= b.x; ++i)
+                            m = std::max(m, fine[voxelIndex(res, i, j, k)]);
+                bound[c] = std::min(mg.maj[c], m);
+            }
+    });
+    return bound;
+}
 
 vec3 PhotonVolume::sample(vec3 p) const {
     return sampleVoxelCentres(radiance, bounds.lo, res, voxel, p) * skin(p);
@@ -119,13 +160,13 @@ float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell
     }
 }
 
-double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
-                   double handOffVoxels) {
+double photonBytes(const Box& bounds, ivec3 res, float trackingCell, double majorantCells,
+                   bool ownDensity, double handOffVoxels) {
     const ivec3 fine = photonTrackingResolution(bounds, trackingCell);
     const double voxels = double(res.x) * res.y * res.z;
     return voxels *
                (sizeof(int) + sizeof(float) + 2 * sizeof(vec3) + (ownDensity ? sizeof(float) : 0)) +
-           double(fine.x) * fine.y * fine.z * sizeof(float) +
+           double(fine.x) * fine.y * fine.z * sizeof(float) + majorantCells * sizeof(float) +
            handOffVoxels * (3 * sizeof(std::int64_t) + sizeof(vec3));
 }
 
@@ -169,6 +210,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     std::vector<float> fine =
         densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups, cancel);
     pv.lookups += fineLookups;
+    TrackingBounds tracking;
+    if (mg) tracking = {mg, photonTrackingBounds(*mg, fine, geo.bounds.lo, fineRes, fineVoxel)};
     // the one untransformed placement may scale the volume's density
     const float placement = vs.instances[0].density;
     if (placement != 1.0f)
@@ -362,51 +405,81 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     MajorantIterator walk(mg, vs.fields[0].bounds(), ray, 0.0f, tmax,
                                           vs.wholeMajorant[0]);
                     // delta tracking; the mean channel chooses the events, every channel keeps
-                    // its own weight (for grey media the weight changes only by the albedo)
+                    // its own weight (for grey media the weight changes only by the albedo).
+                    // The walk's events come at the rate of march's majorant grid, which bounds
+                    // by tree nodes and so can be several times the density; the tracking thins
+                    // them to the photons' own bounds (TrackingBounds), so that only its share
+                    // costs a lookup, while the floor of the recording weight is still taken at
+                    // every event (at the same rate as without the thinning; the same image in
+                    // expectation, measured: docs/accuracy.md, stop 63)
                     ScaledSegments segments{walk, placement, poll};
                     Run run;
+                    float segT0 = -1.0f, segBound = 0.0f;
                     bool collided = false;
                     float tHit = 0.0f;
-                    sampleTmaj(segments, sigmaTMax, rng,
-                               [&](float t, const MajorantSegment& seg, float sigmaMaj) {
-                                   const float density =
-                                       std::min(seg.sigma_maj,
-                                                sampleVoxelCentres(fine, geo.bounds.lo, fineRes,
-                                                                   fineVoxel, ray.at(t)));
-                                   ++tally.lookups;
-                                   if (depth > 0) {
-                                       // light scattered at least once: record it toward the camera
-                                       const vec3 q = ray.at(t);
-                                       const ivec3 c = cellAt(geo.bounds.lo, geo.voxel, res, q);
-                                       const int k = active[voxelIndex(res, c.x, c.y, c.z)];
-                                       if (k != run.voxel) run.flush(tally);
-                                       if (k >= 0) {
-                                           if (run.voxel < 0) {
-                                               // the direction to the camera, and so the phase
-                                               // function's value, is the voxel's for the whole run
-                                               const vec3 toEye = glm::normalize(
-                                                   p.eye - (cellCentre0 + vec3(c) * geo.voxel));
-                                               run.voxel = k;
-                                               run.phase = phase.eval(glm::dot(ray.d, toEye));
-                                           }
-                                           // weighted by the density here (plus the floor):
-                                           // the voxel keeps int (rho / rhoBar + floor) S dV
-                                           run.add(w * (density * invRhoBar + kDensityFloor) /
-                                                   (sigmaMaj * pv.skin(q)));
-                                       }
-                                   }
-                                   const float pReal = sigmaTMean * density / sigmaMaj;
-                                   if (rng.next() < pReal) {
-                                       w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
-                                       tHit = t;
-                                       collided = true;
-                                       return false;
-                                   }
-                                   if (pReal < 1.0f)
-                                       w *= (vec3(sigmaMaj) - sigmaT * density) /
-                                            (sigmaMaj * (1.0f - pReal));
-                                   return true;
-                               });
+                    sampleTmaj(
+                        segments, sigmaTMax, rng,
+                        [&](float t, const MajorantSegment& seg, float sigmaMaj) {
+                            // the photons' bound in this segment's cell (once a segment)
+                            if (seg.t0 != segT0) {
+                                segT0 = seg.t0;
+                                segBound =
+                                    tracking.grid
+                                        ? placement * tracking.at(ray.at(0.5f * (seg.t0 + seg.t1)))
+                                        : seg.sigma_maj;
+                            }
+                            // The walk's events come at sigmaMaj; the tracking takes a
+                            // share segBound / seg.sigma_maj of them (a Poisson process at
+                            // its own bound's rate sigmaTrack) and looks the density up
+                            // only there. The others are null collisions for certain.
+                            const bool tracked =
+                                segBound >= seg.sigma_maj ||
+                                (segBound > 0.0f && rng.next() * seg.sigma_maj < segBound);
+                            const float sigmaTrack = sigmaTMax * segBound;
+                            float density = 0.0f;
+                            if (tracked) {
+                                const float lookup = sampleVoxelCentres(
+                                    fine, geo.bounds.lo, fineRes, fineVoxel, ray.at(t));
+                                density = std::min(segBound, lookup);
+                                ++tally.lookups;
+                            }
+                            if (depth > 0) {
+                                // light scattered at least once: record it toward the camera
+                                const vec3 q = ray.at(t);
+                                const ivec3 c = cellAt(geo.bounds.lo, geo.voxel, res, q);
+                                const int k = active[voxelIndex(res, c.x, c.y, c.z)];
+                                if (k != run.voxel) run.flush(tally);
+                                if (k >= 0) {
+                                    if (run.voxel < 0) {
+                                        // the direction to the camera, and so the phase
+                                        // function's value, is the voxel's for the whole run
+                                        const vec3 toEye = glm::normalize(
+                                            p.eye - (cellCentre0 + vec3(c) * geo.voxel));
+                                        run.voxel = k;
+                                        run.phase = phase.eval(glm::dot(ray.d, toEye));
+                                    }
+                                    // weighted by the density here (at the tracking's
+                                    // events) plus the floor (at every event): the voxel
+                                    // keeps int (rho / rhoBar + floor) S dV
+                                    run.add(w *
+                                            (kDensityFloor / sigmaMaj +
+                                             (tracked ? density * invRhoBar / sigmaTrack : 0.0f)) /
+                                            pv.skin(q));
+                                }
+                            }
+                            if (!tracked) return true;
+                            const float pReal = sigmaTMean * density / sigmaTrack;
+                            if (rng.next() < pReal) {
+                                w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
+                                tHit = t;
+                                collided = true;
+                                return false;
+                            }
+                            if (pReal < 1.0f)
+                                w *= (vec3(sigmaTrack) - sigmaT * density) /
+                                     (sigmaTrack * (1.0f - pReal));
+                            return true;
+                        });
                     run.flush(tally);
                     if (!collided) break; // left the volume (or hit a surface)
                     if (hg && depth == p.handOff) {
@@ -470,8 +543,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // what this trace held at its peak beyond the light-volume grid (photonBytes' parts)
     pv.bytes = double(active.size() * sizeof(int) + norm.size() * sizeof(float) +
                       pv.radiance.size() * sizeof(vec3) + filled.size() * sizeof(vec3) +
-                      fine.size() * sizeof(float) + handOffSum.size() * sizeof(std::int64_t) +
-                      pv.source.size() * sizeof(vec3));
+                      fine.size() * sizeof(float) + tracking.bound.size() * sizeof(float) +
+                      handOffSum.size() * sizeof(std::int64_t) + pv.source.size() * sizeof(vec3));
     tbb::parallel_for(0, res.z, [&](int z) {
         for (int y = 0; y < res.y; ++y)
             for (int x = 0; x < res.x; ++x) {

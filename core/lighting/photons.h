@@ -119,14 +119,25 @@ ivec3 photonTrackingResolution(const Box& bounds, float trackingCell);
 constexpr double kMaxTrackingVoxels = 33554432.0; // 2^25: 128 MiB of floats
 float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell);
 
+/// The photons' own density bounds, one per cell of the majorant grid `mg` they walk: each the
+/// largest of the tracking grid's values (`fine`: `res` centres lo + (i + 0.5) voxel) that a
+/// trilinear lookup (sampleVoxelCentres) anywhere in the cell, grown by 5% of it, can read, and
+/// at most the cell's own bound (0 where that is 0). `mg` bounds the field by its tree nodes'
+/// maxima where `march` builds it (it only skips empty space with it), often several times the
+/// density; tracePhotons walks `mg` and thins its events to these bounds, so that only the
+/// events it keeps cost a lookup.
+std::vector<float> photonTrackingBounds(const MajorantGrid& mg, const std::vector<float>& fine,
+                                        vec3 lo, ivec3 res, vec3 voxel);
+
 /// What FramePlan::photonGridBytes counts for photons on a grid of `res` voxels over `bounds`,
-/// tracked through cells of `trackingCell`, with a density grid of their own or not and a
-/// hand-off grid of `handOffVoxels` voxels (0: none): per photon-grid voxel an index, its
-/// density weight, the radiance and its filled copy (and a density), per tracking cell a density,
-/// per hand-off voxel its sums (three 64-bit integers) and its source (RGB). The sums of the voxels
+/// tracked through cells of `trackingCell` under a majorant grid of `majorantCells` cells (0:
+/// none), with a density grid of their own or not and a hand-off grid of `handOffVoxels` voxels
+/// (0: none): per photon-grid voxel an index, its density weight, the radiance and its filled
+/// copy (and a density), per tracking cell a density, per majorant cell the photons' own bound, per
+/// hand-off voxel its sums (three 64-bit integers) and its source (RGB). The sums of the voxels
 /// that record (three 64-bit integers each, per thread and merged) come on top.
-double photonBytes(const Box& bounds, ivec3 res, float trackingCell, bool ownDensity,
-                   double handOffVoxels);
+double photonBytes(const Box& bounds, ivec3 res, float trackingCell, double majorantCells,
+                   bool ownDensity, double handOffVoxels);
 
 /// Traces p.photons photons through `volumes` (one untransformed volume: its grid is `geometry`,
 /// the light-volume grid, with densities rho at its voxel centres, which mark the voxels that
