@@ -148,18 +148,21 @@ TEST(Photons, InScatterModelsStandDown) {
 }
 
 TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
-    // two seeds at N and at 16 N photons: the difference between the seeds shrinks about 4x and
-    // the mean brightness stays (the estimator of each voxel is unbiased)
+    // four seeds at N and at 16 N photons: the difference between two seeds shrinks about 4x
+    // and the mean brightness stays (the estimator of each voxel is unbiased). (With two seeds
+    // the mean of the two 5,000-photon renders differed from the 80,000-photon one by up to
+    // 3.7% (2026-12-04); four halve the variance of both figures.)
     double diff[2], mean[2];
     for (int k = 0; k < 2; ++k) {
         SceneDesc s = smallCumulus();
         s.render.photons = k == 0 ? 5000 : 80000;
-        s.render.seed = 1;
-        const Framebuffer a = renderScene(s);
-        s.render.seed = 2;
-        const Framebuffer b = renderScene(s);
-        diff[k] = relativeRmse(a, b);
-        mean[k] = 0.5 * (meanRgb(a) + meanRgb(b));
+        Framebuffer f[4];
+        for (int i = 0; i < 4; ++i) {
+            s.render.seed = std::uint32_t(i + 1);
+            f[i] = renderScene(s);
+        }
+        diff[k] = 0.5 * (relativeRmse(f[0], f[1]) + relativeRmse(f[2], f[3]));
+        mean[k] = 0.25 * (meanRgb(f[0]) + meanRgb(f[1]) + meanRgb(f[2]) + meanRgb(f[3]));
     }
     const double ratio = diff[1] / diff[0];
     EXPECT_GT(ratio, 0.15) << diff[0] << " " << diff[1];

@@ -211,7 +211,17 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups, cancel);
     pv.lookups += fineLookups;
     TrackingBounds tracking;
-    if (mg) tracking = {mg, photonTrackingBounds(*mg, fine, geo.bounds.lo, fineRes, fineVoxel)};
+    // before its first scattering a photon records nothing, so it walks a grid of its own bounds
+    // (the cells where no lookup can find density skipped) rather than thinning mg's events
+    MajorantGrid firstFlight;
+    if (mg) {
+        tracking = {mg, photonTrackingBounds(*mg, fine, geo.bounds.lo, fineRes, fineVoxel)};
+        firstFlight.bounds = mg->bounds;
+        firstFlight.res = mg->res;
+        firstFlight.cellSize = mg->cellSize;
+        firstFlight.maj = tracking.bound;
+        firstFlight.buildBlocks();
+    }
     // the one untransformed placement may scale the volume's density
     const float placement = vs.instances[0].density;
     if (placement != 1.0f)
@@ -402,7 +412,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                         tmax = hit.t;
                     // the one untransformed volume: its majorant walk directly (no per-ray
                     // span bookkeeping), the placement's density folded into the bounds
-                    MajorantIterator walk(mg, vs.fields[0].bounds(), ray, 0.0f, tmax,
+                    MajorantIterator walk(depth == 0 && mg ? &firstFlight : mg,
+                                          vs.fields[0].bounds(), ray, 0.0f, tmax,
                                           vs.wholeMajorant[0]);
                     // delta tracking; the mean channel chooses the events, every channel keeps
                     // its own weight (for grey media the weight changes only by the albedo).
