@@ -302,6 +302,10 @@ std::string FramePlan::explain() const {
           : lightVolume ? "light-attenuation volume, voxel " + std::to_string(lightVolumeCell)
                         : std::string("shadow march per sample"))
       << "\n";
+    if (gateVolume)
+        o << "  octave gate: the density along the sun's line read from the sun-depth volume "
+             "(voxel "
+          << lightVolumeCell << ") where the line leaves it, not a second shadow march\n";
     // the diffusion's memory: "at most" where the cloud was not measured (every voxel counted)
     const std::string diffusionMB = megabytes(diffusionBytes, !cloudMeasured());
     o << "  multiple scattering: "
@@ -837,6 +841,10 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     p.sunDepthVolume = p.shadowRoulette || p.lightVolume ||
                        (p.diffusion && p.shadows && !p.photons) ||
                        (p.photons && s.render.photonSkin > 0.0f);
+    // the octave gate's line integral from that volume where the frame has one (octaves stand
+    // down under photons)
+    p.gateVolume = p.sunDepthVolume && s.render.integrator == Integrator::March && !p.photons &&
+                   s.render.octaves > 1 && s.render.octaveGate > 0.0f;
     // (photons on a grid of their own read their densities there)
     p.densityGrid =
         (p.diffusion && !p.diffusionOnPhotonGrid()) || (p.photons && !p.photonsOwnGrid());

@@ -45,7 +45,11 @@ struct FramePlan {
     /// an SDF cloud: empty space skipped by sphere tracing its distance bound (the majorant
     /// grid is still built for the light volumes)
     bool sdfTrace = false;
-    bool lightVolume = false;   ///< sun transmittance from a precomputed light-attenuation volume
+    bool lightVolume = false; ///< sun transmittance from a precomputed light-attenuation volume
+    /// march: the octave gate (render.octave_gate) takes the density integral along the sun's
+    /// line from the sun-depth volume the frame builds anyway (the light volume, the diffusion's
+    /// sun source), read where the line leaves it, instead of a second shadow march per sample
+    bool gateVolume = false;
     bool columnVolumes = false; ///< march: density integrals up and down (column sky occlusion)
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons

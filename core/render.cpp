@@ -488,13 +488,15 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             return;
         }
         const LightVolume* lv = plan.lightVolume ? grids.towardVolume() : nullptr;
+        const LightVolume* gate = plan.gateVolume ? grids.towardVolume() : nullptr;
         const ScatterVolumes sv = grids.scatter();
         fb.resize(s.camera.width, s.camera.height, plan.aovs);
         stats.aovBytes = fb.aovBytes();
         const auto t0 = std::chrono::steady_clock::now();
         switch (s.render.integrator) {
         case Integrator::March:
-            completed = renderTiles(MarchContext(s, plan, vs, lv, sv, surfaces), s, fb, stats, cb);
+            completed =
+                renderTiles(MarchContext(s, plan, vs, lv, sv, surfaces, gate), s, fb, stats, cb);
             break;
         case Integrator::PathTrace:
             completed =

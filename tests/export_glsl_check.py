@@ -33,7 +33,8 @@ RT_VDB's buffer and lookups present, the cumulus' code absent, vdb_grid.bin at b
 it that variant is skipped with a message.
 `nimbus --help` lists the command and its --help its options; and the errors: no -o (exit 2), a folder that cannot be made (exit 3, nothing written), a scene
 `nimbus rt` refuses (exit 2, the key named, the same message as `nimbus rt`).
-A variant with render.shadow = "volume" (RT_LIGHT_VOLUME) has light_tau.bin at binding 15 and the
+A variant with render.shadow = "volume" (RT_LIGHT_VOLUME), or whose octave gate reads the grid's
+sun-depth volume (RT_GATE_VOLUME), has light_tau.bin at binding 15 and the
 volume's lookup; the others have neither (the SDF cloud as it ships uses the volume too).
 A variant with the single-scattered sky from its volume (RT_SKY_VOLUME) has sky_volume.bin at
 binding 7 and its lookup, and no ambient.
@@ -82,7 +83,7 @@ VARIANTS = {
     # Lorenz-Mie table; then the photon grid (the sun) with its skin profile
     "grid_mie": (['medium.phase="mie_table"'],
                  dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_MIE_TABLE=1,
-                      RT_MS_DIFFUSION=1, RT_SKIP=1)),
+                      RT_MS_DIFFUSION=1, RT_SKIP=1, RT_GATE_VOLUME=1)),
     "photons_skin": (['render.multiple_scattering="photons"', "render.photons=20000",
                       "render.photon_skin=0.2"],
                      dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_MS_PHOTONS=1,
@@ -98,15 +99,22 @@ VARIANTS = {
     "no_skip": ([NONE, "render.skip_empty=false"],
                 dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1)),
     # the diffusion grid as it ships keeps the forward peak in the beams (RT_FORWARD_DELTA);
-    # render.forward_scattering = "none": no forward beam (its transmittance and step absent)
+    # render.forward_scattering = "none": no forward beam (its transmittance and step absent);
+    # both read the octave gate's line integral from the grid's sun-depth volume (RT_GATE_VOLUME)
     "grid": ([], dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1,
-                      RT_SKIP=1)),
+                      RT_SKIP=1, RT_GATE_VOLUME=1)),
     "no_forward": (['render.forward_scattering="none"'],
-                   dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_SKIP=1)),
+                   dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1, RT_SKIP=1,
+                        RT_GATE_VOLUME=1)),
+    # the octave gate off: the grid's sun-depth volume stays on the CPU (no light_tau.bin)
+    "grid_no_gate": (["render.octave_gate=0"],
+                     dict(RT_SUN=1, RT_FORWARD_DELTA=1, RT_BACKGROUND_SKY=1, RT_MS_DIFFUSION=1,
+                          RT_SKIP=1)),
     # render.shadow = "volume": the sun's light-attenuation volume instead of shadow marches
+    # (and for the octave gate's line integral)
     "light_volume": ([NONE, 'render.shadow="volume"'],
                      dict(RT_SUN=1, RT_AMBIENT=1, RT_BACKGROUND_SKY=1, RT_SKIP=1,
-                          RT_LIGHT_VOLUME=1)),
+                          RT_LIGHT_VOLUME=1, RT_GATE_VOLUME=1)),
     # the single-scattered sky from the CPU's sky volume instead of the ambient
     "sky_volume": ([NONE, 'render.sky_scattering="single"', 'render.sky_shadow="volume"'],
                    dict(RT_SUN=1, RT_BACKGROUND_SKY=1, RT_SKIP=1, RT_SKY_VOLUME=1)),
@@ -130,7 +138,7 @@ VARIANTS["sdf_cloud"] = ([NONE],
 SCENES["sdf_cloud"] = os.path.join(ROOT, "examples", "scenes", "sdf_cloud.toml")
 ALL_FEATURES = ["RT_SUN", "RT_AMBIENT", "RT_BACKGROUND_SKY", "RT_MULTISAMPLE", "RT_MIE_TABLE",
                 "RT_MS_DIFFUSION", "RT_MS_PHOTONS", "RT_PHOTON_SKIN", "RT_VDB", "RT_BAKED_NOISE",
-                "RT_RGBA_NOISE", "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_SKY_VOLUME",
+                "RT_RGBA_NOISE", "RT_SKIP", "RT_SDF", "RT_LIGHT_VOLUME", "RT_GATE_VOLUME", "RT_SKY_VOLUME",
                 "RT_FORWARD_DELTA", "RT_RESUMABLE"]
 # the data files of each feature that reads some, and their buffers' bindings
 DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.bin", 4)],
@@ -139,7 +147,7 @@ DATA = {"RT_MIE_TABLE": [("mie_table.bin", 3)], "RT_MS_DIFFUSION": [("diffusion.
         "FLOAT_TILES": [("noise_base.bin", 10), ("noise_detail.bin", 11)],
         "RT_SKIP": [("majorant.bin", 13)],
         "RT_SDF": [("sdf_nodes.bin", 12)],
-        "RT_LIGHT_VOLUME": [("light_tau.bin", 15)],
+        "LIGHT_BUFFER": [("light_tau.bin", 15)],
         "RT_SKY_VOLUME": [("sky_volume.bin", 7)]}
 SDF_NODE_BYTES = 144  # struct SdfTreeNode (core/kernels/sdf_tree.glsl), std430
 
@@ -169,7 +177,11 @@ MARKERS = {
                 "n = rtSkipTo(s, n, tExit, tOut);"],
     "RT_SDF": ["buffer RtSdfNodes", "rtSdfDensity(", "NB_FN void sdfTreeStep(",
                "NB_FN float sdfTreePrimitive("],
-    "RT_LIGHT_VOLUME": ["buffer RtLightGrid", "rtLightTau[", "rtLightVolumeSample(p)"],
+    "RT_LIGHT_VOLUME": ["rtLightVolumeSample(p)"],
+    # the octave gate's line integral read from the sun-depth volume
+    "RT_GATE_VOLUME": ["rtLightVolumeSample(boxExitPoint(", "NB_FN vec3 boxExitPoint("],
+    # the volume's buffer, read by either
+    "LIGHT_BUFFER": ["buffer RtLightGrid", "rtLightTau["],
     "RT_SKY_VOLUME": ["buffer RtSkyVolume", "rtSkyVolume[", "rtSkySingleScatter(phase, p, d"],
     "RT_RESUMABLE": ["buffer RtSlices", "rtLoopBudgetHeld(", "atomicAdd(unfinished"],
     # the forward beam: the sun's single scattering under its own transmittance
@@ -211,7 +223,8 @@ for name, (sets, on) in VARIANTS.items():
     check(not re.search(r"^\s*#\s*(if|ifdef|ifndef|elif)\b.*\bRT_", text, re.M),
           f"{name}: an #if on an RT_ macro is left in the text")
     have = dict(features, FLOAT_TILES=int(features["RT_BAKED_NOISE"] and
-                                          not features["RT_RGBA_NOISE"]))
+                                          not features["RT_RGBA_NOISE"]),
+                LIGHT_BUFFER=int(features["RT_LIGHT_VOLUME"] or features["RT_GATE_VOLUME"]))
     for feature, on in have.items():
         for marker in MARKERS[feature]:
             check((marker in text) == bool(on),

@@ -1088,6 +1088,18 @@ std::vector<KernelCase> makeCases() {
         },
         Tolerance{.ulps = 0, .abs = 0.0f, .why = "a comparison: the same answer"}));
     c.push_back(kernelCase(
+        "boxExitPoint", "boxExitPoint(a0, a1, a2, a3)",
+        [](vec3 p, vec3 w, vec3 lo, vec3 hi) { return boxExitPoint(p, w, lo, hi); },
+        [](Draw& d) {
+            const vec3 lo = d.v3(-10.0f, 10.0f, {0.0f}), hi = lo + d.v3(0.1f, 20.0f, {1.0f});
+            const vec3 p = lo + d.v3(0.0f, 1.0f, {0.0f, 0.5f, 1.0f}) * (hi - lo);
+            return std::tuple(p, d.unitVector(), lo, hi);
+        },
+        Tolerance{.ulps = 4,
+                  .abs = 4e-5f,
+                  .why = "GLSL's division is exact to 2.5 ulp: the distance to the face (up to "
+                         "about 35 units through a 20-unit box) times w, added to p"}));
+    c.push_back(kernelCase(
         "p1Radiance", "p1Radiance(a0, a1, a2, a3, a4, a5, a6)",
         [](float phi, vec3 g, float str, float rho, float gg, float p1, vec3 wo) {
             return p1Radiance(phi, g, str, rho, gg, p1, wo);

@@ -220,6 +220,39 @@ TEST(PlanObeyed, NoShadowWorkWithoutASun) {
     }
 }
 
+// With the light-attenuation volume no sample marches toward the sun, nor away from it for the
+// octave gate (render.octave_gate: the volume read where the sun's line leaves it); with shadow
+// marches both are marched, unless the frame builds the sun-depth volume anyway (the diffusion
+// grid's sun source): then only the march toward the sun is.
+TEST(PlanObeyed, TheLightVolumeSparesTheOctaveGatesMarch) {
+    SceneDesc s = quickLayer();
+    s.render.multipleScattering = MultipleScattering::None;
+    s.render.octaves = 8;
+    s.render.octaveGate = 0.25f;
+    FramePlan plan;
+    s.render.shadow = ShadowMethod::Volume;
+    const RenderStats volume = renderDirect(s, plan);
+    EXPECT_EQ(volume.lightVolumes, 1);
+    EXPECT_EQ(volume.shadowSamples, 0u);
+    s.render.shadow = ShadowMethod::March;
+    const RenderStats marched = renderDirect(s, plan);
+    s.render.octaveGate = 0.0f;
+    const RenderStats ungated = renderDirect(s, plan);
+    EXPECT_GT(ungated.shadowSamples, 0u);
+    EXPECT_GT(marched.shadowSamples, ungated.shadowSamples) << "the gate's second march";
+    EXPECT_FALSE(plan.gateVolume);
+
+    s.render.multipleScattering = MultipleScattering::Grid;
+    s.render.octaveGate = 0.25f;
+    const RenderStats grid = renderDirect(s, plan);
+    EXPECT_TRUE(plan.gateVolume);
+    s.render.octaveGate = 0.0f;
+    const RenderStats gridUngated = renderDirect(s, plan);
+    EXPECT_FALSE(plan.gateVolume);
+    EXPECT_GT(gridUngated.shadowSamples, 0u);
+    EXPECT_EQ(grid.shadowSamples, gridUngated.shadowSamples) << "no second march on the grid";
+}
+
 // Multiple scattering off, or a medium that only absorbs (albedo 0): no diffusion solve, no
 // photon, no density grid and, at albedo 0, no shadow ray in the medium. On with albedo 1: all.
 TEST(PlanObeyed, NoMultipleScatteringWorkWhenOffOrAtAlbedoZero) {

@@ -32,9 +32,9 @@ static_assert(int(PixelFilter::BlackmanHarris) == kern::FILTER_BLACKMAN_HARRIS);
 
 MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                            const LightVolume* lightVolume, ScatterVolumes scatter,
-                           const SurfaceQuery* surfaces)
-    : s_(scene), plan_(plan), vols_(volumes), lightVolume_(lightVolume), volumes_(scatter),
-      surfaces_(surfaces),
+                           const SurfaceQuery* surfaces, const LightVolume* gateVolume)
+    : s_(scene), plan_(plan), vols_(volumes), lightVolume_(lightVolume), gateVolume_(gateVolume),
+      volumes_(scatter), surfaces_(surfaces),
       skyIrradiance_(surfaces ? scene.sky : SkyDesc{SkyKind::None}, surfaces ? 65 : 2),
       camera_(scene.camera), medium_(Medium::fromDesc(scene.medium)),
       primary_(plan.step, scene.render.stepGrowth),
@@ -324,16 +324,22 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                     }
                     // the octave gate: the octaves above the first need a cloud along the sun's
                     // line to scatter in (render.octave_gate; the density integral away from
-                    // the sun by a second shadow march)
+                    // the sun by a second shadow march, or where the sun-depth volume holds p,
+                    // that volume read where the line leaves it on the far side)
                     if (octaves > 1 && r.octaveGate > 0.0f && maxComponent(higher) > 0.0f) {
-                        const float away =
-                            kern::octaveGateNeedsAway(medium_.sigma_s, r.octaveGate, tau) > 0.0f
-                                ? densityIntegral(p, -sunDir,
-                                                  pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) *
-                                                                               0xc2b2ae35ull)),
-                                                  cnt, scratch.shadow, rho)
-                                : 0.0f;
-                        higher *= kern::octaveGateFactor(medium_.sigma_s, r.octaveGate, tau + away);
+                        float line = tau;
+                        if (kern::octaveGateNeedsAway(medium_.sigma_s, r.octaveGate, tau) > 0.0f) {
+                            if (gateVolume_ && gateVolume_->bounds.contains(p))
+                                line = std::max(tau, gateVolume_->sample(kern::boxExitPoint(
+                                                         p, -sunDir, gateVolume_->bounds.lo,
+                                                         gateVolume_->bounds.hi)));
+                            else
+                                line += densityIntegral(
+                                    p, -sunDir,
+                                    pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) * 0xc2b2ae35ull)),
+                                    cnt, scratch.shadow, rho);
+                        }
+                        higher *= kern::octaveGateFactor(medium_.sigma_s, r.octaveGate, line);
                     }
                     sun += higher;
                     const vec3 in =

@@ -64,7 +64,7 @@ class MarchContext {
 
     MarchContext(const SceneDesc& scene, const FramePlan& plan, const VolumeSet& volumes,
                  const LightVolume* lightVolume = nullptr, ScatterVolumes scatter = {},
-                 const SurfaceQuery* surfaces = nullptr);
+                 const SurfaceQuery* surfaces = nullptr, const LightVolume* gateVolume = nullptr);
     void renderPixel(int x, int y, Framebuffer& fb, RayCounters& cnt, Scratch& scratch) const;
 
     /// What one camera ray returns: radiance, transmittance, alpha and depth (0: none).
@@ -108,8 +108,10 @@ class MarchContext {
     const FramePlan& plan_;
     const VolumeSet& vols_;
     const LightVolume* lightVolume_; ///< when set, replaces the shadow marches
-    ScatterVolumes volumes_;         ///< multiple-scattering and sky-occlusion grids
-    const SurfaceQuery* surfaces_;   ///< null: no surfaces
+    /// when set (plan.gateVolume), the octave gate's line integral is read from it
+    const LightVolume* gateVolume_;
+    ScatterVolumes volumes_;       ///< multiple-scattering and sky-occlusion grids
+    const SurfaceQuery* surfaces_; ///< null: no surfaces
     SkyIrradiance skyIrradiance_;
     Camera camera_;
     Medium medium_;

@@ -83,6 +83,18 @@ NB_FN float octaveGateNeedsAway(vec3 sigmaS, float gate, float tauSun) {
     return gate * min(sigmaS.x, min(sigmaS.y, sigmaS.z)) * tauSun < 7.0f ? 1.0f : 0.0f;
 }
 
+// The point where the line from p, inside the box lo..hi, along the direction w leaves the box.
+// A light volume over the box (its density integral toward the sun at each point) read there,
+// with w pointing away from the sun, holds the integral along the sun's whole line through p:
+// the octave gate's tauLine in one lookup instead of a second shadow march.
+NB_FN vec3 boxExitPoint(vec3 p, vec3 w, vec3 lo, vec3 hi) {
+    float t = 3.0e38f;
+    if (w.x != 0.0f) t = min(t, ((w.x > 0.0f ? hi.x : lo.x) - p.x) / w.x);
+    if (w.y != 0.0f) t = min(t, ((w.y > 0.0f ? hi.y : lo.y) - p.y) / w.y);
+    if (w.z != 0.0f) t = min(t, ((w.z > 0.0f ? hi.z : lo.z) - p.z) / w.z);
+    return t < 3.0e38f ? p + w * max(t, 0.0f) : p;
+}
+
 // The P1 radiance of a diffusion solution scattered toward direction wo (one channel): fluence
 // phi, its gradient grad, F = -grad / (3 sigma_tr rho) the net flux limited to |F| <= phi, and
 // (phi + 3 g p1 F.wo) with the phase function's first moment g and the flux weight p1. The caller

@@ -36,6 +36,7 @@ std::vector<std::pair<std::string, bool>> featureMacros(const MarchFeatures& f) 
             {"RT_SKIP", f.skip},
             {"RT_SDF", f.sdf},
             {"RT_LIGHT_VOLUME", f.lightVolume},
+            {"RT_GATE_VOLUME", f.gateVolume},
             {"RT_SKY_VOLUME", f.skyVolume},
             {"RT_FORWARD_DELTA", f.forwardDelta},
             {"RT_RESUMABLE", f.resumable}};
@@ -641,8 +642,8 @@ ParamDoc paramDoc(std::string_view n) {
           "field.detail_bake_resolution; 0 without)",
           "nodes"}},
         {"lightLo",
-         {"RT_LIGHT_VOLUME: lower corner of the sun's light-attenuation volume (light_tau.bin; "
-          "w 0)",
+         {"RT_LIGHT_VOLUME or RT_GATE_VOLUME: lower corner of the sun's light-attenuation "
+          "volume (light_tau.bin; w 0)",
           "world units"}},
         {"lightHi",
          {"RT_LIGHT_VOLUME: upper corner of that volume: inside the box (faces included) the "
@@ -924,7 +925,11 @@ std::string bufferMeaning(std::string_view name) {
                "from each voxel centre toward the sun (1 float per voxel, x fastest, then y, then "
                "z; lightResX/Y/Z voxels of lightVoxel from lightLo), read trilinearly between the "
                "centres (clamped to the outermost) and multiplied by the extinction per unit "
-               "density (sigmaT) for the sun's transmittance";
+               "density (sigmaT) for the sun's transmittance (RT_LIGHT_VOLUME); with "
+               "RT_GATE_VOLUME (octaves gated by render.octave_gate, and a volume the frame "
+               "builds anyway) also read where the sun's line through a sample leaves the box on "
+               "the side away from the sun (the kernel boxExitPoint), which gives the density "
+               "integral along that whole line";
     if (name == "RtSkyVolume")
         return "the single-scattered sky for this frame (render.sky_shadow = \"volume\", "
                "core/lighting/sky_volume.h): first skyDirections records of 8 floats, the unit "
@@ -1026,7 +1031,7 @@ bool exportGlsl(const SceneDesc& s, const FramePlan& p, const std::string& scene
             out.data.emplace_back(bufferFile("RtPhotonGrid"), bytesOf(grids->photons.radiance));
         if (f.photonSkin)
             out.data.emplace_back(bufferFile("RtSkinGrid"), bytesOf(grids->photons.sunTau->tau));
-        if (f.lightVolume)
+        if (f.lightVolume || f.gateVolume)
             out.data.emplace_back(bufferFile("RtLightGrid"), bytesOf(grids->towardVolume()->tau));
         if (f.skyVolume)
             out.data.emplace_back(bufferFile("RtSkyVolume"),

@@ -41,9 +41,10 @@ layout(std430, binding = 6) readonly buffer RtSkinGrid { float rtSkinTau[]; };
 // P.skyVolumeLo)
 layout(std430, binding = 7) readonly buffer RtSkyVolume { float rtSkyVolume[]; };
 #endif
-#if RT_LIGHT_VOLUME
+#if RT_LIGHT_VOLUME || RT_GATE_VOLUME
 // the sun's light-attenuation volume (LightVolume, core/lighting/light_volume.h; the one
-// MarchContext reads with render.shadow = "volume"): the density integral toward the sun at the
+// MarchContext reads with render.shadow = "volume", and for the octave gate's line integral,
+// RT_GATE_VOLUME, where the frame builds it): the density integral toward the sun at the
 // voxel centres, x fastest (P.lightResX/Y/Z voxels of P.lightVoxel from P.lightLo)
 layout(std430, binding = 15) readonly buffer RtLightGrid { float rtLightTau[]; };
 #endif
@@ -333,7 +334,7 @@ float rtTrilinear(float c000, float c100, float c010, float c110, float c001, fl
     return c0 * (1.0f - f.z) + c1 * f.z;
 }
 
-#if RT_LIGHT_VOLUME
+#if RT_LIGHT_VOLUME || RT_GATE_VOLUME
 float rtLightTauAt(int x, int y, int z) {
     return rtLightTau[(z * P.lightResY + y) * P.lightResX + x];
 }

@@ -2,7 +2,7 @@
 // plugin/realtime/rt_march.cpp as: #version 430, the feature #defines of the frame (RT_SUN,
 // RT_AMBIENT, RT_BACKGROUND_SKY, RT_MULTISAMPLE, RT_MIE_TABLE, RT_MS_DIFFUSION, RT_MS_PHOTONS,
 // RT_PHOTON_SKIN, RT_VDB, RT_BAKED_NOISE, RT_RGBA_NOISE, RT_SDF, RT_SKIP, RT_LIGHT_VOLUME,
-// RT_SKY_VOLUME: only
+// RT_GATE_VOLUME, RT_SKY_VOLUME: only
 // the features the scene uses are
 // compiled in; RT_RESUMABLE: `nimbus rt`'s march in slices, below), the embedded kernels
 // (core/kernels/source.h), march_params.glsl, march_data.glsl (the parameter block, the Mie table,
@@ -558,12 +558,21 @@ void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float
         octavePhase = phaseOctave(octavePhase, P.octaveEccentricity);
     }
     // the octave gate (render.octave_gate): the octaves above the first need a cloud along the
-    // sun's line to scatter in; the density integral away from the sun by a second shadow march
+    // sun's line to scatter in; the density integral away from the sun by a second shadow march,
+    // or where the sun-depth volume holds p (RT_GATE_VOLUME), that volume read where the line
+    // leaves it on the far side
     if (octaves > 1 && P.octaveGate > 0.0f && rtMaxComponent(higher) > 0.0f) {
-        float away = octaveGateNeedsAway(sigmaS, P.octaveGate, tau) > 0.0f
-                         ? rtDensityIntegral(F, p, rho, -sunDir, pcg(pixelKey ^ (key * 0xc2b2ae35u)))
-                         : 0.0f;
-        higher *= octaveGateFactor(sigmaS, P.octaveGate, tau + away);
+        float line = tau;
+        if (octaveGateNeedsAway(sigmaS, P.octaveGate, tau) > 0.0f) {
+#if RT_GATE_VOLUME
+            if (rtInLightVolume(p))
+                line = max(tau, rtLightVolumeSample(boxExitPoint(p, -sunDir, rtXyz(P.lightLo),
+                                                                 rtXyz(P.lightHi))));
+            else
+#endif
+                line += rtDensityIntegral(F, p, rho, -sunDir, pcg(pixelKey ^ (key * 0xc2b2ae35u)));
+        }
+        higher *= octaveGateFactor(sigmaS, P.octaveGate, line);
     }
     sun += higher;
     vec3 sunIn = rtXyz(P.sunIrradiance) *

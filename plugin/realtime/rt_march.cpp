@@ -143,6 +143,7 @@ MarchFeatures marchFeatures(const SceneDesc& s, const FramePlan& p, const Majora
     f.skip = skipsWith(p, majorant);
     f.sdf = s.field.kind == FieldKind::Sdf;
     f.lightVolume = f.sun && p.lightVolume;
+    f.gateVolume = f.sun && p.gateVolume;
     f.forwardDelta = f.sun && p.forwardFraction > 0.0f;
     return f;
 }
@@ -163,6 +164,7 @@ std::string MarchFeatures::defines() const {
     d += std::string("#define RT_SKIP ") + (skip ? "1" : "0") + "\n";
     d += std::string("#define RT_SDF ") + (sdf ? "1" : "0") + "\n";
     d += std::string("#define RT_LIGHT_VOLUME ") + (lightVolume ? "1" : "0") + "\n";
+    d += std::string("#define RT_GATE_VOLUME ") + (gateVolume ? "1" : "0") + "\n";
     d += std::string("#define RT_SKY_VOLUME ") + (skyVolume ? "1" : "0") + "\n";
     d += std::string("#define RT_FORWARD_DELTA ") + (forwardDelta ? "1" : "0") + "\n";
     d += std::string("#define RT_RESUMABLE ") + (resumable ? "1" : "0") + "\n";
@@ -364,7 +366,8 @@ RtMarchParams marchParams(const SceneDesc& s, const FramePlan& p, const MarchGri
         P.majorantResY = majorant->res.y;
         P.majorantResZ = majorant->res.z;
     }
-    if (const LightVolume* lv = grids ? grids->towardVolume() : nullptr; lv && p.lightVolume) {
+    if (const LightVolume* lv = grids ? grids->towardVolume() : nullptr;
+        lv && (p.lightVolume || p.gateVolume)) {
         P.lightLo = v4(lv->bounds.lo);
         P.lightHi = v4(lv->bounds.hi);
         P.lightVoxel = v4(lv->voxel);
@@ -471,8 +474,12 @@ std::string explainMarch(const SceneDesc& s, const FramePlan& p, const MajorantG
                         : "no sun, ");
     if (f.lightVolume)
         o << p.lightVolumeCell << ", read from a buffer; a shadow march outside it), ";
-    o << (f.photons ? 1 : s.render.octaves) << " octave(s), phase kind "
-      << phaseParams(s.medium).kind << (f.mieTable ? " (the Lorenz-Mie table, a buffer)" : "")
+    o << (f.photons ? 1 : s.render.octaves) << " octave(s)"
+      << (f.gateVolume ? " (gated by the density along the sun's line, read from the CPU's "
+                         "sun-depth volume)"
+                       : "")
+      << ", phase kind " << phaseParams(s.medium).kind
+      << (f.mieTable ? " (the Lorenz-Mie table, a buffer)" : "")
       << (f.ambient ? ", sky ambient (height occlusion)" : ", no sky ambient")
       << (f.backgroundSky ? ", sky background" : ", transparent background")
       << "; multiple-scattering grids: "
@@ -571,6 +578,9 @@ std::string frameDataError(const SceneDesc& s, const FramePlan& p, const MarchGr
     if (f.lightVolume && !(grids && grids->towardVolume()))
         return "the frame's light-attenuation volume (render.shadow = \"volume\") was not given "
                "to " +
+               consumer + " (build it with Renderer::marchGrids)";
+    if (f.gateVolume && !(grids && grids->towardVolume()))
+        return "the frame's sun-depth volume (the octave gate's line integral) was not given to " +
                consumer + " (build it with Renderer::marchGrids)";
     return f.bakedNoise ? bakedNoiseError(s, noise) : "";
 }
@@ -687,8 +697,9 @@ bool MarchPass::render(const SceneDesc& s, const FramePlan& p, const MarchGrids*
         photons = std::make_unique<gl::StorageBuffer>(L.size() * sizeof(vec3), L.data());
         photons->bind(5);
     }
-    // the sun's light-attenuation volume: the density integral toward the sun per voxel
-    if (f.lightVolume) {
+    // the sun's light-attenuation volume: the density integral toward the sun per voxel (for
+    // the sun's transmittance, the octave gate's line integral or both)
+    if (f.lightVolume || f.gateVolume) {
         const std::vector<float>& tau = grids->towardVolume()->tau;
         light = std::make_unique<gl::StorageBuffer>(tau.size() * sizeof(float), tau.data());
         light->bind(15);

@@ -84,6 +84,10 @@ struct MarchFeatures {
     /// from the CPU's light-attenuation volume (binding 15) inside its bounds, as MarchContext
     /// reads it; a shadow march outside
     bool lightVolume = false;
+    /// RT_GATE_VOLUME: the octave gate's density integral along the sun's line read from the
+    /// same volume (binding 15) where the plan builds it (plan.gateVolume: the light volume, or
+    /// the diffusion's sun source), as MarchContext reads it; a second shadow march outside
+    bool gateVolume = false;
     /// RT_SKY_VOLUME: the single-scattered sky (render.sky_scattering = "single" or
     /// render.photon_sky) with render.sky_shadow = "volume": its directions and the CPU's sky
     /// volume (binding 7, skyVolumeBuffer), read as MarchContext::skySingleScatter reads them

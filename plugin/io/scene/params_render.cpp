@@ -208,11 +208,14 @@ void addRenderParams(std::vector<Param>& t) {
                           "Octaves above the first fade where the cloud along the sun's line "
                           "through the sample is optically thin: weighted by 1 - exp(-octave_gate "
                           "sigma_s tau), tau the density integral toward the sun plus the one away "
-                          "from it (a second shadow march per sample). Octaves calibrated on a "
+                          "from it: read from the sun-depth volume where the frame builds one "
+                          "(render.shadow = \"volume\", or the diffusion grid's sun source) where "
+                          "the sun's line leaves it, else a second shadow march per sample. "
+                          "Octaves calibrated on a "
                           "thick cloud otherwise add multiply scattered light to thin ones; 0.25 "
                           "(the default scene's setting) took its thin cases on the validation "
                           "matrix from 33-42% to 4-11% relative RMSE, its thick ones unchanged, "
-                          "for 1.27x its frame time. 0 = off.",
+                          "for 1.27x its frame time when it marched (2026-11-29). 0 = off.",
                           &RenderDesc::octaveGate)
                     .usedWhen("render.octaves > 1", multiple));
     t.push_back(
