@@ -6,7 +6,7 @@ usage: realtime_viewer_check.py NIMBUS NIMBUS_VIEWER XVFB SCENE SCRATCH_DIR [NIM
 One Xvfb server (XVFB: the Xvfb binary) serves every viewer run of the script: it picks a free
 display number itself (-displayfd), so nothing races for one, and it is started and stopped once.
 
-1. `nimbus export-glsl` of the default scene at 160x90 (render.multiple_scattering = "none",
+1. `nimbus export-glsl` of the default scene at 96x54 (render.multiple_scattering = "none",
    frame 1; it skips empty space, RT_SKIP, so majorant.bin is among its data files), then
    `nimbus_viewer --frames 3 --screenshot view.pfm` on it under Xvfb (GLX on Mesa llvmpipe):
    the resolved linear RGB of the displayed frame.
@@ -45,7 +45,7 @@ import numpy as np
 
 NIMBUS, VIEWER, XVFB, SCENE, SCRATCH = sys.argv[1:6]
 HEADLESS = sys.argv[6] if len(sys.argv) > 6 else None
-SIZE = ["camera.width=160", "camera.height=90"]
+SIZE = ["camera.width=96", "camera.height=54"]
 SETS = ['render.multiple_scattering="none"', 'output.preview=""'] + SIZE
 ENV = {k: v for k, v in os.environ.items() if k != "OCIO"}  # the working space is ACEScg
 failures = []
