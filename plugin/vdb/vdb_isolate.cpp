@@ -14,7 +14,9 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <new>
+#include <shared_mutex>
 #include <type_traits>
 
 #include <fcntl.h>
@@ -531,6 +533,26 @@ std::string secondsText(double s) {
 
 } // namespace
 
+namespace {
+
+std::shared_mutex gForkMutex;
+thread_local int tSectionDepth = 0; // OpenVdbSections open on this thread
+bool gForkedChild = false;          // set in a forked child, which has one thread
+
+} // namespace
+
+OpenVdbSection::OpenVdbSection() {
+    if (tSectionDepth++ == 0 && !gForkedChild) {
+        gForkMutex.lock_shared();
+        locked_ = true;
+    }
+}
+
+OpenVdbSection::~OpenVdbSection() {
+    --tSectionDepth;
+    if (locked_) gForkMutex.unlock_shared();
+}
+
 void setIsolatedChildHookForTests(IsolatedChildHook hook) {
     gChildHook = hook;
 }
@@ -561,7 +583,17 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
     Fd log{::memfd_create("nimbus-vdb-reader-log", MFD_CLOEXEC)}; // -1: the child's output
                                                                   // goes to our stderr
     const pid_t parent = getpid();
+    // No thread of ours inside OpenVDB while forking (OpenVdbSection). A thread inside a section
+    // that forks itself (none in Nimbus) could not wait for the others: it forks as before.
+    std::unique_lock<std::shared_mutex> forkLock(gForkMutex, std::defer_lock);
+    if (tSectionDepth == 0) forkLock.lock();
     const pid_t pid = ::fork();
+    if (pid == 0) {
+        gForkedChild = true; // the child's copy of the lock stays as it was: never touched
+        forkLock.release();
+    } else if (forkLock.owns_lock()) {
+        forkLock.unlock();
+    }
     if (pid < 0) {
         const int err = errno;
         ::close(fds[0]);

@@ -22,6 +22,24 @@
 
 namespace nimbus::vdb::detail {
 
+/// Held (shared) by this thread while it is inside OpenVDB in this process: every entry point
+/// of plugin/vdb that calls OpenVDB in process takes one. The fork of a reading process
+/// (runIsolated) takes the same lock exclusively, so no thread of the caller is inside OpenVDB
+/// holding one of its locks (its grid registry's, say) when the child is forked: the child's copy
+/// of such a lock would stay locked, and the child would wait for it until its time limit.
+/// Nested sections on one thread take the lock once; in a forked child the sections are free (it
+/// has one thread). Another library's use of OpenVDB in the same process is not covered.
+class OpenVdbSection {
+  public:
+    OpenVdbSection();
+    ~OpenVdbSection();
+    OpenVdbSection(const OpenVdbSection&) = delete;
+    OpenVdbSection& operator=(const OpenVdbSection&) = delete;
+
+  private:
+    bool locked_ = false;
+};
+
 /// Reads and converts in this process (no fork), then checks the NanoVDB grid with
 /// checkNanoGrid() unless @p checkGrid is false (the isolated child: its parent checks what it
 /// receives). @throws VdbError as loadVdbGrid().
@@ -120,7 +138,8 @@ void recordVdbRead(const std::string& path, const std::string& gridName, int gri
 
 /// openvdb::initialize(), then OpenVDB's log4cplus appender replaced by one that writes to
 /// stderr (OpenVDB's wrote to stdout) without terminal colours (plugin/vdb/vdb_logging.cpp):
-/// its warnings read " WARN: ..." in a log, in process as in the reading child. Idempotent and thread-safe; every reader calls it.
+/// its warnings read " WARN: ..." in a log, in process as in the reading child. Idempotent and
+/// thread-safe; every reader calls it.
 void initializeOpenVdb();
 
 /// Test hook: when set, the child process calls it first, before it reads anything (tests use it

@@ -603,6 +603,7 @@ void levelSetToFog(openvdb::FloatTree& tree) {
 } // namespace
 
 std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     detail::initializeOpenVdb();
     try {
         return DescriptorScanner().scan(path).grids;
@@ -642,7 +643,8 @@ LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
 }
 
 LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid) {
-    detail::initializeOpenVdb(); // idempotent and thread-safe (no colours in the log)
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
+    detail::initializeOpenVdb();          // idempotent and thread-safe (no colours in the log)
     const std::string& path = options.path;
     const std::string ctx = gridContext(path, options.gridName);
 
@@ -937,6 +939,7 @@ void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale
 } // namespace
 
 LoadedVelocityGrid detail::loadVdbVelocityInProcess(const VelocityLoadOptions& options) {
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     detail::initializeOpenVdb();
     const std::string& path = options.read.path;
     const std::string& name = options.read.gridName;

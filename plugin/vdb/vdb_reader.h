@@ -54,10 +54,12 @@
 /// when it exits. Cost: one fork and one copy of the NanoVDB grid through a pipe (docs/vdb.md,
 /// "Corrupt files and the child process"). With isolate = false the grid is read in the calling
 /// process: for trusted files only.
-///    @note Forking while another thread of the caller holds a lock the reader needs (e.g. one
-///          inside OpenVDB's grid registry, taken by a concurrent in-process load or
-///          listVdbGrids()) makes the child wait for a lock nobody will release: it then ends
-///          by the time limit. Isolated loads concurrent with each other are fine (tested).
+///    @note The fork waits while another thread of the caller is inside OpenVDB through this
+///          module (an in-process load, listVdbGrids(), a bake or write: detail::OpenVdbSection),
+///          since a lock held there (OpenVDB's grid registry's, say) would stay locked in the
+///          child, which then waited for it until the time limit. OpenVDB used by other code of
+///          the same process is not covered. Isolated loads concurrent with each other and with
+///          in-process reads are fine (tested).
 ///
 /// Sanitising (counted, one warning per kind): NaN/Inf values become 0; negative densities are
 /// clamped to 0; inactive voxels and tiles whose value is not 0 are set to 0; a non-zero

@@ -2,6 +2,7 @@
 /// @brief writeFogVdb(), bakeFogVdb() and writeVdbGrids() (see vdb_writer.h). The only
 ///        translation unit that writes OpenVDB files.
 #include "plugin/vdb/vdb_writer.h"
+#include "plugin/vdb/vdb_isolate.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
@@ -282,6 +283,7 @@ void placeGrid(openvdb::GridBase& grid, const std::string& name, openvdb::GridCl
 VdbBakeStats writeFogVdb(const std::string& path, const std::string& gridName, int nx, int ny,
                          int nz, const float* dense, glm::vec3 worldOrigin, glm::vec3 voxelSize,
                          float backgroundTolerance) {
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     if (!dense) throw VdbError(path + ": grid \"" + gridName + "\": no density array given");
     const std::size_t sx = std::size_t(std::max(nx, 0)), sxy = sx * std::size_t(std::max(ny, 0));
     return bake(path, gridName, glm::ivec3(nx, ny, nz), worldOrigin, voxelSize, backgroundTolerance,
@@ -292,6 +294,7 @@ VdbBakeStats bakeFogVdb(const std::string& path, const std::string& gridName, gl
                         glm::vec3 worldOrigin, glm::vec3 voxelSize,
                         const std::function<float(glm::vec3 worldPos)>& density,
                         float backgroundTolerance) {
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     if (!density) throw VdbError(path + ": grid \"" + gridName + "\": no density function");
     const glm::dvec3 origin(worldOrigin), vs(voxelSize);
     return bake(
@@ -301,6 +304,7 @@ VdbBakeStats bakeFogVdb(const std::string& path, const std::string& gridName, gl
 
 std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<FogBake>& fogs,
                                   const std::vector<LevelSetBake>& levelSets) {
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     openvdb::GridCPtrVec grids;
     std::vector<VdbBakeStats> stats;
     for (const FogBake& f : fogs) {
@@ -330,6 +334,7 @@ std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<Fog
 
 void writeVdbGrids(const std::string& path, const std::vector<VdbGridSpec>& grids,
                    const std::string& creator) {
+    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     openvdb::initialize();
     openvdb::GridCPtrVec out;
     for (const VdbGridSpec& spec : grids) {

@@ -1,4 +1,5 @@
 #include "plugin/vdb/volume_render_baseline.h"
+#include "plugin/vdb/vdb_isolate.h"
 
 #include <chrono>
 #include <cmath>
@@ -76,6 +77,7 @@ struct VolumeRenderBaseline::Impl {
 
 VolumeRenderBaseline::VolumeRenderBaseline(const VdbFieldDesc& vdb, const GridBinding& grid)
     : impl_(new Impl) {
+    const vdb::detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     openvdb::initialize();
     const auto* nano = static_cast<const nanovdb::FloatGrid*>(grid.grid);
     if (!nano || nano->activeVoxelCount() == 0)
@@ -102,6 +104,7 @@ double VolumeRenderBaseline::voxelSize() const {
 VolumeRenderTimes VolumeRenderBaseline::render(const SceneDesc& scene,
                                                const VolumeRenderSettings& settings,
                                                Framebuffer& fb) const {
+    const vdb::detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     using Intersector = openvdb::tools::VolumeRayIntersector<openvdb::FloatGrid>;
     const VolumeRenderProblem p = volumeRenderProblem(scene, impl_->voxelSize);
     const int w = scene.camera.width, h = scene.camera.height;
