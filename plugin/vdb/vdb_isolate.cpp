@@ -531,10 +531,6 @@ std::string secondsText(double s) {
     return buf;
 }
 
-} // namespace
-
-namespace {
-
 std::shared_mutex gForkMutex;
 thread_local int tSectionDepth = 0; // OpenVdbSections open on this thread
 bool gForkedChild = false;          // set in a forked child, which has one thread

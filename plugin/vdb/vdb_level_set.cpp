@@ -14,7 +14,6 @@
 #include <mutex>
 
 #include "plugin/vdb/vdb_bake_detail.h"
-#include "plugin/vdb/vdb_isolate.h"
 
 namespace nimbus::vdb::detail {
 
@@ -42,7 +41,6 @@ void measure(const openvdb::FloatGrid& grid, VdbBakeStats& stats) {
 
 openvdb::FloatGrid::Ptr buildLevelSet(const std::string& path, const LevelSetBake& spec,
                                       VdbBakeStats& stats) {
-    const OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     const std::string ctx = path + ": level set \"" + spec.name + "\": ";
     if (spec.name.empty()) throw VdbError(path + ": cannot bake a level set without a name");
     const glm::ivec3 res = spec.resolution;
