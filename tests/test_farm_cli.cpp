@@ -174,4 +174,20 @@ TEST(FarmCli, HelpAndVersionLoadNoRenderLibrary) {
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_TRUE(contains(r.output, "libnimbus_render.so"));
     EXPECT_TRUE(contains(r.output, "libnimbus.so.0"));
+    // OpenImageIO comes with the first image written (libnimbus_image.so), not with the library;
+    // the same holds for the other commands' shared object
+    EXPECT_FALSE(contains(r.output, "libOpenImageIO.so")) << "loaded before any image";
+    EXPECT_FALSE(contains(r.output, "libnimbus_image.so"));
+    const CliRun c = runNimbus("converge /nonexistent/scene.toml", "LD_DEBUG=files");
+    EXPECT_EQ(c.exitCode, 2);
+    EXPECT_TRUE(contains(c.output, "libnimbus_commands.so"));
+    EXPECT_FALSE(contains(c.output, "libOpenImageIO.so")) << "loaded before any image";
+    TempDir d("loads_oiio");
+    const CliRun w =
+        runNimbus("render " + kScene + kSmall + " --frames 1 -o " + (d / "f.####.exr").string(),
+                  "LD_DEBUG=files");
+    EXPECT_EQ(w.exitCode, 0);
+    EXPECT_TRUE(contains(w.output, "libnimbus_image.so"));
+    EXPECT_TRUE(contains(w.output, "libOpenImageIO.so"));
+    EXPECT_TRUE(std::filesystem::exists(d / "f.0001.exr"));
 }

@@ -1,16 +1,16 @@
 /// @file image_output.cpp
-/// @brief OpenEXR / PNG output through OpenImageIO, colour managed through ColorSystem.
+/// @brief OpenEXR / PNG output, colour managed through ColorSystem; the files themselves are
+///        read and written by OpenImageIO in libnimbus_image.so (plugin/io/image_module.h).
 #include "plugin/io/image_output.h"
 
 #include "plugin/io/atomic_file.h"
+#include "plugin/io/image_module.h"
 
-#include <OpenImageIO/imageio.h>
+#include <dlfcn.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
+#include <mutex>
 #include <stdexcept>
 
 namespace nimbus::io {
@@ -42,40 +42,61 @@ size_t sanitize(float* v, size_t n) {
     return bad;
 }
 
-/// OIIO's message with the file system's state when that explains it: OpenEXR reports a full
-/// disk as "Failed to write pixel data" without the reason.
-std::string withDiskState(const std::string& err, const std::string& path) {
-    std::error_code ec;
-    const auto dir = std::filesystem::path(path).has_parent_path()
-                         ? std::filesystem::path(path).parent_path()
-                         : std::filesystem::path(".");
-    const std::filesystem::space_info sp = std::filesystem::space(dir, ec);
-    if (!ec && sp.available < (std::uintmax_t(1) << 20))
-        return err + " (" + std::strerror(ENOSPC) + ": " + std::to_string(sp.available) +
-               " bytes free in " + dir.string() + ")";
-    return err;
+using detail::ImageAttribute;
+
+ImageAttribute text(const std::string& name, const std::string& value) {
+    ImageAttribute a;
+    a.name = name;
+    a.text = value;
+    return a;
 }
 
-void writeWithOiio(const std::string& tempPath, const std::string& finalPath,
-                   const OIIO::ImageSpec& spec, OIIO::TypeDesc format, const void* pixels) {
-    // the format from the final name (the temp name does not end in the extension)
-    const std::string ext = std::filesystem::path(finalPath).extension().string();
-    auto out = OIIO::ImageOutput::create(ext.empty() ? finalPath : ext.substr(1));
-    if (!out) throw std::runtime_error("cannot write '" + finalPath + "': " + OIIO::geterror());
-    if (!out->open(tempPath, spec))
-        throw std::runtime_error("cannot write '" + finalPath + "': " + out->geterror());
-    if (!out->write_image(format, pixels)) {
-        const std::string err = out->geterror();
-        out->close();
-        throw std::runtime_error("cannot write '" + finalPath +
-                                 "': " + withDiskState(err, finalPath));
+/// Where this code was linked in: the executable's or the shared object's folder.
+std::string ownFolder() {
+    Dl_info info{};
+    if (dladdr(reinterpret_cast<const void*>(&ownFolder), &info) == 0 || !info.dli_fname) return {};
+    const std::string self = info.dli_fname;
+    const size_t slash = self.find_last_of('/');
+    return slash == std::string::npos ? std::string() : self.substr(0, slash);
+}
+
+const detail::ImageModule* loadImageModule() {
+    std::string tried;
+    void* lib = nullptr;
+    const std::string folder = ownFolder();
+    if (!folder.empty()) {
+        const std::string path = folder + "/" + detail::kImageModuleLibrary;
+        lib = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+        if (!lib) tried = path + ": " + dlerror() + "; ";
     }
-    if (!out->close())
-        throw std::runtime_error("cannot write '" + finalPath +
-                                 "': " + withDiskState(out->geterror(), finalPath));
+    if (!lib) {
+        lib = dlopen(detail::kImageModuleLibrary, RTLD_NOW | RTLD_LOCAL);
+        if (!lib)
+            throw std::runtime_error(std::string("cannot load OpenImageIO's module (") + tried +
+                                     "the library path: " + dlerror() + ")");
+    }
+    using Entry = const detail::ImageModule* (*)();
+    const auto entry = reinterpret_cast<Entry>(dlsym(lib, detail::kImageModuleSymbol));
+    const detail::ImageModule* m = entry ? entry() : nullptr;
+    if (!m || m->version != detail::kImageModuleVersion)
+        throw std::runtime_error(std::string(detail::kImageModuleLibrary) +
+                                 " is not this build's (no " + detail::kImageModuleSymbol +
+                                 " of version " + std::to_string(detail::kImageModuleVersion) +
+                                 "): rebuild Nimbus");
+    return m;
 }
 
 } // namespace
+
+namespace detail {
+const ImageModule& imageModule() {
+    static std::mutex mutex;
+    static const ImageModule* module = nullptr;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!module) module = loadImageModule(); // a failure throws and the next call tries again
+    return *module;
+}
+} // namespace detail
 
 std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, const ColorSystem& cs,
                      const std::string& workingSpace, const std::string& outputSpace,
@@ -117,25 +138,52 @@ std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, con
     // AOVs were copied unsanitised: sanitise them now (RGBA are already finite).
     for (size_t i = 0; i < n; ++i) bad += sanitize(&pixels[i * nch + 4], nch - 4);
 
-    OIIO::ImageSpec spec(fb.width, fb.height, int(nch), OIIO::TypeDesc::FLOAT);
-    spec.channelnames = names;
-    spec.alpha_channel = 3;
-    spec.attribute("compression", "zip");
-    spec.attribute("Software", "Nimbus " + md.version);
-    if (auto chroma = cs.chromaticities(output))
-        spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), chroma->data());
-    spec.attribute("nimbus/colorSpace", output);
-    spec.attribute("nimbus/ocioConfig", cs.description());
-    spec.attribute("nimbus/version", md.version);
-    spec.attribute("nimbus/seed", std::to_string(md.seed));
-    spec.attribute("nimbus/renderTime", OIIO::TypeDesc::DOUBLE, &md.renderSeconds);
-    spec.attribute("nimbus/frame", md.frame);
-    if (!md.sceneHash.empty()) spec.attribute("nimbus/sceneHash", md.sceneHash);
-    if (bad > 0) spec.attribute("nimbus/nonFiniteReplaced", int(std::min<size_t>(bad, 0x7fffffff)));
-    for (const auto& [key, value] : md.settings) spec.attribute("nimbus/settings/" + key, value);
+    detail::ImageWrite w;
+    w.finalPath = path;
+    w.width = fb.width;
+    w.height = fb.height;
+    w.channels = names;
+    w.alphaChannel = 3;
+    w.pixels = pixels.data();
+    auto& at = w.attributes;
+    at.push_back(text("compression", "zip"));
+    at.push_back(text("Software", "Nimbus " + md.version));
+    if (auto chroma = cs.chromaticities(output)) {
+        ImageAttribute a;
+        a.kind = ImageAttribute::Kind::Float8;
+        a.name = "chromaticities";
+        std::copy(chroma->begin(), chroma->end(), a.floats8.begin());
+        at.push_back(a);
+    }
+    at.push_back(text("nimbus/colorSpace", output));
+    at.push_back(text("nimbus/ocioConfig", cs.description()));
+    at.push_back(text("nimbus/version", md.version));
+    at.push_back(text("nimbus/seed", std::to_string(md.seed)));
+    ImageAttribute seconds;
+    seconds.kind = ImageAttribute::Kind::Double;
+    seconds.name = "nimbus/renderTime";
+    seconds.real = md.renderSeconds;
+    at.push_back(seconds);
+    ImageAttribute frame;
+    frame.kind = ImageAttribute::Kind::Int;
+    frame.name = "nimbus/frame";
+    frame.integer = md.frame;
+    at.push_back(frame);
+    if (!md.sceneHash.empty()) at.push_back(text("nimbus/sceneHash", md.sceneHash));
+    if (bad > 0) {
+        ImageAttribute replaced;
+        replaced.kind = ImageAttribute::Kind::Int;
+        replaced.name = "nimbus/nonFiniteReplaced";
+        replaced.integer = int(std::min<size_t>(bad, 0x7fffffff));
+        at.push_back(replaced);
+    }
+    for (const auto& [key, value] : md.settings)
+        at.push_back(text("nimbus/settings/" + key, value));
 
+    const detail::ImageModule& module = detail::imageModule();
     writeAtomically(path, [&](const std::string& temp) {
-        writeWithOiio(temp, path, spec, OIIO::TypeDesc::FLOAT, pixels.data());
+        w.tempPath = temp;
+        module.write(w);
     });
     return bad;
 }
@@ -167,10 +215,19 @@ void writeEncodedPreviewPng(const std::string& path, int width, int height,
         bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
     }
 
-    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("Software", std::string("Nimbus preview: ") + display + " / " + view);
+    detail::ImageWrite w;
+    w.finalPath = path;
+    w.width = width;
+    w.height = height;
+    w.channels = {"R", "G", "B"};
+    w.uint8 = true;
+    w.pixels = bytes.data();
+    w.attributes.push_back(
+        text("Software", std::string("Nimbus preview: ") + display + " / " + view));
+    const detail::ImageModule& module = detail::imageModule();
     writeAtomically(path, [&](const std::string& temp) {
-        writeWithOiio(temp, path, spec, OIIO::TypeDesc::UINT8, bytes.data());
+        w.tempPath = temp;
+        module.write(w);
     });
 }
 
@@ -190,30 +247,8 @@ int ExrImage::channelIndex(const std::string& name) const {
 }
 
 ExrImage readExr(const std::string& path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw std::runtime_error("cannot read '" + path + "': " + OIIO::geterror());
-    const OIIO::ImageSpec& spec = in->spec();
     ExrImage img;
-    img.width = spec.width;
-    img.height = spec.height;
-    img.channels = spec.channelnames;
-    for (int c = 0; c < spec.nchannels; ++c)
-        img.channelFormats.push_back(spec.channelformat(c).c_str());
-    for (const auto& p : spec.extra_attribs) {
-        img.attributes[p.name().string()] = p.get_string(1024);
-        if (p.name() == "chromaticities" && p.type() == OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8)) {
-            Chromaticities ch;
-            const float* v = static_cast<const float*>(p.data());
-            std::copy(v, v + 8, ch.begin());
-            img.chromaticities = ch;
-        }
-    }
-    img.pixels.resize(size_t(spec.width) * spec.height * spec.nchannels);
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data())) {
-        const std::string err = in->geterror();
-        throw std::runtime_error("cannot read '" + path + "': " + err);
-    }
-    in->close();
+    detail::imageModule().read(path, img);
     return img;
 }
 

@@ -20,6 +20,9 @@
 ///   `nimbus/nonFiniteReplaced` (int, only when > 0),
 ///   `nimbus/settings/<key>` (string, one per settings entry), `Software` ("Nimbus <version>").
 /// All are listed by `oiiotool --info -v frame.exr`.
+///
+/// OpenImageIO itself is in libnimbus_image.so, loaded on the first read or write
+/// (plugin/io/image_module.h): a process that writes no file does not load its ~260 libraries.
 #pragma once
 
 #include <cstddef> // before core/image.h, which uses size_t without including it
@@ -93,6 +96,7 @@ void writeEncodedPreviewPng(const std::string& path, int width, int height,
 struct ExrImage {
     int width = 0;
     int height = 0;
+    std::string fileFormat;            ///< OpenImageIO's name of the format: "openexr", "png", ...
     std::vector<std::string> channels; ///< channel names, in the order OIIO reports them
     std::vector<std::string>
         channelFormats;        ///< per channel pixel type in the file ("float", "half", ...)
