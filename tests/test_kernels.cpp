@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "core/fields/cumulus.h"
 #include "core/kernels/kernels.h"
 
 using namespace nimbus::kern;
@@ -287,4 +288,43 @@ TEST(Lighting, StepIntegralIsAccurateForTinyAndLargeOpticalDepths) {
             EXPECT_NEAR(got / exact, 1.0, 1e-5) << "sigma_t " << sigma_t << " dt " << dt;
         }
     EXPECT_FLOAT_EQ(stepIntegral(S, 0.0f, 0.5f), S * 0.5f); // no medium: S dt
+}
+
+// The bake (core/fields/cumulus.cpp) hashes each octave's lattice once into a table instead of
+// per node and corner; its nodes must stay the kernels' values bit for bit: at the default
+// lattices (tables) and at lattices whose upper octaves are too fine for a table (hashed as the
+// kernels hash them), for two seeds.
+TEST(NoiseBake, TabledOctavesEqualTheKernelsBitForBit) {
+    struct Case {
+        int baseLattice, baseOctaves, detailLattice, detailOctaves;
+        nimbus::kern::uint seed;
+    };
+    for (const Case k :
+         {Case{4, 4, 4, 3, 1u}, Case{3, 5, 5, 4, 0xdeadbeefu}, Case{64, 4, 96, 3, 7u}}) {
+        nimbus::CumulusDesc c;
+        c.baseLattice = k.baseLattice;
+        c.baseOctaves = k.baseOctaves;
+        c.detailLattice = k.detailLattice;
+        c.detailOctaves = k.detailOctaves;
+        c.seed = k.seed;
+        c.baseBakeResolution = 20;
+        c.detailBakeResolution = 18;
+        const nimbus::kern::CumulusParams P = nimbus::cumulusParams(c, 0.0f);
+        const auto base = nimbus::bakeCumulusBase(c), detail = nimbus::bakeCumulusDetail(c);
+        for (const auto& [vol, isBase] : {std::pair{base, true}, std::pair{detail, false}}) {
+            const int res = vol->res;
+            int differ = 0;
+            for (int z = 0; z < res; ++z)
+                for (int y = 0; y < res; ++y)
+                    for (int x = 0; x < res; ++x) {
+                        const glm::vec3 q = glm::vec3(float(x), float(y), float(z)) / float(res);
+                        const float want = isBase ? nimbus::kern::cumulusBaseNoise(P, q)
+                                                  : nimbus::kern::cumulusDetailNoise(P, q);
+                        differ += vol->values[(size_t(z) * res + y) * res + x] != want;
+                    }
+            EXPECT_EQ(differ, 0) << (isBase ? "base" : "detail") << " lattice "
+                                 << (isBase ? k.baseLattice : k.detailLattice) << " seed "
+                                 << k.seed;
+        }
+    }
 }

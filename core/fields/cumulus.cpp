@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <tbb/parallel_for.h>
 
@@ -153,6 +154,125 @@ std::shared_ptr<const NoiseVolume> bakeTileRgba(int res, const std::atomic<bool>
     return vol;
 }
 
+/// One octave's lattice hashes (noise.glsl's latticeHash3 of every cell of the period), computed
+/// once for a bake instead of 8 (Perlin) or 27 (Worley) times per node: the kernels' arithmetic
+/// on the same values in the same order, so the baked nodes equal the kernels' bit for bit
+/// (tests/test_kernels.cpp, NoiseBake). A period too large for a table (over 64^3 cells) hashes
+/// as the kernels do.
+class OctaveLattice {
+  public:
+    OctaveLattice(int period, kern::uint seed) : period_(period), seed_(seed) {
+        const size_t n = size_t(period) * period * period;
+        if (period <= 0 || n > (size_t(1) << 18)) return; // 64^3 cells, 6 MB
+        hashes_.resize(n);
+        features_.resize(n);
+        for (int z = 0; z < period; ++z)
+            for (int y = 0; y < period; ++y)
+                for (int x = 0; x < period; ++x) {
+                    const size_t i = (size_t(z) * period + y) * period + x;
+                    hashes_[i] = kern::latticeHash3(ivec3(x, y, z), period, seed);
+                    features_[i] = kern::hashToUnit3(hashes_[i]);
+                }
+    }
+    bool tabled() const { return !hashes_.empty(); }
+    glm::uvec3 hash(ivec3 c) const {
+        if (!tabled()) return kern::latticeHash3(c, period_, seed_);
+        return hashes_[index(wrap(c.x), wrap(c.y), wrap(c.z))];
+    }
+    /// hashToUnit3(hash) of the cell at wrapped coordinates (tabled() only)
+    const vec3& feature(int x, int y, int z) const { return features_[index(x, y, z)]; }
+    /// noise.glsl's wrapLattice, for the cells a node's lookups reach ([-1, period]) without
+    /// a division
+    int wrap(int a) const {
+        if (a >= 0 && a < period_) return a;
+        if (a == -1) return period_ - 1;
+        if (a == period_) return 0;
+        const int r = a % period_;
+        return r < 0 ? r + period_ : r;
+    }
+
+  private:
+    size_t index(int x, int y, int z) const { return (size_t(z) * period_ + y) * period_ + x; }
+    int period_;
+    kern::uint seed_;
+    std::vector<glm::uvec3> hashes_;
+    std::vector<vec3> features_;
+};
+
+/// The octaves of an fBm: period * 2^i and seed + 101 i (noise.glsl's perlinFbm, worleyFbm).
+std::vector<OctaveLattice> octaveLattices(int period, int octaves, kern::uint seed) {
+    std::vector<OctaveLattice> v;
+    for (int i = 0; i < octaves; ++i, period *= 2)
+        v.emplace_back(period, seed + kern::uint(i) * 101u);
+    return v;
+}
+
+/// noise.glsl's perlinNoise, the corners' hashes from the table.
+float perlinTabled(vec3 p, const OctaveLattice& t) {
+    const vec3 pf = glm::floor(p);
+    const ivec3 c = ivec3(int(pf.x), int(pf.y), int(pf.z));
+    const vec3 f = p - pf;
+    const vec3 u = kern::perlinFade(f);
+    const auto corner = [&](int x, int y, int z) {
+        return kern::perlinGrad(t.hash(c + ivec3(x, y, z)).x >> 7u,
+                                f - vec3(float(x), float(y), float(z)));
+    };
+    const float n000 = corner(0, 0, 0), n100 = corner(1, 0, 0), n010 = corner(0, 1, 0),
+                n110 = corner(1, 1, 0), n001 = corner(0, 0, 1), n101 = corner(1, 0, 1),
+                n011 = corner(0, 1, 1), n111 = corner(1, 1, 1);
+    const float x00 = glm::mix(n000, n100, u.x), x10 = glm::mix(n010, n110, u.x),
+                x01 = glm::mix(n001, n101, u.x), x11 = glm::mix(n011, n111, u.x);
+    return glm::mix(glm::mix(x00, x10, u.y), glm::mix(x01, x11, u.y), u.z);
+}
+
+/// noise.glsl's worleyNoise, the feature points from the table (the 3 wrapped coordinates of
+/// each axis computed once, not per neighbour).
+float worleyTabled(vec3 p, const OctaveLattice& t) {
+    const vec3 pf = glm::floor(p);
+    const ivec3 c = ivec3(int(pf.x), int(pf.y), int(pf.z));
+    const vec3 f = p - pf;
+    float d2 = 3.0f;
+    if (t.tabled()) {
+        int w[3][3];
+        for (int a = 0; a < 3; ++a)
+            for (int k = 0; k < 3; ++k) w[a][k] = t.wrap(c[a] + k - 1);
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    const vec3 fp = vec3(float(dx), float(dy), float(dz)) +
+                                    t.feature(w[0][dx + 1], w[1][dy + 1], w[2][dz + 1]);
+                    const vec3 d = fp - f;
+                    d2 = glm::min(d2, glm::dot(d, d));
+                }
+    } else {
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    const vec3 fp = vec3(float(dx), float(dy), float(dz)) +
+                                    kern::hashToUnit3(t.hash(c + ivec3(dx, dy, dz)));
+                    const vec3 d = fp - f;
+                    d2 = glm::min(d2, glm::dot(d, d));
+                }
+    }
+    return glm::clamp(1.0f - glm::sqrt(d2) * 0.57735026919f, 0.0f, 1.0f);
+}
+
+/// noise.glsl's perlinFbm / worleyFbm over tabled octaves (gain as given).
+template <float (*Noise)(vec3, const OctaveLattice&)>
+float fbmTabled(vec3 p, const std::vector<OctaveLattice>& octaves, float gain) {
+    float sum = 0.0f;
+    float norm = 0.0f;
+    float amp = 1.0f;
+    float freq = 1.0f;
+    for (const OctaveLattice& t : octaves) {
+        sum += amp * Noise(p * freq, t);
+        norm += amp;
+        amp *= gain;
+        freq *= 2.0f;
+    }
+    return sum / norm;
+}
+
 } // namespace
 
 std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c,
@@ -161,8 +281,15 @@ std::shared_ptr<const NoiseVolume> bakeCumulusBase(const CumulusDesc& c,
     if (c.eval == NoiseEval::Rgba)
         return bakeTileRgba(c.baseBakeResolution, cancel,
                             [&](vec3 q) { return kern::cumulusBaseChannels(P, q); });
-    return bakeTile(c.baseBakeResolution, cancel,
-                    [&](vec3 q) { return kern::cumulusBaseNoise(P, q); });
+    // cloud.glsl's cumulusBaseNoise: perlinWorley at the base lattice
+    const int L = P.baseLattice;
+    const auto perlin = octaveLattices(L, P.baseOctaves, P.layer.seed);
+    const auto worley = octaveLattices(L, 3, P.layer.seed + 7919u);
+    return bakeTile(c.baseBakeResolution, cancel, [&](vec3 q) {
+        const vec3 p = q * float(L);
+        const float perlin01 = 0.5f + 0.5f * fbmTabled<perlinTabled>(p, perlin, 0.5f);
+        return kern::perlinWorleyOf(perlin01, fbmTabled<worleyTabled>(p, worley, 0.5f));
+    });
 }
 
 std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c,
@@ -171,8 +298,12 @@ std::shared_ptr<const NoiseVolume> bakeCumulusDetail(const CumulusDesc& c,
     if (c.eval == NoiseEval::Rgba)
         return bakeTileRgba(c.detailBakeResolution, cancel,
                             [&](vec3 q) { return kern::cumulusDetailChannels(P, q); });
-    return bakeTile(c.detailBakeResolution, cancel,
-                    [&](vec3 q) { return kern::cumulusDetailNoise(P, q); });
+    // cloud.glsl's cumulusDetailNoise: worleyFbm at the detail lattice
+    const auto worley =
+        octaveLattices(P.detailLattice, P.detailOctaves, P.layer.seed + 0x9e3779b9u);
+    return bakeTile(c.detailBakeResolution, cancel, [&](vec3 q) {
+        return fbmTabled<worleyTabled>(q * float(P.detailLattice), worley, 0.5f);
+    });
 }
 
 float CumulusField::density(vec3 p) const {
