@@ -225,36 +225,34 @@ float perlinTabled(vec3 p, const OctaveLattice& t) {
     return glm::mix(glm::mix(x00, x10, u.y), glm::mix(x01, x11, u.y), u.z);
 }
 
+/// noise.glsl's worleyNoise at offset f in its cell, feature(dx, dy, dz) the neighbour's point.
+template <class Feature> float worleyFrom(vec3 f, Feature&& feature) {
+    float d2 = 3.0f;
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const vec3 d = vec3(float(dx), float(dy), float(dz)) + feature(dx, dy, dz) - f;
+                d2 = glm::min(d2, glm::dot(d, d));
+            }
+    return glm::clamp(1.0f - glm::sqrt(d2) * 0.57735026919f, 0.0f, 1.0f);
+}
+
 /// noise.glsl's worleyNoise, the feature points from the table (the 3 wrapped coordinates of
-/// each axis computed once, not per neighbour).
+/// each axis computed once, not per neighbour), else hashed as the kernels hash them.
 float worleyTabled(vec3 p, const OctaveLattice& t) {
     const vec3 pf = glm::floor(p);
     const ivec3 c = ivec3(int(pf.x), int(pf.y), int(pf.z));
     const vec3 f = p - pf;
-    float d2 = 3.0f;
-    if (t.tabled()) {
-        int w[3][3];
-        for (int a = 0; a < 3; ++a)
-            for (int k = 0; k < 3; ++k) w[a][k] = t.wrap(c[a] + k - 1);
-        for (int dz = -1; dz <= 1; dz++)
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    const vec3 fp = vec3(float(dx), float(dy), float(dz)) +
-                                    t.feature(w[0][dx + 1], w[1][dy + 1], w[2][dz + 1]);
-                    const vec3 d = fp - f;
-                    d2 = glm::min(d2, glm::dot(d, d));
-                }
-    } else {
-        for (int dz = -1; dz <= 1; dz++)
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    const vec3 fp = vec3(float(dx), float(dy), float(dz)) +
-                                    kern::hashToUnit3(t.hash(c + ivec3(dx, dy, dz)));
-                    const vec3 d = fp - f;
-                    d2 = glm::min(d2, glm::dot(d, d));
-                }
-    }
-    return glm::clamp(1.0f - glm::sqrt(d2) * 0.57735026919f, 0.0f, 1.0f);
+    if (!t.tabled())
+        return worleyFrom(f, [&](int dx, int dy, int dz) {
+            return kern::hashToUnit3(t.hash(c + ivec3(dx, dy, dz)));
+        });
+    int w[3][3];
+    for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < 3; ++k) w[a][k] = t.wrap(c[a] + k - 1);
+    return worleyFrom(f, [&](int dx, int dy, int dz) {
+        return t.feature(w[0][dx + 1], w[1][dy + 1], w[2][dz + 1]);
+    });
 }
 
 /// noise.glsl's perlinFbm / worleyFbm over tabled octaves (gain as given).

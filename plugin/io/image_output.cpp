@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <mutex>
 #include <stdexcept>
 
 namespace nimbus::io {
@@ -48,6 +47,22 @@ ImageAttribute text(const std::string& name, const std::string& value) {
     ImageAttribute a;
     a.name = name;
     a.text = value;
+    return a;
+}
+
+ImageAttribute integer(const std::string& name, int value) {
+    ImageAttribute a;
+    a.kind = ImageAttribute::Kind::Int;
+    a.name = name;
+    a.integer = value;
+    return a;
+}
+
+ImageAttribute real(const std::string& name, double value) {
+    ImageAttribute a;
+    a.kind = ImageAttribute::Kind::Double;
+    a.name = name;
+    a.real = value;
     return a;
 }
 
@@ -90,10 +105,8 @@ const detail::ImageModule* loadImageModule() {
 
 namespace detail {
 const ImageModule& imageModule() {
-    static std::mutex mutex;
-    static const ImageModule* module = nullptr;
-    std::lock_guard<std::mutex> lock(mutex);
-    if (!module) module = loadImageModule(); // a failure throws and the next call tries again
+    // loaded once, thread-safely; a load that throws leaves it unset, and the next call tries again
+    static const ImageModule* const module = loadImageModule();
     return *module;
 }
 } // namespace detail
@@ -159,24 +172,11 @@ std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, con
     at.push_back(text("nimbus/ocioConfig", cs.description()));
     at.push_back(text("nimbus/version", md.version));
     at.push_back(text("nimbus/seed", std::to_string(md.seed)));
-    ImageAttribute seconds;
-    seconds.kind = ImageAttribute::Kind::Double;
-    seconds.name = "nimbus/renderTime";
-    seconds.real = md.renderSeconds;
-    at.push_back(seconds);
-    ImageAttribute frame;
-    frame.kind = ImageAttribute::Kind::Int;
-    frame.name = "nimbus/frame";
-    frame.integer = md.frame;
-    at.push_back(frame);
+    at.push_back(real("nimbus/renderTime", md.renderSeconds));
+    at.push_back(integer("nimbus/frame", md.frame));
     if (!md.sceneHash.empty()) at.push_back(text("nimbus/sceneHash", md.sceneHash));
-    if (bad > 0) {
-        ImageAttribute replaced;
-        replaced.kind = ImageAttribute::Kind::Int;
-        replaced.name = "nimbus/nonFiniteReplaced";
-        replaced.integer = int(std::min<size_t>(bad, 0x7fffffff));
-        at.push_back(replaced);
-    }
+    if (bad > 0)
+        at.push_back(integer("nimbus/nonFiniteReplaced", int(std::min<size_t>(bad, 0x7fffffff))));
     for (const auto& [key, value] : md.settings)
         at.push_back(text("nimbus/settings/" + key, value));
 
