@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 namespace nimbus::io {
 
@@ -43,26 +44,19 @@ size_t sanitize(float* v, size_t n) {
 
 using detail::ImageAttribute;
 
-ImageAttribute text(const std::string& name, const std::string& value) {
+/// A header attribute: an int, a double, or text.
+template <class T> ImageAttribute attribute(const std::string& name, const T& value) {
     ImageAttribute a;
     a.name = name;
-    a.text = value;
-    return a;
-}
-
-ImageAttribute integer(const std::string& name, int value) {
-    ImageAttribute a;
-    a.kind = ImageAttribute::Kind::Int;
-    a.name = name;
-    a.integer = value;
-    return a;
-}
-
-ImageAttribute real(const std::string& name, double value) {
-    ImageAttribute a;
-    a.kind = ImageAttribute::Kind::Double;
-    a.name = name;
-    a.real = value;
+    if constexpr (std::is_same_v<T, int>) {
+        a.kind = ImageAttribute::Kind::Int;
+        a.integer = value;
+    } else if constexpr (std::is_same_v<T, double>) {
+        a.kind = ImageAttribute::Kind::Double;
+        a.real = value;
+    } else {
+        a.text = value;
+    }
     return a;
 }
 
@@ -159,8 +153,8 @@ std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, con
     w.alphaChannel = 3;
     w.pixels = pixels.data();
     auto& at = w.attributes;
-    at.push_back(text("compression", "zip"));
-    at.push_back(text("Software", "Nimbus " + md.version));
+    at.push_back(attribute("compression", "zip"));
+    at.push_back(attribute("Software", "Nimbus " + md.version));
     if (auto chroma = cs.chromaticities(output)) {
         ImageAttribute a;
         a.kind = ImageAttribute::Kind::Float8;
@@ -168,17 +162,17 @@ std::size_t writeExr(const std::string& path, const nimbus::Framebuffer& fb, con
         std::copy(chroma->begin(), chroma->end(), a.floats8.begin());
         at.push_back(a);
     }
-    at.push_back(text("nimbus/colorSpace", output));
-    at.push_back(text("nimbus/ocioConfig", cs.description()));
-    at.push_back(text("nimbus/version", md.version));
-    at.push_back(text("nimbus/seed", std::to_string(md.seed)));
-    at.push_back(real("nimbus/renderTime", md.renderSeconds));
-    at.push_back(integer("nimbus/frame", md.frame));
-    if (!md.sceneHash.empty()) at.push_back(text("nimbus/sceneHash", md.sceneHash));
+    at.push_back(attribute("nimbus/colorSpace", output));
+    at.push_back(attribute("nimbus/ocioConfig", cs.description()));
+    at.push_back(attribute("nimbus/version", md.version));
+    at.push_back(attribute("nimbus/seed", std::to_string(md.seed)));
+    at.push_back(attribute("nimbus/renderTime", md.renderSeconds));
+    at.push_back(attribute("nimbus/frame", md.frame));
+    if (!md.sceneHash.empty()) at.push_back(attribute("nimbus/sceneHash", md.sceneHash));
     if (bad > 0)
-        at.push_back(integer("nimbus/nonFiniteReplaced", int(std::min<size_t>(bad, 0x7fffffff))));
+        at.push_back(attribute("nimbus/nonFiniteReplaced", int(std::min<size_t>(bad, 0x7fffffff))));
     for (const auto& [key, value] : md.settings)
-        at.push_back(text("nimbus/settings/" + key, value));
+        at.push_back(attribute("nimbus/settings/" + key, value));
 
     const detail::ImageModule& module = detail::imageModule();
     writeAtomically(path, [&](const std::string& temp) {
@@ -223,7 +217,7 @@ void writeEncodedPreviewPng(const std::string& path, int width, int height,
     w.uint8 = true;
     w.pixels = bytes.data();
     w.attributes.push_back(
-        text("Software", std::string("Nimbus preview: ") + display + " / " + view));
+        attribute("Software", std::string("Nimbus preview: ") + display + " / " + view));
     const detail::ImageModule& module = detail::imageModule();
     writeAtomically(path, [&](const std::string& temp) {
         w.tempPath = temp;
