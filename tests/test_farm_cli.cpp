@@ -191,3 +191,31 @@ TEST(FarmCli, HelpAndVersionLoadNoRenderLibrary) {
     EXPECT_TRUE(contains(w.output, "libOpenImageIO.so"));
     EXPECT_TRUE(std::filesystem::exists(d / "f.0001.exr"));
 }
+
+// OpenImageIO's module (libnimbus_image.so) that cannot be loaded: the frame fails with the
+// error naming each place looked in and why, the documented exit code 3, and no file of the
+// frame left behind. The command and its libraries are copied into a folder of their own with a
+// file that is not a shared object under the module's name; LD_LIBRARY_PATH, which the loader
+// searches before the libraries' RUNPATH, points there too, so the build's module is not
+// reachable. Without LD_LIBRARY_PATH the loader's path (RUNPATH, the build folder) comes second
+// and the frame is written: a broken copy beside the libraries does not stop a render.
+TEST(FarmCli, ImageModuleThatCannotLoadFailsTheFrameCleanly) {
+    TempDir d("image_module");
+    const fs::path bin = fs::path(NIMBUS_CLI_PATH).parent_path();
+    for (const char* f : {"nimbus", "libnimbus_render.so", "libnimbus.so.0"})
+        fs::copy_file(bin / f, d / f);
+    writeText((d / "libnimbus_image.so").string(), "not a shared object\n");
+    fs::create_directory(d / "out");
+    const std::string render =
+        (d / "nimbus").string() + " render " + kScene + kSmall + " --frames 1 --progress none -o ";
+    const CliRun r = runShell("LD_LIBRARY_PATH=" + d.string() + " " + render +
+                              (d / "out" / "f.####.exr").string());
+    EXPECT_EQ(r.exitCode, 3) << r.output;
+    EXPECT_TRUE(contains(r.output, "frame 1: cannot load OpenImageIO's module (" +
+                                       (d / "libnimbus_image.so").string() + ": "));
+    EXPECT_TRUE(contains(r.output, "the library path: "));
+    EXPECT_TRUE(fs::is_empty(d / "out")) << "a file of the failed frame was left";
+    const CliRun ok = runShell(render + (d / "out" / "g.####.exr").string());
+    EXPECT_EQ(ok.exitCode, 0) << ok.output;
+    EXPECT_EQ(nimbus::io::readExr((d / "out" / "g.0001.exr").string()).width, 32);
+}

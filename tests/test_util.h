@@ -38,12 +38,10 @@ struct CliRun {
     std::string output; ///< stdout and stderr
 };
 
-/// Runs `nimbus args` through the shell, with optional `VAR=value ...` environment in front.
-inline CliRun runNimbus(const std::string& args, const std::string& env = "") {
+/// Runs a shell command line, stderr folded into the output.
+inline CliRun runShell(const std::string& command) {
     CliRun r;
-    const std::string cmd =
-        (env.empty() ? "" : env + " ") + std::string(NIMBUS_CLI_PATH) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
+    FILE* p = popen((command + " 2>&1").c_str(), "r");
     if (!p) return r;
     char buf[4096];
     size_t n;
@@ -51,6 +49,11 @@ inline CliRun runNimbus(const std::string& args, const std::string& env = "") {
     const int st = pclose(p);
     r.exitCode = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
     return r;
+}
+
+/// Runs `nimbus args` through the shell, with optional `VAR=value ...` environment in front.
+inline CliRun runNimbus(const std::string& args, const std::string& env = "") {
+    return runShell((env.empty() ? "" : env + " ") + std::string(NIMBUS_CLI_PATH) + " " + args);
 }
 
 /// Runs `nimbus args` (output discarded), sends it SIGINT after `ms` milliseconds and returns its
