@@ -462,7 +462,13 @@ void addRenderParams(std::vector<Param>& t) {
                           "that these terms stand for, so the single scattering stays exact.",
                           &RenderDesc::inScatter));
     t.push_back(
-        ren.param("inscatter_c", above(0), "The c of Olajos' 1 - e^-cd.", &RenderDesc::inScatterC)
+        ren.param("inscatter_c", above(0),
+                  "The c of Olajos' 1 - e^-cd, d the density as the field holds it (its values "
+                  "times field.density, without medium.density_scale): the term follows the "
+                  "density's units, not its optical depth, so a cloud stored near 0 and made "
+                  "thick by density_scale has its single scattering darkened to about 0.6 at "
+                  "the default strength (docs/accuracy.md, stop 68).",
+                  &RenderDesc::inScatterC)
             .usedWhen("render.inscatter = \"olajos\"", [](const SceneFile& f) {
                 return f.scene.render.inScatter == InScatter::Olajos;
             }));
