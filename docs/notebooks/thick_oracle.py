@@ -19,19 +19,14 @@ usage: thick_oracle.py SUITE.csv REFDIR BASEDIR NAME=DIR [NAME=DIR ...]
 """
 import csv
 import itertools
-import re
-import subprocess
+import os
 import sys
 
 import numpy as np
 
-
-def exr(path):
-    out = subprocess.run(["oiiotool", "--dumpdata", path], capture_output=True, text=True,
-                         check=True).stdout
-    w, h, n = map(int, re.search(r":\s+(\d+) x\s+(\d+), (\d+) channel", out).groups())
-    v = [line.split(":", 1)[1].split() for line in out.splitlines() if "Pixel (" in line]
-    return np.array(v, dtype=np.float64).reshape(h, w, n)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests",
+                                "bench"))
+from image_compare import exr  # noqa: E402
 
 
 def nnls(X, y):
@@ -63,7 +58,7 @@ def main():
     for row in csv.DictReader(open(suite_csv)):
         case, noise = row["case"], float(row["reference_noise"])
         key = case.replace("/", ".")
-        R = 0.5 * (exr(f"{refdir}/{key}.a.exr") + exr(f"{refdir}/{key}.b.exr"))
+        R = 0.5 * (exr(f"{refdir}/{key}.a.exr", 4) + exr(f"{refdir}/{key}.b.exr", 4))
         m = R[:, :, 3] > 0.01
         y = R[m][:, :3].ravel()
         mean = y.mean()
