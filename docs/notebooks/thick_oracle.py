@@ -15,6 +15,8 @@ usage: thick_oracle.py SUITE.csv REFDIR BASEDIR NAME=DIR [NAME=DIR ...]
   REFDIR      the folder of the cached references (CASE.a.exr, CASE.b.exr)
   BASEDIR     the folder whose CASE.march.exr is march as it renders by default
   NAME=DIR    a term: the folder whose CASE.march.exr is march rendered with that term's settings
+Every subset of the terms is fitted, each by a least squares that tries every subset of its
+columns: meant for a handful of terms (the work grows as 2^n).
 (needs numpy and oiiotool; not a build dependency)
 """
 import csv
