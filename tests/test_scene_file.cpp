@@ -616,6 +616,24 @@ TEST(SceneFileWarnings, IgnoredKeys) {
     EXPECT_TRUE(contains(f.warnings[0], "medium.phase = \"hg\""));
 }
 
+TEST(SceneFileWarnings, MaxDepthIsUsedWhereverPhotonsMayCarryTheLight) {
+    // "auto" (the default) traces photons where the cloud is thin or medium along the sun, and
+    // render.max_depth caps their walks: setting it is not ignored there
+    for (const char* ms :
+         {"", "multiple_scattering = \"auto\"\n", "multiple_scattering = \"photons\"\n"}) {
+        SceneFile f =
+            parseSceneText(std::string("[render]\n") + ms + "max_depth = 4096\n", "d.toml");
+        EXPECT_TRUE(f.warnings.empty()) << ms << (f.warnings.empty() ? "" : f.warnings[0]);
+        EXPECT_EQ(f.scene.render.maxDepth, 4096);
+    }
+    // march with the grid alone traces no path and no photon
+    SceneFile f =
+        parseSceneText("[render]\nmultiple_scattering = \"grid\"\nmax_depth = 4096\n", "d.toml");
+    ASSERT_EQ(f.warnings.size(), 1u);
+    EXPECT_TRUE(contains(f.warnings[0], "render.max_depth is ignored")) << f.warnings[0];
+    EXPECT_TRUE(contains(f.warnings[0], "\"auto\"")) << f.warnings[0];
+}
+
 // ---------------------------------------------------------------- overrides
 
 TEST(SceneFileOverrides, ReplaceAndAddValues) {
