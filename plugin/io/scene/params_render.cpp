@@ -13,6 +13,10 @@ void addRenderParams(std::vector<Param>& t) {
     auto marching = [](const SceneFile& f) {
         return f.scene.render.integrator == Integrator::March;
     };
+    auto photonsOn = [](const SceneFile& f) {
+        return f.scene.render.multipleScattering == MultipleScattering::Photons ||
+               f.scene.render.multipleScattering == MultipleScattering::Auto;
+    };
     t.push_back(ren.param(
         "integrator",
         WordTable<Integrator>{{"march", Integrator::March}, {"pathtrace", Integrator::PathTrace}},
@@ -22,21 +26,16 @@ void addRenderParams(std::vector<Param>& t) {
     t.push_back(
         ren.param("spp", closed(1, 1 << 20), "Path-traced samples per pixel.", &RenderDesc::spp)
             .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
-    t.push_back(
-        ren.param("max_depth", closed(1, 1 << 20),
-                  "Scattering events per path (and per photon) at most (1 = single "
-                  "scattering). A photon's walk in a thick albedo-1 cloud takes "
-                  "thousands: capped at 256, photons made thick front-lit clouds 0.87-0.89 "
-                  "of the reference's mean, at 4096 0.985-0.996 (docs/accuracy.md, "
-                  "stop 69).",
-                  &RenderDesc::maxDepth)
-            .usedWhen("render.integrator = \"pathtrace\" or "
-                      "render.multiple_scattering = \"photons\" or \"auto\"",
-                      [](const SceneFile& f) {
-                          return f.scene.render.integrator == Integrator::PathTrace ||
-                                 f.scene.render.multipleScattering == MultipleScattering::Photons ||
-                                 f.scene.render.multipleScattering == MultipleScattering::Auto;
-                      }));
+    t.push_back(ren.param("max_depth", closed(1, 1 << 20),
+                          "Scattering events per path (and per photon) at most (1 = single "
+                          "scattering). A photon's walk in a thick albedo-1 cloud takes "
+                          "thousands: capped at 256, photons made thick front-lit clouds 0.87-0.89 "
+                          "of the reference's mean, at 4096 0.985-0.996 (docs/accuracy.md, "
+                          "stop 69).",
+                          &RenderDesc::maxDepth)
+                    .usedWhen("render.integrator = \"pathtrace\" or "
+                              "render.multiple_scattering = \"photons\" or \"auto\"",
+                              [=](const SceneFile& f) { return pathtrace(f) || photonsOn(f); }));
     t.push_back(ren.param("rr_depth", closed(1, 1 << 20),
                           "Russian roulette (unbiased path termination) from this depth on.",
                           &RenderDesc::rrDepth)
@@ -262,10 +261,6 @@ void addRenderParams(std::vector<Param>& t) {
                     }));
     auto gridOn = [](const SceneFile& f) {
         return f.scene.render.multipleScattering != MultipleScattering::None;
-    };
-    auto photonsOn = [](const SceneFile& f) {
-        return f.scene.render.multipleScattering == MultipleScattering::Photons ||
-               f.scene.render.multipleScattering == MultipleScattering::Auto;
     };
     t.push_back(
         ren.param("photons", closed(0, 1 << 30),
