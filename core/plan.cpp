@@ -318,7 +318,7 @@ std::string FramePlan::explain() const {
                     " traced through the field, recorded on a grid of voxel " +
                     std::to_string(photonCell) +
                     (photonCellNote.empty() ? std::string() : " (" + photonCellNote + ")") +
-                    megabytes(photonGridBytes, photonsOwnGrid()) +
+                    megabytes(photonGridBytes, photonsOwnGrid()) + ", walking " + photonWalkNote +
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
                     (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
@@ -499,6 +499,7 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
     }
     p.cloudTau = d.meanTau;
     p.cloudVolume = d.occupiedVolume;
+    p.cloudExtinction = d.meanExtinction;
     // the photons leave over the box that holds density (core/lighting/photons.cpp): the share
     // of them that meet it is measured over that box, here the box of the samples with density
     // (the photons' is the majorant grid's, a little larger). Over the whole bounds a small
@@ -664,6 +665,26 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
                   kPhotonsReachingPerCell, double(finest), deep ? ">" : "<=", kThinDepth);
     p.photonCellNote = buf;
     return scale;
+}
+
+/// Whether photons walk a majorant grid of their own (FramePlan::photonOwnWalk): their voxel's
+/// optical depth at the cloud's mean extinction, measured along the sun, against
+/// render.photon_walk_depth. Unmeasured: march's grid.
+void choosePhotonWalk(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
+    std::string why;
+    if (!measureCloud(s, bindings, p, why) || !(p.cloudExtinction > 0.0)) {
+        p.photonWalkNote = "march's grid (" + (why.empty() ? "no density" : why) + ")";
+        return;
+    }
+    const double depth = p.cloudExtinction * double(p.photonCell);
+    p.photonOwnWalk = depth >= double(s.render.photonWalkDepth);
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "%s: their voxel is %.3g deep at the cloud's mean extinction, %s "
+                  "render.photon_walk_depth %g",
+                  p.photonOwnWalk ? "a majorant grid of their own" : "march's majorant grid", depth,
+                  p.photonOwnWalk ? ">=" : "<", double(s.render.photonWalkDepth));
+    p.photonWalkNote = buf;
 }
 
 /// The diffusion grid ("auto" choosing it, or named) with render.light_volume_cell = 0: the
@@ -865,11 +886,13 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
         const ivec3 mr = majorantResolution(ext, p.majorantCell);
         const float majorantMin = minComponent(ext / vec3(mr));
         p.photonTrackingCell = photonTrackingCell(bounds, majorantMin, p.photonCell);
+        choosePhotonWalk(s, bindings, p);
         const ivec3 lr = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.photonGridBytes =
             photonBytes(bounds, lightVolumeResolution(bounds, p.photonCell), p.photonTrackingCell,
                         p.skipEmpty && p.majorantCell > 0.0f ? double(mr.x) * mr.y * mr.z : 0.0,
-                        p.photonsOwnGrid(), p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
+                        p.photonOwnWalk, p.photonsOwnGrid(),
+                        p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
     }
     if (p.diffusion && !bounds.empty()) {
         const ivec3 res = lightVolumeResolution(bounds, p.diffusionCell);

@@ -63,6 +63,7 @@ struct FramePlan {
     /// it fills
     double cloudTau = -1.0;
     double cloudVolume = 0.0;
+    double cloudExtinction = 0.0; ///< its mean extinction where it has density (per unit length)
     /// the share of the rays along the sun over the box that holds density that meet it (about
     /// the share of the sun's photons that reach the cloud: they leave over that box)
     double cloudHitFraction = 1.0;
@@ -83,6 +84,12 @@ struct FramePlan {
     /// 0 while a VDB field is unread)
     float photonTrackingCell = 0.0f;
     double photonGridBytes = 0.0;
+    /// photons walk a majorant grid of their own (on the cells of the density grid they are
+    /// tracked through) instead of march's: where their voxel is optically deep at the cloud's
+    /// mean extinction (render.photon_walk_depth; core/lighting/photons.h); photonWalkNote says
+    /// why
+    bool photonOwnWalk = false;
+    std::string photonWalkNote;
     /// the diffusion solve's memory (core/lighting/diffusion.h, diffusionBytes) on its grid:
     /// the voxels with density counted from the cloud's measured volume, or all of them where
     /// it was not measured (then an upper bound); 0 while a VDB field is unread

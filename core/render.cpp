@@ -385,6 +385,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.eye = s.camera.position;
         pp.photons = plan.photonCount;
         pp.maxDepth = s.render.maxDepth;
+        pp.ownWalk = plan.photonOwnWalk;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
         if (plan.photonSky) pp.sky = s.sky;
         if (plan.photonBounces > 0 && diffusion) {

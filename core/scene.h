@@ -402,6 +402,10 @@ struct RenderDesc {
     /// (measured by the plan each frame, core/lighting/cloud_depth.h), the grid elsewhere.
     MultipleScattering multipleScattering = MultipleScattering::Auto;
     float photonDepth = 64.0f;
+    /// Photons walk a majorant grid of their own where their voxel's optical depth at the
+    /// cloud's mean extinction (measured along the sun each frame) is at least this, march's
+    /// grid elsewhere (FramePlan::photonOwnWalk); 0 = always their own
+    float photonWalkDepth = 5.0f;
     /// Photons: photons leaving the sun per frame; 0 = chosen per frame by the cloud's depth
     /// along the sun (FramePlan::photonCount, core/plan.cpp)
     int photons = 0;

@@ -176,6 +176,43 @@ TEST(AutoMultipleScattering, RendersWhatItChose) {
     EXPECT_EQ(autoThick.rgba, renderScene(t).rgba);
 }
 
+// Photons walk a majorant grid of their own where their voxel is optically deep at the cloud's
+// mean extinction (render.photon_walk_depth), march's elsewhere: the plan measures the depth,
+// says which and counts the memory of the one chosen, and the image follows the choice alone.
+TEST(PhotonWalk, TheirOwnGridWhereTheirVoxelIsDeep) {
+    SceneDesc s = boxAtDepth(30.0f); // an extinction of 15 across the box's 2 units
+    s.render.multipleScattering = MultipleScattering::Photons;
+    const FramePlan p = planFrame(s, 1);
+    ASSERT_TRUE(p.photons);
+    EXPECT_NEAR(p.cloudExtinction, 15.0, 0.15);
+    const double depth = p.cloudExtinction * double(p.photonCell);
+    ASSERT_GT(depth, 0.0);
+    s.render.photonWalkDepth = float(1.01 * depth);
+    const FramePlan shallow = planFrame(s, 1);
+    EXPECT_FALSE(shallow.photonOwnWalk);
+    EXPECT_NE(shallow.explain().find("walking march's majorant grid"), std::string::npos)
+        << shallow.explain();
+    const Framebuffer onMarch = renderScene(s);
+    s.render.photonWalkDepth = float(0.99 * depth);
+    const FramePlan deep = planFrame(s, 1);
+    EXPECT_TRUE(deep.photonOwnWalk);
+    EXPECT_NE(deep.explain().find("walking a majorant grid of their own"), std::string::npos)
+        << deep.explain();
+    // their own walk keeps two bounds a tracking cell instead of one a majorant cell: the plan
+    // counts the bytes of the walk it chose, which the trace holds
+    EXPECT_NE(deep.photonGridBytes, shallow.photonGridBytes);
+    RenderStats st;
+    const Framebuffer own = renderScene(s, &st);
+    EXPECT_NEAR(deep.photonGridBytes / st.photonBytes, 1.0, 0.02);
+    EXPECT_NE(own.rgba, onMarch.rgba);
+    // the image is the choice's: bit for bit that of 0 (always their own) and of a depth no
+    // voxel reaches (always march's)
+    s.render.photonWalkDepth = 0.0f;
+    EXPECT_EQ(renderScene(s).rgba, own.rgba);
+    s.render.photonWalkDepth = 1e30f;
+    EXPECT_EQ(renderScene(s).rgba, onMarch.rgba);
+}
+
 // Where photons carry the sun's multiple scattering, march splits its steps at
 // render.photon_step_tau, elsewhere at render.step_tau: the plan says which, and the image
 // follows that key alone (docs/accuracy.md, "Finer steps where photons carry the light").

@@ -80,6 +80,13 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     n.render.multipleScattering = MultipleScattering::None;
     const Framebuffer single = renderScene(n);
 
+    // photons walking a majorant grid of their own (here their voxel is 0.8 mean free paths
+    // deep, below render.photon_walk_depth: 0 asks for it)
+    SceneDesc w = sunBox();
+    w.render.photonWalkDepth = 0.0f;
+    ASSERT_TRUE(Renderer(w).plan(1).photonOwnWalk);
+    const Framebuffer ownWalk = renderScene(w);
+
     const double ePhotons = relativeRmse(photons, ref), eSkin = relativeRmse(skin, ref),
                  eGrid = relativeRmse(grid, ref), eSingle = relativeRmse(single, ref);
     const double mRef = meanRgb(ref);
@@ -97,6 +104,10 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     EXPECT_NEAR(meanRgb(photons) / mRef, 1.0, 0.04);
     EXPECT_LT(eSkin, 0.08) << "photons with the skin profile";
     EXPECT_NEAR(meanRgb(skin) / mRef, 1.0, 0.04);
+    const double eOwn = relativeRmse(ownWalk, ref);
+    RecordProperty("relative_rmse_photons_own_walk", std::to_string(eOwn));
+    EXPECT_LT(eOwn, 0.065) << "photons on their own walk";
+    EXPECT_NEAR(meanRgb(ownWalk) / mRef, 1.0, 0.04);
 }
 
 TEST(Photons, FirstScatteringIsLeftToMarch) {

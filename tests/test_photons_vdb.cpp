@@ -1,7 +1,8 @@
 // Photons on a cloud whose density fills a small part of each of their voxels
 // (core/lighting/photons.cpp: a voxel's light is its mean weighted by the density, plus a floor),
 // and on one whose majorant grid bounds it loosely: photons walk that grid and thin its events to
-// bounds of their own (photonTrackingBounds), and the light they carry must not change for it.
+// bounds of their own (photonTrackingBounds), or walk a grid of those bounds
+// (render.photon_walk_depth), and the light they carry must not change for it.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -180,6 +181,16 @@ TEST(PhotonsVdb, ThinnedToTheirOwnBoundsTheyCarryThePathTracersLight) {
     // measured 0.984 (2026-12-04); with the recording's density term divided by the walk's rate
     // instead of the tracking's 0.80, with the collisions' chance so 0.26
     EXPECT_NEAR(ms / msRef, 1.0, 0.05);
+
+    // the same light walking a majorant grid of their own (render.photon_walk_depth 0: the
+    // puffs' voxels are too shallow for the plan to choose it), whose bounds are tight
+    SceneDesc w = s;
+    w.render.photonWalkDepth = 0.0f;
+    RenderStats stOwn;
+    const double msOwn = meanRgb(render(w, &stOwn)) - meanRgb(single);
+    RecordProperty("multiple_scattering_ratio_own_walk", std::to_string(msOwn / msRef));
+    RecordProperty("photon_lookups_own_walk", std::to_string(stOwn.photonLookups));
+    EXPECT_NEAR(msOwn / msRef, 1.0, 0.05);
 }
 
 TEST(PhotonsVdb, TheirOwnBoundsCoverEveryLookupInACell) {

@@ -101,6 +101,7 @@ CloudDepth measureCloudDepth(const Field& field, const Box& bounds, vec3 directi
     if (out.hits > 0) out.occupiedBox = Box{lo, hi}.within(bounds);
     out.rays = n * n;
     if (out.hits > 0) out.meanTau = double(sigmaT) * tau / out.hits;
+    if (occupied > 0.0) out.meanExtinction = double(sigmaT) * tau / occupied;
     out.occupiedVolume = occupied * du * dv;
     return out;
 }

@@ -18,9 +18,11 @@ namespace nimbus {
 struct CloudDepth {
     double meanTau = 0.0;        ///< sigma_t x density integral, mean over the rays that hit
     double occupiedVolume = 0.0; ///< world volume of the steps with density > 0
-    int rays = 0;                ///< rays cast
-    int hits = 0;                ///< of those, rays that met density
-    std::size_t lookups = 0;     ///< density lookups made
+    /// sigma_t x the mean density of the steps with density > 0 (over the rays that hit)
+    double meanExtinction = 0.0;
+    int rays = 0;            ///< rays cast
+    int hits = 0;            ///< of those, rays that met density
+    std::size_t lookups = 0; ///< density lookups made
     /// the box of the samples with density, each grown by half the larger of the lattice's
     /// spacing and the step, within the bounds measured (empty when no ray hit)
     Box occupiedBox;

@@ -23,6 +23,13 @@ constexpr float kMaxDeposit = 1e12f; // one deposit at most (keeps the sums far 
 /// matrix's medium rows (docs/accuracy.md, "Photons weighted by the density"): 0.1 and 0.3 alike;
 /// 0 lets edge voxels of wispy clouds blow up, a large floor is the plain volume mean.
 constexpr float kDensityFloor = 0.3f;
+/// Walking a grid of their own (PhotonParams::ownWalk), photons after their first scattering walk
+/// their bounds raised to this times the mean density rhoBar in every cell with density
+/// (tracePhotons): the rate at which the floor above is sampled where the density is sparse.
+/// Measured on a thick smoke (one run each): 0.1, 0.5 and 100 alike in error and level, 0.1 and
+/// 0.5 alike in time, 100 nineteen times slower (docs/accuracy.md, "Where the photons' time goes
+/// on a thick cloud").
+constexpr float kWalkFloor = 0.5f;
 
 /// The voxel of a grid (corner lo, voxel size, res) that holds q, clamped to the grid.
 inline ivec3 cellAt(vec3 lo, vec3 voxel, ivec3 res, vec3 q) {
@@ -97,16 +104,14 @@ struct Run {
     }
 };
 
-/// The photons' own density bounds over the cells of the majorant grid they walk
-/// (photonTrackingBounds).
+/// The photons' own density bounds (photonTrackingBounds) on the cells of the grid they walk.
 struct TrackingBounds {
     const MajorantGrid* grid = nullptr;
-    std::vector<float> bound;
     /// The bound of the cell holding q.
     float at(vec3 q) const {
         const ivec3 c = glm::clamp(ivec3(glm::floor((q - grid->bounds.lo) / grid->cellSize)),
                                    ivec3(0), grid->res - ivec3(1));
-        return bound[voxelIndex(grid->res, c.x, c.y, c.z)];
+        return grid->maj[voxelIndex(grid->res, c.x, c.y, c.z)];
     }
 };
 
@@ -161,12 +166,14 @@ float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell
 }
 
 double photonBytes(const Box& bounds, ivec3 res, float trackingCell, double majorantCells,
-                   bool ownDensity, double handOffVoxels) {
+                   bool ownWalk, bool ownDensity, double handOffVoxels) {
     const ivec3 fine = photonTrackingResolution(bounds, trackingCell);
+    const double fineCells = double(fine.x) * fine.y * fine.z;
     const double voxels = double(res.x) * res.y * res.z;
+    // the walk's bounds: on march's grid, or (their own walk) two grids of tracking cells
     return voxels *
                (sizeof(int) + sizeof(float) + 2 * sizeof(vec3) + (ownDensity ? sizeof(float) : 0)) +
-           double(fine.x) * fine.y * fine.z * sizeof(float) + majorantCells * sizeof(float) +
+           fineCells * sizeof(float) + (ownWalk ? 2.0 * fineCells : majorantCells) * sizeof(float) +
            handOffVoxels * (3 * sizeof(std::int64_t) + sizeof(vec3));
 }
 
@@ -210,20 +217,33 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     std::vector<float> fine =
         densityAtCentres(vs.fields[0], geo.bounds, fineRes, mg, fineLookups, cancel);
     pv.lookups += fineLookups;
-    TrackingBounds tracking;
-    // before its first scattering a photon records nothing, so it walks a grid of its own bounds
-    // (the cells where no lookup can find density skipped) rather than thinning mg's events
-    MajorantGrid firstFlight;
-    if (mg) {
-        tracking = {mg, photonTrackingBounds(*mg, fine, geo.bounds.lo, fineRes, fineVoxel)};
-        firstFlight.bounds = mg->bounds;
-        firstFlight.res = mg->res;
-        firstFlight.cellSize = mg->cellSize;
-        firstFlight.maj = tracking.bound;
-        firstFlight.buildBlocks();
-    }
     // the one untransformed placement may scale the volume's density
     const float placement = vs.instances[0].density;
+    // Where photons walk. March's majorant grid bounds by tree nodes, often several times the
+    // density; walking it, photons thin its events to bounds of their own (photonTrackingBounds
+    // on its cells), so that only the events they keep cost a lookup, and take the floor of the
+    // recording weight at every event. In a cloud whose voxels are optically deep the plan has
+    // them walk a grid of their own instead (p.ownWalk), on the tracking grid's cells, at those
+    // bounds (`first`): through march's grid a thick smoke took 19 events a collision. Where
+    // voxels are shallower the walk's extra events lower the recording's noise more than they
+    // cost (docs/accuracy.md, "Photons on a majorant grid of their own").
+    // Before its first scattering a photon records nothing, so it walks the bounds the tracking
+    // thins to (the cells where no lookup can find density skipped).
+    MajorantGrid first;
+    if (p.ownWalk) {
+        first.bounds = geo.bounds;
+        first.res = fineRes;
+        first.cellSize = fineVoxel;
+        first.maj.assign(fine.size(), std::numeric_limits<float>::max());
+        first.maj = photonTrackingBounds(first, fine, geo.bounds.lo, fineRes, fineVoxel);
+    } else if (mg) {
+        first.bounds = mg->bounds;
+        first.res = mg->res;
+        first.cellSize = mg->cellSize;
+        first.maj = photonTrackingBounds(*mg, fine, geo.bounds.lo, fineRes, fineVoxel);
+    }
+    if (!first.maj.empty()) first.buildBlocks();
+    const TrackingBounds tracking{first.maj.empty() ? nullptr : &first};
     if (placement != 1.0f)
         for (float& v : fine) v *= placement;
 
@@ -313,6 +333,17 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                          : nAny   ? float(any / double(nAny))
                                   : 1.0f;
     const float invRhoBar = 1.0f / rhoBar;
+    // the own walk after a first scattering: its bounds raised to kWalkFloor rhoBar where a cell
+    // has density, so that the floor of the recording weight, taken at every event, is sampled
+    // at a rate of its own where the density is sparse (the same cells are empty, so the copied
+    // empty blocks still hold)
+    MajorantGrid walkGrid;
+    if (p.ownWalk) {
+        walkGrid = first;
+        const float floorRate = kWalkFloor * rhoBar / (placement > 0.0f ? placement : 1.0f);
+        for (float& v : walkGrid.maj)
+            if (v > 0.0f) v = std::max(v, floorRate);
+    }
     std::vector<float>& norm = mean;
     for (float& v : norm) v = v * invRhoBar + kDensityFloor;
 
@@ -412,17 +443,19 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                         tmax = hit.t;
                     // the one untransformed volume: its majorant walk directly (no per-ray
                     // span bookkeeping), the placement's density folded into the bounds
-                    MajorantIterator walk(depth == 0 && mg ? &firstFlight : mg,
-                                          vs.fields[0].bounds(), ray, 0.0f, tmax,
+                    const MajorantGrid* walkOn = !tracking.grid ? nullptr
+                                                 : depth == 0   ? &first
+                                                 : p.ownWalk    ? &walkGrid
+                                                                : mg;
+                    MajorantIterator walk(walkOn, vs.fields[0].bounds(), ray, 0.0f, tmax,
                                           vs.wholeMajorant[0]);
                     // delta tracking; the mean channel chooses the events, every channel keeps
                     // its own weight (for grey media the weight changes only by the albedo).
-                    // The walk's events come at the rate of march's majorant grid, which bounds
-                    // by tree nodes and so can be several times the density; the tracking thins
-                    // them to the photons' own bounds (TrackingBounds), so that only its share
-                    // costs a lookup, while the floor of the recording weight is still taken at
-                    // every event (at the same rate as without the thinning; the same image in
-                    // expectation, measured: docs/accuracy.md, stop 63)
+                    // The walk's events come at the rate of its grid (march's, or after a first
+                    // scattering the own walk's raised bounds); the tracking thins them to the
+                    // photons' own bounds (TrackingBounds), so that only its share costs a
+                    // lookup, while the floor of the recording weight is still taken at every
+                    // event (the same image in expectation, measured: docs/accuracy.md, stop 63)
                     ScaledSegments segments{walk, placement, poll};
                     Run run;
                     float segT0 = -1.0f, segBound = 0.0f;
@@ -554,7 +587,8 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // what this trace held at its peak beyond the light-volume grid (photonBytes' parts)
     pv.bytes = double(active.size() * sizeof(int) + norm.size() * sizeof(float) +
                       pv.radiance.size() * sizeof(vec3) + filled.size() * sizeof(vec3) +
-                      fine.size() * sizeof(float) + tracking.bound.size() * sizeof(float) +
+                      fine.size() * sizeof(float) + first.maj.size() * sizeof(float) +
+                      walkGrid.maj.size() * sizeof(float) +
                       handOffSum.size() * sizeof(std::int64_t) + pv.source.size() * sizeof(vec3));
     tbb::parallel_for(0, res.z, [&](int z) {
         for (int y = 0; y < res.y; ++y)

@@ -70,6 +70,13 @@ struct PhotonParams {
     /// not); `photons` is shared between the sun and the sky in proportion to the power each
     /// sends through its rectangles. kind None = none.
     SkyDesc sky{SkyKind::None};
+    /// Photons walk a majorant grid of their own, on the cells of the density grid they are
+    /// tracked through (photonTrackingBounds), instead of march's (FramePlan::photonOwnWalk).
+    /// March's grid bounds the density by tree nodes, often several times it; walking it,
+    /// photons look the density up at the share of its events their own bounds keep, but every
+    /// event records, which lowers the noise of a voxel's light where voxels are optically
+    /// shallow. In a thick smoke walking it took 19 events a collision.
+    bool ownWalk = false;
 };
 
 struct PhotonVolume {
@@ -125,7 +132,8 @@ float photonTrackingCell(const Box& bounds, float majorantCell, float photonCell
 /// at most the cell's own bound (0 where that is 0). `mg` bounds the field by its tree nodes'
 /// maxima where `march` builds it (it only skips empty space with it), often several times the
 /// density; tracePhotons walks `mg` and thins its events to these bounds, so that only the
-/// events it keeps cost a lookup.
+/// events it keeps cost a lookup. On the tracking grid's own cells (`mg`'s bounds unlimited)
+/// they are the grid of their own walk (PhotonParams::ownWalk).
 std::vector<float> photonTrackingBounds(const MajorantGrid& mg, const std::vector<float>& fine,
                                         vec3 lo, ivec3 res, vec3 voxel);
 
@@ -133,11 +141,12 @@ std::vector<float> photonTrackingBounds(const MajorantGrid& mg, const std::vecto
 /// tracked through cells of `trackingCell` under a majorant grid of `majorantCells` cells (0:
 /// none), with a density grid of their own or not and a hand-off grid of `handOffVoxels` voxels
 /// (0: none): per photon-grid voxel an index, its density weight, the radiance and its filled
-/// copy (and a density), per tracking cell a density, per majorant cell the photons' own bound, per
-/// hand-off voxel its sums (three 64-bit integers) and its source (RGB). The sums of the voxels
-/// that record (three 64-bit integers each, per thread and merged) come on top.
+/// copy (and a density), per tracking cell a density, per majorant cell the photons' own bound
+/// or, walking a grid of their own (`ownWalk`), two bounds per tracking cell, per hand-off voxel
+/// its sums (three 64-bit integers) and its source (RGB). The sums of the voxels that record
+/// (three 64-bit integers each, per thread and merged) come on top.
 double photonBytes(const Box& bounds, ivec3 res, float trackingCell, double majorantCells,
-                   bool ownDensity, double handOffVoxels);
+                   bool ownWalk, bool ownDensity, double handOffVoxels);
 
 /// Traces p.photons photons through `volumes` (one untransformed volume: its grid is `geometry`,
 /// the light-volume grid, with densities rho at its voxel centres, which mark the voxels that
