@@ -673,7 +673,7 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
 void choosePhotonWalk(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
     std::string why;
     if (!measureCloud(s, bindings, p, why) || !(p.cloudExtinction > 0.0)) {
-        p.photonWalkNote = "march's grid (" + (why.empty() ? "no density" : why) + ")";
+        p.photonWalkNote = "march's majorant grid (" + (why.empty() ? "no density" : why) + ")";
         return;
     }
     const double depth = p.cloudExtinction * double(p.photonCell);

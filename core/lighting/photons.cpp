@@ -229,20 +229,20 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     // cost (docs/accuracy.md, "Photons on a majorant grid of their own").
     // Before its first scattering a photon records nothing, so it walks the bounds the tracking
     // thins to (the cells where no lookup can find density skipped).
+    // (on the tracking grid's cells, unbounded there, or on march's grid's)
     MajorantGrid first;
     if (p.ownWalk) {
         first.bounds = geo.bounds;
         first.res = fineRes;
         first.cellSize = fineVoxel;
         first.maj.assign(fine.size(), std::numeric_limits<float>::max());
-        first.maj = photonTrackingBounds(first, fine, geo.bounds.lo, fineRes, fineVoxel);
     } else if (mg) {
-        first.bounds = mg->bounds;
-        first.res = mg->res;
-        first.cellSize = mg->cellSize;
-        first.maj = photonTrackingBounds(*mg, fine, geo.bounds.lo, fineRes, fineVoxel);
+        first = *mg;
     }
-    if (!first.maj.empty()) first.buildBlocks();
+    if (!first.maj.empty()) {
+        first.maj = photonTrackingBounds(first, fine, geo.bounds.lo, fineRes, fineVoxel);
+        first.buildBlocks();
+    }
     const TrackingBounds tracking{first.maj.empty() ? nullptr : &first};
     if (placement != 1.0f)
         for (float& v : fine) v *= placement;
