@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 
 using namespace nimbus;
 using nimbus::io::parseSceneText;
+using nimbus::io::pixelNeutralSettings;
 using nimbus::io::SceneError;
 using nimbus::io::SceneFile;
 
@@ -632,6 +634,33 @@ TEST(SceneFileWarnings, MaxDepthIsUsedWhereverPhotonsMayCarryTheLight) {
     ASSERT_EQ(f.warnings.size(), 1u);
     EXPECT_TRUE(contains(f.warnings[0], "render.max_depth is ignored")) << f.warnings[0];
     EXPECT_TRUE(contains(f.warnings[0], "\"auto\"")) << f.warnings[0];
+}
+
+TEST(SceneFileWarnings, MarchSettingsAreIgnoredByThePathTracer) {
+    // the keys only march reads say so in the table (Param::marchOnly): a path-traced scene that
+    // sets them is warned, a marched one is not, and the validation suite's reference keys leave
+    // them out (io::pixelNeutralSettings)
+    const std::string keys = "octaves = 3\nphoton_walk_depth = 3\nepsilon = 0.02\nms_p1 = 0.5\n";
+    SceneFile marched = parseSceneText("[render]\n" + keys, "m.toml");
+    EXPECT_TRUE(marched.warnings.empty()) << marched.warnings.front();
+    EXPECT_FALSE(pixelNeutralSettings(marched).count("render.octaves"));
+
+    SceneFile traced =
+        parseSceneText("[render]\nintegrator = \"pathtrace\"\nmultiple_scattering = \"auto\"\n" +
+                           keys + "[sky]\nkind = \"uniform\"\nambient = 0.5\n",
+                       "p.toml");
+    ASSERT_EQ(traced.warnings.size(), 6u);
+    for (const std::string& w : traced.warnings)
+        EXPECT_TRUE(contains(w, "is ignored: it is used only when render.integrator = \"march\""))
+            << w;
+    const std::set<std::string> neutral = pixelNeutralSettings(traced);
+    for (const char* k : {"render.octaves", "render.photon_walk_depth", "render.epsilon",
+                          "render.ms_p1", "render.multiple_scattering", "sky.ambient",
+                          "render.threads", "render.tile_size", "frames"})
+        EXPECT_TRUE(neutral.count(k)) << k;
+    // what the path tracer reads stays
+    for (const char* k : {"render.max_depth", "render.spp", "medium.g", "sun.direction"})
+        EXPECT_FALSE(neutral.count(k)) << k;
 }
 
 // ---------------------------------------------------------------- overrides

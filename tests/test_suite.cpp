@@ -255,7 +255,10 @@ TEST_F(Suite, CacheKeyFollowsContentNotTime) {
                            "--set render.sky_shadow='\"volume\"' --set "
                            "render.forward_scattering='\"none\"' --set render.octaves=1 "
                            "--set render.octave_gate=0.25 --set render.shadow_step_voxels=2 "
-                           "--set render.step_tau=0.25 --set render.photon_step_tau=0.25");
+                           "--set render.step_tau=0.25 --set render.photon_step_tau=0.25 "
+                           "--set render.photon_walk_depth=3 --set render.ms_p1=0.5 "
+                           "--set render.epsilon=0.02 --set sky.ambient=0.5 "
+                           "--set render.tile_size=8");
     ASSERT_EQ(marchOnly.exitCode, 0) << marchOnly.output;
     EXPECT_FALSE(renderedNow()) << marchOnly.output;
 

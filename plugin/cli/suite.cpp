@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -271,76 +272,52 @@ int loadVdbCloud(Cloud& c, const ConvergeOptions& o, int w, int h, std::string& 
     return report(st);
 }
 
-/// The settings only `march` reads: left out of a reference's cache key.
-const char* const kMarchOnly[] = {"render.shadow",
-                                  "render.step_tau",
-                                  "render.light_volume_cell",
-                                  "render.step_growth",
-                                  "render.pixel_samples",
-                                  "render.epsilon",
-                                  "render.shadow_step",
-                                  "render.shadow_step_voxels",
-                                  "render.shadow_growth",
-                                  "render.octaves",
-                                  "render.octave_extinction",
-                                  "render.octave_contribution",
-                                  "render.octave_eccentricity",
-                                  "render.octave_gate",
-                                  "render.multiple_scattering",
-                                  "render.photons",
-                                  "render.photon_skin",
-                                  "render.photon_cell_scale",
-                                  "render.photon_bounces",
-                                  "render.photon_sky",
-                                  "render.photon_depth",
-                                  "render.photon_step_tau",
-                                  "render.photon_walk_depth",
-                                  "render.ms_strength",
-                                  "render.ms_p1",
-                                  "render.sky_occlusion",
-                                  "render.sky_openness",
-                                  "render.inscatter",
-                                  "render.inscatter_c",
-                                  "render.inscatter_strength",
-                                  "render.forward_scattering",
-                                  "render.sky_scattering",
-                                  "render.sky_directions",
-                                  "render.sky_shadow",
-                                  "render.threads",
-                                  "render.tile_size",
-                                  "sky.ambient",
-                                  "frames",
-                                  "color_space"};
-
-/// A key without the lines of the settings only march reads: applied to the key of a case and
-/// to a cached key alike, so that adding a setting to kMarchOnly keeps the references cached
-/// before.
-std::string withoutMarchOnly(const std::string& key) {
+/// The settings named by a key's "key = value" lines.
+std::set<std::string> keyNames(const std::string& key) {
+    std::set<std::string> out;
     std::istringstream in(key);
+    std::string line;
+    while (std::getline(in, line)) out.insert(line.substr(0, line.find(" = ")));
+    return out;
+}
+
+/// The lines of a cached key whose settings the current key names. The current key leaves out
+/// what the reference does not read (referenceKey); a cached key's line for such a setting,
+/// written when it was kept or before the setting existed, does not count either, so that a
+/// setting only `march` reads, old or new, keeps the cached references. A setting the current
+/// key names and the cached one lacks still makes it stale.
+std::string onNamesOf(const std::string& cached, const std::string& current) {
+    const std::set<std::string> names = keyNames(current);
+    std::istringstream in(cached);
     std::string out, line;
-    while (std::getline(in, line)) {
-        bool drop = false;
-        for (const char* k : kMarchOnly) drop = drop || line.rfind(std::string(k) + " = ", 0) == 0;
-        if (!drop) out += line + "\n";
-    }
+    while (std::getline(in, line))
+        if (names.count(line.substr(0, line.find(" = ")))) out += line + "\n";
     return out;
 }
 
 /// The settings a path-traced reference depends on, one "key = value" a line: every scene
-/// setting (io::sceneSettings) except those only march reads and the output's, plus the frame,
-/// a VDB file's size and SHA-1, the Nimbus version and the suite's format.
+/// setting (io::sceneSettings) the path tracer reads (io::pixelNeutralSettings leaves out those
+/// whose table row says they are used only by `march`, and threads, tiles and frames), plus the
+/// frame, a VDB file's size and SHA-1, the Nimbus version and the suite's format. The output's
+/// settings and `color_space` are left out too: the suite keeps working-space pixels and sets
+/// every colour of a case itself (sun, sky, medium). So is render.light_volume_cell: the path
+/// tracer's shadow roulette draws its probabilities from that grid, which changes the
+/// reference's noise, not what it converges to.
 std::string referenceKey(const Cloud& c, const SceneDesc& ref, const std::string& caseName) {
     io::SceneFile f = c.ls->file();
     f.scene = ref;
     const std::map<std::string, std::string> m = io::sceneSettings(f);
+    const std::set<std::string> neutral = io::pixelNeutralSettings(f);
     std::ostringstream key;
     key << "suite format = " << kSuiteFormat << "\nnimbus = " << NIMBUS_VERSION
         << "\ncase = " << caseName << "\nframe = " << c.frame << "\n";
     // a scene's settings below say all; a VDB file's data is in the file
     if (c.vdb) key << "vdb file = " << fileStamp(c.source) << "\n";
     for (const auto& [k, v] : m)
-        if (k.rfind("output.", 0) != 0) key << k << " = " << v << "\n";
-    return withoutMarchOnly(key.str());
+        if (k.rfind("output.", 0) != 0 && k != "color_space" && k != "render.light_volume_cell" &&
+            !neutral.count(k))
+            key << k << " = " << v << "\n";
+    return key.str();
 }
 
 /// The first line where two keys differ, for the message about a stale cache file.
@@ -391,7 +368,7 @@ std::string readHalf(const std::string& path, const std::string& key, int w, int
         auto it = img.attributes.find(k);
         return it == img.attributes.end() ? std::string() : it->second;
     };
-    const std::string have = withoutMarchOnly(attr("nimbus/settings/suite_key"));
+    const std::string have = onNamesOf(attr("nimbus/settings/suite_key"), key);
     if (have.empty()) return path + " is not a suite reference (no suite_key header)";
     if (have != key) return "stale: " + firstDifference(key, have);
     int ch[4];

@@ -182,8 +182,7 @@ Status Session::loadString(const std::string& text, const std::string& name,
 }
 
 const std::vector<std::string>& Session::pixelNeutralKeys() {
-    static const std::vector<std::string> keys{"frames",         "render.threads", "output.path",
-                                               "output.preview", "output.display", "output.view"};
+    static const std::vector<std::string> keys = io::pixelNeutralKeys();
     return keys;
 }
 

@@ -101,10 +101,11 @@ class Session {
     bool readsGrids() const;
     /// The scene hash that writeFrame() stores as `nimbus/sceneHash` and `--resume` compares:
     /// 16 hex digits of FNV-1a 64 over the Nimbus version, the colour configuration's
-    /// description, the scene text and the overrides except those of kPixelNeutralKeys (in
+    /// description, the scene text and the overrides except those of pixelNeutralKeys() (in
     /// order). Not the frame number, not --threads, not the output path. docs/farm_cli.md.
     const std::string& sceneHash() const { return sceneHash_; }
-    /// Keys whose overrides change no pixel of a frame and stay out of sceneHash().
+    /// Keys whose overrides change no pixel of a frame and stay out of sceneHash(): the scene
+    /// table's rows marked so (io::pixelNeutralKeys()).
     static const std::vector<std::string>& pixelNeutralKeys();
 
     /// Warnings collected since the last call, oldest first, each as the command line prints

@@ -25,6 +25,7 @@
 
 #include <functional>
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -94,6 +95,16 @@ std::vector<SceneParamInfo> sceneFileParameters();
 /// `sun.irradiance` already includes `sun.intensity` (which then reads 1). Arrays of tables
 /// give "volume[i].key" and "mesh[i].key"; instances (also those of [[scatter]]) are left out.
 std::map<std::string, std::string> sceneSettings(const SceneFile& f);
+
+/// The keys of sceneSettings(@p f) that cannot change @p f's pixels: those whose table row says
+/// when it is used (`used only when` in the reference) where @p f does not meet that condition
+/// (march's settings in a path-traced scene, for instance), and those that never change pixels
+/// (render.threads, render.tile_size, frames). Array sections' keys are not included.
+std::set<std::string> pixelNeutralSettings(const SceneFile& f);
+
+/// The keys that never change a frame's pixels, whatever the scene: frames, render.threads,
+/// render.tile_size and where the output and its preview go (the table's rows marked so).
+std::vector<std::string> pixelNeutralKeys();
 
 /// The keys of the march step schedule ("render.step", "render.step_voxels",
 /// "render.step_growth", "render.shadow_step", "render.shadow_step_voxels"): the rows tagged as

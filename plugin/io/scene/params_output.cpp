@@ -11,6 +11,7 @@ void addOutputParams(std::vector<Param>& t) {
                           "EXR file name pattern; needs a frame token when several frames are "
                           "rendered.",
                           &OutputDesc::path)
+                    .neutralToPixels()
                     .checkedBy([](const Value& v) -> std::string {
                         if (endsWithNoCase(v.s, ".exr") && v.s.size() > 4) return "";
                         return "expected a file name ending in .exr, found " + quote(v.s);
@@ -42,6 +43,7 @@ void addOutputParams(std::vector<Param>& t) {
     t.push_back(out.param("preview", {},
                           "PNG file name pattern of a display-referred preview; \"\" = none.",
                           &OutputDesc::preview)
+                    .neutralToPixels()
                     .checkedBy([](const Value& v) -> std::string {
                         if (v.s.empty() || (endsWithNoCase(v.s, ".png") && v.s.size() > 4))
                             return "";
@@ -49,9 +51,11 @@ void addOutputParams(std::vector<Param>& t) {
                     }));
     auto previewOn = [](const SceneFile& f) { return !f.output.preview.empty(); };
     t.push_back(out.param("display", {}, "OCIO display of the preview.", &OutputDesc::display)
+                    .neutralToPixels()
                     .checkedBy(nonEmpty)
                     .usedWhen("output.preview != \"\"", previewOn));
     t.push_back(out.param("view", {}, "OCIO view of the preview.", &OutputDesc::view)
+                    .neutralToPixels()
                     .checkedBy(nonEmpty)
                     .usedWhen("output.preview != \"\"", previewOn));
 }

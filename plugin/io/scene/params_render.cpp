@@ -120,7 +120,8 @@ void addRenderParams(std::vector<Param>& t) {
     t.push_back(ren.param("step_growth", atLeast(0),
                           "Distance-adaptive steps: step = max(step, step_growth * distance).",
                           &RenderDesc::stepGrowth)
-                    .scalesWithStep());
+                    .scalesWithStep()
+                    .marchOnly());
     t.push_back(ren.param("jitter", {},
                           "Offset the samples within each step by a random fraction per pixel "
                           "(trades banding for noise); off = step midpoints.",
@@ -143,12 +144,14 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::filterWidth));
     t.push_back(ren.param("epsilon", closedOpen(0, 1),
                           "Stop marching when the transmittance falls below this.",
-                          &RenderDesc::epsilon));
+                          &RenderDesc::epsilon)
+                    .marchOnly());
     t.push_back(ren.param("shadow_step", atLeast(0),
                           "First shadow-ray step (world units); 0 = chosen per frame like `step`, "
                           "from `shadow_step_voxels` (0.05 for procedural fields).",
                           &RenderDesc::shadowStep)
-                    .scalesWithStep());
+                    .scalesWithStep()
+                    .marchOnly());
     t.push_back(ren.param("shadow_step_voxels", above(0),
                           "First shadow step of VDB volumes when `shadow_step` is 0, in voxels of "
                           "the finest placed grid (OpenVDB's vdb_render: 3; measured on three VDB "
@@ -158,10 +161,12 @@ void addRenderParams(std::vector<Param>& t) {
                     .usedWhen("render.shadow_step = 0 and the scene has a VDB volume",
                               [hasVdb](const SceneFile& f) {
                                   return f.scene.render.shadowStep == 0.0f && hasVdb(f);
-                              }));
+                              })
+                    .marchOnly());
     t.push_back(ren.param("shadow_growth", atLeast(0),
                           "Shadow steps grow geometrically by this factor.",
-                          &RenderDesc::shadowGrowth));
+                          &RenderDesc::shadowGrowth)
+                    .marchOnly());
     t.push_back(ren.param("skip_empty", {}, "Skip empty space with the majorant grid.",
                           &RenderDesc::skipEmpty));
     t.push_back(
@@ -190,23 +195,27 @@ void addRenderParams(std::vector<Param>& t) {
                           "Multiple-scattering octaves (Wrenninge 2015): octave i adds the sun "
                           "term again with scaled weight, optical depth and g; 1 = single "
                           "scattering only.",
-                          &RenderDesc::octaves));
+                          &RenderDesc::octaves)
+                    .marchOnly());
     t.push_back(ren.param("octave_extinction", closed(0, 1),
                           "Sun optical depth of octave i is scaled by octave_extinction^i.",
                           &RenderDesc::octaveExtinction)
                     .calibratedOver({0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9})
-                    .usedWhen("render.octaves > 1", multiple));
+                    .usedWhen("render.octaves > 1", multiple)
+                    .marchOnly());
     t.push_back(ren.param("octave_contribution", closed(0, 1),
                           "Weight of octave i is octave_contribution^i; at most "
                           "`octave_extinction` (energy conservation).",
                           &RenderDesc::octaveContribution)
                     .calibratedOver({0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9})
-                    .usedWhen("render.octaves > 1", multiple));
+                    .usedWhen("render.octaves > 1", multiple)
+                    .marchOnly());
     t.push_back(ren.param("octave_eccentricity", closed(0, 1),
                           "Phase asymmetry g of octave i is scaled by octave_eccentricity^i.",
                           &RenderDesc::octaveEccentricity)
                     .calibratedOver({0.0, 0.25, 0.5, 0.75, 1.0})
-                    .usedWhen("render.octaves > 1", multiple));
+                    .usedWhen("render.octaves > 1", multiple)
+                    .marchOnly());
     t.push_back(ren.param("octave_gate", closed(0, 16),
                           "Octaves above the first fade where the cloud along the sun's line "
                           "through the sample is optically thin: weighted by 1 - exp(-octave_gate "
@@ -220,7 +229,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "matrix from 33-42% to 4-11% relative RMSE, its thick ones unchanged, "
                           "for 1.27x its frame time when it marched (2026-11-29). 0 = off.",
                           &RenderDesc::octaveGate)
-                    .usedWhen("render.octaves > 1", multiple));
+                    .usedWhen("render.octaves > 1", multiple)
+                    .marchOnly());
     t.push_back(
         ren.param("multiple_scattering",
                   WordTable<MultipleScattering>{{"none", MultipleScattering::None},
@@ -245,7 +255,8 @@ void addRenderParams(std::vector<Param>& t) {
                   "whose GPU march keeps the grid's sky). A sequence whose cloud crosses "
                   "photon_depth "
                   "switches model between frames: name the model for such a sequence.",
-                  &RenderDesc::multipleScattering));
+                  &RenderDesc::multipleScattering)
+            .marchOnly());
     t.push_back(ren.param("photon_depth", atLeast(0),
                           "multiple_scattering = \"auto\": the cloud's mean optical depth "
                           "along the sun (over the rays toward the sun that meet density) up to "
@@ -256,9 +267,12 @@ void addRenderParams(std::vector<Param>& t) {
                           "forward multiple scattering of thin clouds (docs/accuracy.md, "
                           "\"Photons where the cloud is thin or medium\"). 0 = always the grid.",
                           &RenderDesc::photonDepth)
-                    .usedWhen("render.multiple_scattering = \"auto\"", [](const SceneFile& f) {
-                        return f.scene.render.multipleScattering == MultipleScattering::Auto;
-                    }));
+                    .usedWhen("render.multiple_scattering = \"auto\"",
+                              [](const SceneFile& f) {
+                                  return f.scene.render.multipleScattering ==
+                                         MultipleScattering::Auto;
+                              })
+                    .marchOnly());
     auto gridOn = [](const SceneFile& f) {
         return f.scene.render.multipleScattering != MultipleScattering::None;
     };
@@ -277,7 +291,8 @@ void addRenderParams(std::vector<Param>& t) {
                   "gained little "
                   "(docs/accuracy.md, \"Photons by the cloud's depth\").",
                   &RenderDesc::photons)
-            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+            .marchOnly());
     t.push_back(ren.param("photon_skin", closed(0, 4),
                           "Photons: how the sun's multiply scattered light falls off inside a "
                           "voxel of the light-volume grid, brightest under the sunlit surface: as "
@@ -289,7 +304,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "photons) 0.2 measured 9.0% relative RMSE against 10.0% flat; on a "
                           "homogeneous box with voxels of two mean free paths it did not help.",
                           &RenderDesc::photonSkin)
-                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+                    .marchOnly());
     t.push_back(
         ren.param("photon_cell_scale", closed(0, 4),
                   "The voxel of the grid photons record on, in light-volume cells: 1 = "
@@ -312,7 +328,8 @@ void addRenderParams(std::vector<Param>& t) {
                   "medium\", \"The photons' voxel and the density they are tracked "
                   "through\").",
                   &RenderDesc::photonCellScale)
-            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+            .marchOnly());
     t.push_back(
         ren.param("photon_step_tau", atLeast(0),
                   "render.step_tau where photons carry the sun's multiple scattering (\"photons\", "
@@ -324,7 +341,8 @@ void addRenderParams(std::vector<Param>& t) {
                   "time; on the default scene's grid 0.125 would have cost 2x a frame "
                   "(docs/accuracy.md, \"Finer steps where photons carry the light\").",
                   &RenderDesc::photonStepTau)
-            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+            .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+            .marchOnly());
     t.push_back(ren.param("photon_bounces", closed(0, 1 << 20),
                           "Photons: the scatterings each photon is traced through; at its next "
                           "one the light it carries becomes a source of the diffusion grid, "
@@ -332,7 +350,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "where a photon's walk is long). 0 = photons are traced to "
                           "render.max_depth and the grid carries only the sky.",
                           &RenderDesc::photonBounces)
-                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+                    .marchOnly());
     t.push_back(ren.param("photon_walk_depth", atLeast(0),
                           "Photons: they walk a majorant grid of their own (the bounds of the "
                           "density they read, cell by cell) where their voxel is at least this "
@@ -348,7 +367,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "63-199 s a frame on 2 cores; docs/accuracy.md, \"Photons on a "
                           "majorant grid of their own\"). 0 = always their own grid.",
                           &RenderDesc::photonWalkDepth)
-                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+                    .marchOnly());
     t.push_back(ren.param("photon_sky", {},
                           "Photons: trace the sky's light with photons as well as the sun's "
                           "(photons leave the sky from every direction, each carrying the sky's "
@@ -371,7 +391,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "against 5.5 s (docs/accuracy.md, \"The sky by photons where the "
                           "medium absorbs\").",
                           &RenderDesc::photonSky)
-                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn));
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+                    .marchOnly());
     t.push_back(ren.param("ms_strength", atLeast(0),
                           "Scale of the multiply scattered sun light, the diffusion grid's or "
                           "the sun's photons' (1 = their solution as it is; the grid loses "
@@ -379,17 +400,20 @@ void addRenderParams(std::vector<Param>& t) {
                           "grid or from render.photon_sky, is not scaled.",
                           &RenderDesc::msStrength)
                     .calibratedOver({0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0})
-                    .usedWhen("render.multiple_scattering = \"grid\" or \"photons\"", gridOn));
-    t.push_back(
-        ren.param("ms_p1", closed(0, 1),
-                  "Grid diffusion: weight of the flux term (phi + 3 g F.w) of the "
-                  "diffuse radiance scattered toward the camera; 0 = isotropic.",
-                  &RenderDesc::msP1)
-            .calibratedOver({0.0, 0.5, 1.0})
-            .usedWhen("render.multiple_scattering = \"grid\" or \"auto\"", [](const SceneFile& f) {
-                const MultipleScattering ms = f.scene.render.multipleScattering;
-                return ms == MultipleScattering::Grid || ms == MultipleScattering::Auto;
-            }));
+                    .usedWhen("render.multiple_scattering = \"grid\" or \"photons\"", gridOn)
+                    .marchOnly());
+    t.push_back(ren.param("ms_p1", closed(0, 1),
+                          "Grid diffusion: weight of the flux term (phi + 3 g F.w) of the "
+                          "diffuse radiance scattered toward the camera; 0 = isotropic.",
+                          &RenderDesc::msP1)
+                    .calibratedOver({0.0, 0.5, 1.0})
+                    .usedWhen("render.multiple_scattering = \"grid\" or \"auto\"",
+                              [](const SceneFile& f) {
+                                  const MultipleScattering ms = f.scene.render.multipleScattering;
+                                  return ms == MultipleScattering::Grid ||
+                                         ms == MultipleScattering::Auto;
+                              })
+                    .marchOnly());
     auto noMs = [](const SceneFile& f) {
         return f.scene.render.multipleScattering == MultipleScattering::None;
     };
@@ -415,7 +439,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "function, each with its transmittance (`sky_shadow`): what pathtrace "
                           "computes with max_depth = 1.",
                           &RenderDesc::skyScattering)
-                    .usedWhen("render.multiple_scattering = \"none\"", noMs));
+                    .usedWhen("render.multiple_scattering = \"none\"", noMs)
+                    .marchOnly());
     t.push_back(
         ren.param("sky_shadow",
                   WordTable<SkyShadow>{{"march", SkyShadow::March}, {"volume", SkyShadow::Volume}},
@@ -431,7 +456,8 @@ void addRenderParams(std::vector<Param>& t) {
                   &RenderDesc::skyShadow)
             .usedWhen("render.multiple_scattering = \"none\" and "
                       "render.sky_scattering = \"single\", or render.photon_sky",
-                      skySingle));
+                      skySingle)
+            .marchOnly());
     t.push_back(ren.param("sky_directions", closed(1, 256),
                           "Single-scattered sky: directions the sky is integrated over at each "
                           "sample (shadow marches: the noise falls as 1 / sqrt(directions)), or "
@@ -440,7 +466,8 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::skyDirections)
                     .usedWhen("render.multiple_scattering = \"none\" and "
                               "render.sky_scattering = \"single\", or render.photon_sky",
-                              skySingle));
+                              skySingle)
+                    .marchOnly());
     t.push_back(ren.param("sky_occlusion",
                           WordTable<SkyOcclusion>{{"height", SkyOcclusion::Height},
                                                   {"column", SkyOcclusion::Column}},
@@ -452,7 +479,8 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::skyOcclusion)
                     .usedWhen("render.multiple_scattering = \"none\" and "
                               "render.sky_scattering = \"ambient\"",
-                              skyAmbient));
+                              skyAmbient)
+                    .marchOnly());
     t.push_back(ren.param("sky_openness", atLeast(0),
                           "Column sky occlusion: weights e^(-k tau) of the hemispheres, tau the "
                           "transport optical depth above / below; 0 = the mean sky.",
@@ -463,7 +491,8 @@ void addRenderParams(std::vector<Param>& t) {
                               [skyAmbient](const SceneFile& f) {
                                   return skyAmbient(f) &&
                                          f.scene.render.skyOcclusion == SkyOcclusion::Column;
-                              }));
+                              })
+                    .marchOnly());
     auto inscatterOn = [](const SceneFile& f) {
         return f.scene.render.inScatter != InScatter::None;
     };
@@ -475,7 +504,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "Beer-powder 2 e^-d (1 - e^-2d). None with render.multiple_scattering "
                           "= \"photons\": photons trace the light scattered more than once "
                           "that these terms stand for, so the single scattering stays exact.",
-                          &RenderDesc::inScatter));
+                          &RenderDesc::inScatter)
+                    .marchOnly());
     t.push_back(
         ren.param("inscatter_c", above(0),
                   "The c of Olajos' 1 - e^-cd, d the density as the field holds it (its values "
@@ -484,9 +514,10 @@ void addRenderParams(std::vector<Param>& t) {
                   "thick by density_scale has its single scattering darkened to about 0.6 at "
                   "the default strength (docs/accuracy.md, stop 68).",
                   &RenderDesc::inScatterC)
-            .usedWhen("render.inscatter = \"olajos\"", [](const SceneFile& f) {
-                return f.scene.render.inScatter == InScatter::Olajos;
-            }));
+            .usedWhen(
+                "render.inscatter = \"olajos\"",
+                [](const SceneFile& f) { return f.scene.render.inScatter == InScatter::Olajos; })
+            .marchOnly());
     t.push_back(
         ren.param("forward_scattering",
                   WordTable<ForwardScattering>{{"delta", ForwardScattering::Delta},
@@ -509,7 +540,8 @@ void addRenderParams(std::vector<Param>& t) {
                       }));
     t.push_back(ren.param("inscatter_strength", closed(0, 1),
                           "Blend weight of the in-scatter term.", &RenderDesc::inScatterStrength)
-                    .usedWhen("render.inscatter != \"none\"", inscatterOn));
+                    .usedWhen("render.inscatter != \"none\"", inscatterOn)
+                    .marchOnly());
     t.push_back(ren.param(
         "background",
         WordTable<Background>{{"sky", Background::Sky}, {"transparent", Background::Transparent}},
@@ -525,9 +557,11 @@ void addRenderParams(std::vector<Param>& t) {
                           "numbers (no flicker, a fixed noise pattern). See docs/temporal.md.",
                           &RenderDesc::seedPerFrame));
     t.push_back(ren.param("threads", closed(0, 1024), "Worker threads; 0 = all cores.",
-                          &RenderDesc::threads));
+                          &RenderDesc::threads)
+                    .neutralToPixels());
     t.push_back(ren.param("tile_size", closed(4, 256), "Edge of the square render tiles (pixels).",
-                          &RenderDesc::tileSize));
+                          &RenderDesc::tileSize)
+                    .neutralToPixels());
     t.push_back(ren.param("fps", above(0), "Frames per second: frame f is at time f / fps.",
                           &RenderDesc::fps));
     t.push_back(ren.pair("shutter", closed(-4, 4),

@@ -26,7 +26,8 @@ void addSkyParams(std::vector<Param>& t) {
     t.push_back(sky.param("ambient", atLeast(0), "Scale of the sky light inside the medium.",
                           &SkyDesc::ambient)
                     .calibratedOver({0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 3.0})
-                    .usedWhen("sky.kind != \"none\"", skyOn));
+                    .usedWhen("sky.kind != \"none\"", skyOn)
+                    .marchOnly());
 }
 
 } // namespace nimbus::io::scene

@@ -15,7 +15,8 @@ void addTopLevelParams(std::vector<Param>& t) {
                           "Frames to render (a frame spec, see below); `--frames` on the "
                           "command line replaces it.",
                           &SceneFile::frames)
-                    .as(Type::Frames));
+                    .as(Type::Frames)
+                    .neutralToPixels());
 }
 
 } // namespace nimbus::io::scene

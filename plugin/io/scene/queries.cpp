@@ -50,6 +50,25 @@ std::map<std::string, std::string> sceneSettings(const SceneFile& f) {
     return out;
 }
 
+std::set<std::string> pixelNeutralSettings(const SceneFile& f) {
+    std::set<std::string> out;
+    Staging st;
+    st.file = f;
+    for (const Param& p : registry()) {
+        if (p.kind && *p.kind != f.scene.field.kind) continue;
+        if (!p.get(st)) continue;
+        if (p.pixelNeutral || (p.used && !p.used(f))) out.insert(p.full());
+    }
+    return out;
+}
+
+std::vector<std::string> pixelNeutralKeys() {
+    std::vector<std::string> out;
+    for (const Param& p : registry())
+        if (p.pixelNeutral) out.push_back(p.full());
+    return out;
+}
+
 std::vector<std::string> stepScheduleKeys() {
     std::vector<std::string> out;
     for (const Param& p : registry())

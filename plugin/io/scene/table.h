@@ -175,6 +175,7 @@ struct Param {
     std::function<void(Staging&, const Value&)> set;
     std::function<std::optional<Value>(Staging&)> get; ///< nullopt: no default ("unset")
     bool stepSchedule = false;                         ///< scaled with the march step (scaleSteps)
+    bool pixelNeutral = false; ///< cannot change a frame's pixels (threads, tiles, frames)
     std::vector<double> calibrationGrid; ///< non-empty: values `nimbus calibrate` tries
 
     std::string full() const { return section.empty() ? key : section + "." + key; }
@@ -189,8 +190,24 @@ struct Param {
         used = std::move(pred);
         return *this;
     }
+    /// Read by `march` alone: the row's condition, if any, with `render.integrator = "march"`
+    /// before it (a path-traced scene warns that the key is ignored, and the validation
+    /// suite's reference keys leave it out).
+    Param& marchOnly() {
+        std::function<bool(const SceneFile&)> before = std::move(used);
+        used = [before](const SceneFile& f) {
+            return f.scene.render.integrator == Integrator::March && (!before || before(f));
+        };
+        usedWhenText = usedWhenText.empty() ? "render.integrator = \"march\""
+                                            : "render.integrator = \"march\" and " + usedWhenText;
+        return *this;
+    }
     Param& checkedBy(std::function<std::string(const Value&)> fn) {
         check = std::move(fn);
+        return *this;
+    }
+    Param& neutralToPixels() {
+        pixelNeutral = true;
         return *this;
     }
     Param& scalesWithStep() {
