@@ -52,7 +52,7 @@ struct PhotonParams {
     vec3 sunIrradiance{0.0f};
     vec3 eye{0.0f};           ///< camera position
     std::int64_t photons = 0; ///< photons leaving the sun
-    int maxDepth = 256;       ///< scattering events per photon at most (pathtrace's max_depth)
+    int maxDepth = 1 << 20;   ///< scattering events per photon at most (pathtrace's max_depth)
     std::uint32_t seed = 0;
     /// Skin profile (see above): the density integral toward the sun, and the extinction per
     /// unit of it (0 = flat voxels)

@@ -254,8 +254,7 @@ int mainImpl(int argc, char** argv) {
         ->check(CLI::Range(2, 1 << 24));
     converge
         ->add_option("--suite-max-depth", co.suiteMaxDepth,
-                     "--suite: render.max_depth of the references (0 = the scene's, "
-                     "256 by default, which loses light in thick albedo-1 media)")
+                     "--suite: render.max_depth of the references (0 = the scene's)")
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
     converge

@@ -28,10 +28,11 @@ void addRenderParams(std::vector<Param>& t) {
             .usedWhen("render.integrator = \"pathtrace\"", pathtrace));
     t.push_back(ren.param("max_depth", closed(1, 1 << 20),
                           "Scattering events per path (and per photon) at most (1 = single "
-                          "scattering). A photon's walk in a thick albedo-1 cloud takes "
-                          "thousands: capped at 256, photons made thick front-lit clouds 0.87-0.89 "
-                          "of the reference's mean, at 4096 0.985-0.996 (docs/accuracy.md, "
-                          "stop 69).",
+                          "scattering). A walk in a thick albedo-1 cloud can take hundreds of "
+                          "thousands: the default, the most allowed, lets one through a cloud 500 "
+                          "mean free paths across end by leaving it; the old default of 256 took "
+                          "4-14% of the light of such clouds' references (docs/accuracy.md, "
+                          "stop 72). Lower it to trade that light for time.",
                           &RenderDesc::maxDepth)
                     .usedWhen("render.integrator = \"pathtrace\" or "
                               "render.multiple_scattering = \"photons\" or \"auto\"",
