@@ -62,8 +62,10 @@ struct ConvergeOptions {
     int suiteMaxSpp = 16384;              ///< samples per pixel of a reference at most
     double suiteNoise = 0.05; ///< refine a reference until its relative noise is below this
     double suiteSeconds = 30; ///< ... or its rendering took this long (seconds, all rounds)
-    /// render.max_depth of the references (0 = the scene's): effectively unbounded, as a
-    /// converged reference must be (the default 256 loses 14% of thick albedo-1 smoke's light)
+    /// render.max_depth of the references (0 = the scene's, 2^20 by default): 65,536 since
+    /// before that default was raised from 256 (which lost 4-14% of the matrix's thick albedo-1
+    /// light), kept so that the cached references stay valid; a white furnace 500 mean free
+    /// paths across loses 0.11% to it (docs/accuracy.md, "The depth cap")
     int suiteMaxDepth = 65536;
     bool suiteRerender = false; ///< render every reference again, ignoring the cache
     /// the suite's lights: "both" (the sun and the sky), "sun" or "sky" alone, to tell which

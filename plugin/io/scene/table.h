@@ -198,8 +198,11 @@ struct Param {
         used = [before](const SceneFile& f) {
             return f.scene.render.integrator == Integrator::March && (!before || before(f));
         };
+        // a condition with alternatives in it is bracketed, so that "and" binds all of it
+        const bool alternatives = usedWhenText.find(" or ") != std::string::npos;
         usedWhenText = usedWhenText.empty() ? "render.integrator = \"march\""
-                                            : "render.integrator = \"march\" and " + usedWhenText;
+                       : alternatives ? "render.integrator = \"march\" and (" + usedWhenText + ")"
+                                      : "render.integrator = \"march\" and " + usedWhenText;
         return *this;
     }
     Param& checkedBy(std::function<std::string(const Value&)> fn) {
