@@ -1182,6 +1182,23 @@ std::vector<KernelCase> makeCases() {
                   .abs = 0x1p-18f,
                   .why = "substepOffset's ulp of the sum times h, added to t0 (up to 50)"}));
     c.push_back(kernelCase(
+        "lightFraction", "lightFraction(a0, a1)",
+        [](float f, float tau) { return lightFraction(f, tau); },
+        [](Draw& d) {
+            // thin steps (the series), thick ones, and a step of 2.5e4 split 64 ways
+            return std::tuple(unit(d), d.chance(0.3f) ? d.logUniform(1e-6f, 1e5f)
+                                                      : d.f(0.0f, 2.0f, {0.0f, 0.01f, 390.0f}));
+        },
+        Tolerance{.ulps = 4,
+                  .why = "log() of 1 - f (1 - e^-tau), exact to 2^-21 absolute near 1 and a few "
+                         "ulps of the result elsewhere, and exp()'s 2^-22 on e^-tau through f / "
+                         "(1 - f (1 - e^-tau)), over tau; the series below 0.01: ulps"},
+        [](float f, float tau) {
+            if (!(tau >= 0.01f)) return 0.0f;
+            const double a = std::max(1.0 - double(f) * (1.0 - std::exp(-double(tau))), 1e-30);
+            return float((0x1p-21 * (1.0 + std::abs(std::log(a))) + 0x1p-22 * f / a) / tau);
+        }));
+    c.push_back(kernelCase(
         "fibonacciPoint", "fibonacciPoint(a0, a1, a2)",
         [](int i, int n, vec2 o) { return fibonacciPoint(i, n, o); },
         [](Draw& d) {

@@ -40,7 +40,8 @@ MarchContext::MarchContext(const SceneDesc& scene, const FramePlan& plan, const 
       primary_(plan.step, scene.render.stepGrowth),
       shadow_(plan.shadowStep, scene.render.shadowGrowth), sky_(skyMeans(scene.sky)),
       sigmaTForward_(medium_.sigma_t - plan.forwardFraction * medium_.sigma_s),
-      sigmaTMax_(maxComponent(medium_.sigma_t)) {
+      sigmaTMax_(maxComponent(medium_.sigma_t)),
+      sigmaTMean_((medium_.sigma_t.x + medium_.sigma_t.y + medium_.sigma_t.z) / 3.0f) {
     // similarity relation (van de Hulst): multiply scattered light sees the medium as isotropic
     // with sigma_s' = sigma_s (1 - g); diffusion decays by sqrt(3 sigma_a' / sigma_t') per
     // transport optical depth (the effective transport coefficient, Jensen et al. 2001)
@@ -289,11 +290,13 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
     RayVolumes& rv = scratch.primary;
     if (rv.begin(vols_, ray, 0.0f, tMax)) {
         // one sample of the march: its position t, the length dt it stands for, its index n
-        // (the key of its random numbers) and the density there
-        auto visit = [&](float t, float dt, std::int64_t n, float rho) {
-            const vec3 p = ray.at(t);
+        // (the key of its random numbers), the density there and where t lies in its step (a
+        // fraction f). The light is looked at where the step's transmittance puts it
+        // (kern::lightFraction), the density at t.
+        auto visit = [&](float t, float dt, std::int64_t n, float rho, float f) {
             ++cnt.primarySamples;
             if (rho <= 0.0f) return true;
+            const vec3 p = ray.at(t + dt * (kern::lightFraction(f, sigmaTMean_ * rho * dt) - f));
             vec3 S(0.0f), SF(0.0f); // SF: what TF carries
             // past the point where T has fallen below eps (only the forward beam goes on),
             // every term T carries is dropped, as the march itself would stop there
@@ -420,11 +423,13 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                                                      plan_.stepTau > 0.0f);
                           const int k = nb.substeps(maxComponent(forward ? TF : T) * sigmaTMax_,
                                                     rho, dt, plan_.stepTau);
-                          if (k == 1) return empty || visit(t, dt, n, rho);
+                          if (k == 1) return empty || visit(t, dt, n, rho, jitter);
                           const float h = dt / float(k), t0 = t - jitter * dt;
                           for (int j = 0; j < k; ++j) {
                               const float tj = kern::substepT(t0, h, j, jitter);
-                              if (!visit(tj, h, substepIndex(n, j), rv.density(tj))) return false;
+                              if (!visit(tj, h, substepIndex(n, j), rv.density(tj),
+                                         kern::substepOffset(j, jitter)))
+                                  return false;
                           }
                           return true;
                       });

@@ -120,7 +120,8 @@ class MarchContext {
     /// sigma_t - f sigma_s: the extinction of the sun's and the camera's beams with the forward
     /// peak kept in them (f = plan.forwardFraction; sigma_t when it is 0)
     vec3 sigmaTForward_;
-    float sigmaTMax_; ///< the medium's largest extinction per unit density (render.step_tau)
+    float sigmaTMax_;  ///< the medium's largest extinction per unit density (render.step_tau)
+    float sigmaTMean_; ///< its mean over the channels (where a step's light is looked at)
     std::vector<vec3> skyDirs_; ///< single-scattered sky: the directions (fibonacciDirection)
     std::vector<vec3> skyL_;    ///< the sky radiance toward each of them, x ambient
     vec3 kappa_; ///< diffusion decay per transport optical depth, sqrt(3 (1 - albedo'))

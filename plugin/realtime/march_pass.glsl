@@ -316,12 +316,14 @@ bool rtStepperLookup(inout RtStepper st, RtSchedule s, int n, float tA, float dt
 // n from tA to tA + dt, split where its optical depth times `weight` (the transmittance in front
 // of it times the largest sigma_t) is above render.step_tau. True with what the march adds in
 // (t, h, rho, key: a sample of density rho standing for a stretch h, the key of its random
-// numbers); `hold` is true while the step takes more iterations.
+// numbers, f: where t lies in that stretch, as a fraction of it); `hold` is true while the step
+// takes more iterations.
 bool rtStepperTake(inout RtStepper st, int n, float tA, float dt, float jitter, float v,
                    bool looked, float weight, out float t, out float h, out float rho,
-                   out uint key, out bool hold) {
+                   out uint key, out bool hold, out float f) {
     t = tA + jitter * dt;
     h = dt;
+    f = jitter;
     rho = 0.0f;
     key = uint(n);
     hold = false;
@@ -352,6 +354,7 @@ bool rtStepperTake(inout RtStepper st, int n, float tA, float dt, float jitter, 
     // sub-step j: the key of core/tracking/step_schedule.h's substepIndex (its low bits)
     h = dt / float(st.k);
     t = substepT(tA, h, st.j, jitter);
+    f = substepOffset(st.j, jitter);
     rho = v;
     key = uint(n) * 0x7f4a7c15u + uint(st.j + 1) * 0x1ce4e5b9u;
     st.j++;
@@ -429,11 +432,11 @@ float rtDensityIntegral(RtField F, vec3 p, float rhoP, vec3 w, uint rng) {
         }
         float v = look ? rtDensity(F, at) : 0.0f; // the iteration's one lookup
         if (!skipped) {
-            float t, h, rho;
+            float t, h, rho, f;
             uint key;
             bool hold;
             if (rtStepperTake(st, n, tA, dt, jitter, v, look, exp(-sigmaTMin * tau) * sigmaTMax, t,
-                              h, rho, key, hold))
+                              h, rho, key, hold, f))
                 tau += rho * h;
             if (hold) n--; // the same step again
             marching = tau <= tauStop;
@@ -480,17 +483,19 @@ RtRay rtRayStart() {
 }
 
 // One sample of a camera ray (MarchContext::traceRay's visit): at t on o + t d, standing for the
-// length dt, with the density rho there; key seeds its random numbers (its step's index, or
-// substepIndex's low bits for a sub-step). Adds its light to L, T and TF, sets the depth where T
-// first falls below half, and whether the march goes on.
+// length dt, t at the fraction f of it, with the density rho there; key seeds its random numbers
+// (its step's index, or substepIndex's low bits for a sub-step). Its light is looked at where
+// the stretch's transmittance puts it (lightFraction). Adds its light to L, T and TF, sets the
+// depth where T first falls below half, and whether the march goes on.
 void rtMarchSample(RtField F, PhaseParams phase, vec3 mie, vec3 o, vec3 d, float t, float dt,
-                   float rho, uint pixelKey, uint key, inout vec3 L, inout vec3 T, inout vec3 TF,
-                   inout float depth, inout bool depthSet, inout bool marching) {
-    vec3 p = o + d * t;
+                   float f, float rho, uint pixelKey, uint key, inout vec3 L, inout vec3 T,
+                   inout vec3 TF, inout float depth, inout bool depthSet, inout bool marching) {
     vec3 sunDir = rtXyz(P.sunDirection);
     float cosTheta = dot(d, sunDir);
     vec3 sigmaS = rtXyz(P.sigmaS);
     vec3 sigmaT = rtXyz(P.sigmaT);
+    float sigmaTMean = (sigmaT.x + sigmaT.y + sigmaT.z) / 3.0f;
+    vec3 p = o + d * (t + dt * (lightFraction(f, sigmaTMean * rho * dt) - f));
 #if RT_FORWARD_DELTA
     // the forward peak's share g^2 of scattering stays in the beams (PlanFrame's forwardFraction)
     float forwardFraction = P.mediumG * P.mediumG;
@@ -692,13 +697,13 @@ void rtMarchRay(RtField F, PhaseParams phase, vec3 o, vec3 d, uint pixelKey, flo
 #else
                     float beam = rtMaxComponent(T);
 #endif
-                    float t, h, rho;
+                    float t, h, rho, f;
                     uint key;
                     bool hold;
                     if (rtStepperTake(st, n, tA, dt, jitter, v, look,
-                                      beam * rtMaxComponent(sigmaT), t, h, rho, key, hold) &&
+                                      beam * rtMaxComponent(sigmaT), t, h, rho, key, hold, f) &&
                         rho > 0.0f)
-                        rtMarchSample(F, phase, mie, o, d, t, h, rho, pixelKey, key, L, T, TF,
+                        rtMarchSample(F, phase, mie, o, d, t, h, f, rho, pixelKey, key, L, T, TF,
                                       depth, depthSet, marching);
                     if (hold) n--; // the same step again
                 }
