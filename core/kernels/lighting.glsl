@@ -190,7 +190,10 @@ NB_FN float substepT(float t0, float h, int j, float jitter) {
 // falls within the step (a sunlit skin: the light comes from its first mean free path). A
 // uniform fraction lets a point tau f deep stand for all of it: 0.95 of the sun's single
 // scattering on a box 10 mean free paths a step (render.step_tau 0.5), 0.03 at 3.9e2 (a step of
-// 2.5e4 split into MAX_SUBSTEPS). Below tau = 0.01 the series of the logarithm, s -> f.
+// 2.5e4 split into MAX_SUBSTEPS). Below tau = 0.01 the series of the logarithm, s -> f. The
+// forward beam (render.forward_scattering = "delta"), whose extinction is lower, is read at the
+// same point: right to first order in steps split to render.step_tau, too bright in the mean
+// where a step stays many mean free paths deep (at most by sigma_t / sigma_t,forward).
 NB_FN float lightFraction(float f, float tau) {
     if (!(tau > 0.0f)) return f;
     if (tau < 0.01f) {
