@@ -610,8 +610,8 @@ void addStiffCases(Cases& cs) {
 /// mean free paths deep, split into 64 at most: it looks at each step's light where the step's
 /// transmittance puts it (kern::lightFraction), so the mean over a pixel's samples is right,
 /// however noisy one sample is; looked at the sample's own place, the light at 1e6 mean free
-/// paths was 0.03 of it. The mean ratio over the pixels must stay within 4 standard errors (of
-/// the ratios' spread) and 3% of 1; pathtrace at max_depth 1 checks the closed form itself.
+/// paths was 0.03 of it. The mean ratio over the pixels must stay within 3% plus 4 standard
+/// errors (of the ratios' spread) of 1; pathtrace at max_depth 1 checks the closed form itself.
 void addStiffSunCases(Cases& cs) {
     for (Method m : {Method::March, Method::PathTrace})
         for (double mfp : {1e1, 1e3, 1e6})
