@@ -642,19 +642,14 @@ void addStiffSunCases(Cases& cs) {
                      if (!f.completed || f.fb.rgba.empty()) return;
                      const Camera cam(s.camera);
                      const double mu0 = -double(s.sun.direction.z);
-                     double sum = 0.0, sum2 = 0.0;
-                     const int n = f.fb.width * f.fb.height;
+                     MeanSe ratio; // over the pixels, of the pixel over the closed form
                      for (int y = 0; y < f.fb.height; ++y)
                          for (int x = 0; x < f.fb.width; ++x) {
                              const double mu = cam.generate(x + 0.5f, y + 0.5f).d.z;
                              const double want = mu0 / (mu0 + mu) / (4.0 * 3.14159265358979);
-                             const double r = f.fb.rgba[4 * (size_t(y) * f.fb.width + x)] / want;
-                             sum += r;
-                             sum2 += r * r;
+                             ratio.add(f.fb.rgba[4 * (size_t(y) * f.fb.width + x)] / want);
                          }
-                     const double mean = sum / n;
-                     const double se =
-                         std::sqrt(std::max(sum2 / n - mean * mean, 0.0) / std::max(n - 1, 1));
+                     const double mean = ratio.mean(), se = ratio.se();
                      o.fig("ratio", mean);
                      o.fig("se", se);
                      if (std::abs(mean - 1.0) > 4.0 * se + 0.03)

@@ -71,6 +71,23 @@ inline FrameCheck checkFrame(const Framebuffer& fb) {
     return c;
 }
 
+/// The mean of a set of values and its standard error from their spread (sqrt(var / n)).
+struct MeanSe {
+    double sum = 0.0, sq = 0.0;
+    std::uint64_t n = 0;
+    void add(double v) {
+        sum += v;
+        sq += v * v;
+        ++n;
+    }
+    double mean() const { return n ? sum / double(n) : 0.0; }
+    double se() const {
+        if (n == 0) return 0.0;
+        const double m = mean();
+        return std::sqrt(std::max(0.0, sq / double(n) - m * m) / double(n));
+    }
+};
+
 /// A white furnace's figures over the colour values of a frame (background sky included): the
 /// mean, its standard error from the spread of the values, and the largest value.
 struct Furnace {
@@ -82,19 +99,16 @@ struct Furnace {
 
 inline Furnace furnace(const Framebuffer& fb) {
     Furnace f;
-    double sum = 0.0, sq = 0.0;
+    MeanSe m;
     for (size_t i = 0; i < fb.rgba.size(); ++i) {
         if (i % 4 == 3) continue;
         const double v = fb.rgba[i];
-        sum += v;
-        sq += v * v;
+        m.add(v);
         f.max = std::max(f.max, v);
-        ++f.values;
     }
-    if (f.values == 0) return f;
-    f.mean = sum / double(f.values);
-    const double var = std::max(0.0, sq / double(f.values) - f.mean * f.mean);
-    f.se = std::sqrt(var / double(f.values));
+    f.values = m.n;
+    f.mean = m.mean();
+    f.se = m.se();
     return f;
 }
 
