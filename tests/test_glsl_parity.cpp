@@ -594,6 +594,18 @@ std::vector<KernelCase> makeCases() {
         [](Draw& d) {
             return std::tuple(layer(d), d.i(-100000, 100000, {0, -1}), d.i(-1000, 1000, {0}));
         }));
+    // the footprint towerEnvelope reads first, to leave out the towers out of reach
+    c.push_back(kernelCase(
+        "towerCenter", "towerCenter(a0, a1, a2, a3)",
+        [](CloudLayer L, int i, int j, vec3 u0) { return towerCenter(L, i, j, u0); },
+        [](Draw& d) {
+            return std::tuple(layer(d), d.i(-100000, 100000, {0, -1}), d.i(-1000, 1000, {0}),
+                              d.v3(0.0f, 1.0f, {0.0f}));
+        }));
+    c.push_back(kernelCase(
+        "towerSigmaX", "towerSigmaX(a0, a1)",
+        [](CloudLayer L, vec3 u0) { return towerSigmaX(L, u0); },
+        [](Draw& d) { return std::tuple(layer(d), d.v3(0.0f, 1.0f, {0.0f})); }));
     c.push_back(kernelCase(
         "truncatedGaussian", "truncatedGaussian(a0)", [](float q) { return truncatedGaussian(q); },
         [](Draw& d) {
