@@ -457,12 +457,13 @@ MarchGrids Renderer::marchGrids(const FramePlan& plan, const FrameBindings& bind
 }
 
 bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
-                      RenderStats& stats, const RenderCallbacks& cb) {
+                      RenderStats& stats, const RenderCallbacks& cb, MarchGrids* gridsOut) {
     if (plan.rebased && !rebasedCopy_) {
         // the frame far from the origin, rendered translated (core/rebase.h)
         Renderer near(rebasedScene(scene_, plan.renderOrigin));
         near.rebasedCopy_ = true;
-        return near.render(plan, rebasedBindings(bindings, plan.renderOrigin), fb, stats, cb);
+        return near.render(plan, rebasedBindings(bindings, plan.renderOrigin), fb, stats, cb,
+                           gridsOut);
     }
     const SceneDesc& s = scene_;
     const int threads = s.render.threads > 0 ? s.render.threads : tbb::task_arena::automatic;
@@ -483,7 +484,7 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
         // SDF solids (core/sdf/solid.h): sphere traced here, over Embree's surfaces if any
         std::unique_ptr<SdfSurfaces> solids = solidsOver(s, surfaces);
         if (solids) surfaces = solids.get();
-        const MarchGrids grids = buildMarchGrids(s, plan, vs, surfaces, stats, cb.cancel);
+        MarchGrids grids = buildMarchGrids(s, plan, vs, surfaces, stats, cb.cancel);
         if (cancelled()) {
             completed = false;
             return;
@@ -507,6 +508,7 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
             break;
         }
         stats.integrateSeconds = secondsSince(t0);
+        if (gridsOut) *gridsOut = std::move(grids);
     });
     return completed;
 }

@@ -136,9 +136,12 @@ class Renderer {
     const SceneDesc& scene() const { return scene_; }
     FramePlan plan(int frame, const FrameBindings& bindings, const AovSet& aovs = {}) const;
     FramePlan plan(int frame, const AovSet& aovs = {}) const;
-    /// Renders the frame into fb (resized to the camera). Returns false if cancelled.
+    /// Renders the frame into fb (resized to the camera). Returns false if cancelled. With
+    /// `grids`, the march grids the frame was rendered with are moved there (a consumer that
+    /// needs both, as the GLSL pass's parity tests do, builds them once; for a plan rendered
+    /// translated, plan.rebased, they are in the translated coordinates).
     bool render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
-                RenderStats& stats, const RenderCallbacks& cb = {});
+                RenderStats& stats, const RenderCallbacks& cb = {}, MarchGrids* grids = nullptr);
     bool render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
                 const RenderCallbacks& cb = {});
     /// The field of a frame as the plan builds it (bakes noise on first use when planned).
