@@ -594,6 +594,14 @@ std::vector<KernelCase> makeCases() {
         [](Draw& d) {
             return std::tuple(layer(d), d.i(-100000, 100000, {0, -1}), d.i(-1000, 1000, {0}));
         }));
+    c.push_back(kernelCase(
+        "cloudTowerFromDraw", "cloudTowerFromDraw(a0, a1, a2, a3)",
+        [](CloudLayer L, int i, int j, uvec3 h0) { return cloudTowerFromDraw(L, i, j, h0); },
+        [](Draw& d) {
+            const int i = d.i(-100000, 100000, {0, -1}), j = d.i(-1000, 1000, {0});
+            const CloudLayer L = layer(d);
+            return std::tuple(L, i, j, latticeHash3(ivec3(i, j, 0), CLOUD_TOWER_PERIOD, L.seed));
+        }));
     // the footprint towerEnvelope reads first, to leave out the towers out of reach
     c.push_back(kernelCase(
         "towerCenter", "towerCenter(a0, a1, a2, a3)",

@@ -65,8 +65,8 @@ NB_FN float towerSigmaX(IN(CloudLayer) L, vec3 u0) {
     return mix(L.towerRadiusMin, L.towerRadiusMax, u0.z) / 3.0f;
 }
 
-NB_FN Tower cloudTower(IN(CloudLayer) L, int i, int j) {
-    uvec3 h0 = latticeHash3(ivec3(i, j, 0), CLOUD_TOWER_PERIOD, L.seed);
+// Tower (i, j) from its first hash draw h0 (towerEnvelope has it already for its reach test).
+NB_FN Tower cloudTowerFromDraw(IN(CloudLayer) L, int i, int j, uvec3 h0) {
     uvec3 h1 = latticeHash3(ivec3(i, j, 1), CLOUD_TOWER_PERIOD, L.seed);
     vec3 u0 = hashToUnit3(h0);
     vec3 u1 = hashToUnit3(h1);
@@ -81,6 +81,10 @@ NB_FN Tower cloudTower(IN(CloudLayer) L, int i, int j) {
     // larger towers grow taller: blend the size draw into the height draw
     t.height = mix(L.towerHeightMin, L.towerHeightMax, mix(u1.z, u0.z, 0.6f));
     return t;
+}
+
+NB_FN Tower cloudTower(IN(CloudLayer) L, int i, int j) {
+    return cloudTowerFromDraw(L, i, j, latticeHash3(ivec3(i, j, 0), CLOUD_TOWER_PERIOD, L.seed));
 }
 
 // Truncated Gaussian from the Mahalanobis distance squared q: 1 at q = 0, 0 from q = 9 on.
@@ -130,13 +134,13 @@ NB_FN float towerEnvelope(IN(CloudLayer) L, float h, float x, float z) {
             // 4.5 sigmaX^2 guarantees (g at most 0.0954 there; sigmaZ <= sigmaX). Those are left
             // out after the first hash draw, before the second and the trigonometry: the
             // envelope is the same to the bit, at a fraction of the cost
-            vec3 u0 = hashToUnit3(
-                latticeHash3(ivec3(ci + di, cj + dj, 0), CLOUD_TOWER_PERIOD, L.seed));
+            uvec3 h0 = latticeHash3(ivec3(ci + di, cj + dj, 0), CLOUD_TOWER_PERIOD, L.seed);
+            vec3 u0 = hashToUnit3(h0);
             vec2 c = towerCenter(L, ci + di, cj + dj, u0);
             float sx = towerSigmaX(L, u0);
             float ex = x - c.x, ez = z - c.y;
             if (ex * ex + ez * ez > 4.5f * sx * sx) continue;
-            Tower t = cloudTower(L, ci + di, cj + dj);
+            Tower t = cloudTowerFromDraw(L, ci + di, cj + dj, h0);
             if (!t.present) continue;
             float dx = x - t.center.x;
             float dz = z - t.center.y;
