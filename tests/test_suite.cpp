@@ -201,12 +201,57 @@ TEST_F(Suite, TableCsvThicknessAndCache) {
     ASSERT_EQ(stale.exitCode, 0) << stale.output;
     EXPECT_TRUE(contains(stale.output, "stale: now \"medium.g = 0.5"));
     EXPECT_TRUE(contains(stale.output, "+16 spp"));
-    // the stale one kept beside the new one, byte for byte, both halves
-    const std::string staleStem = (dir / (std::string(kSphere) + ".medium.side.a0.9")).string();
+    // the stale one kept beside the new one under its key, byte for byte, both halves
+    const std::string base = std::string(kSphere) + ".medium.side.a0.9";
+    const std::string staleStem = (dir / base).string();
+    auto keptStems = [&]() {
+        std::vector<std::string> out;
+        for (const auto& e : fs::directory_iterator(dir)) {
+            const std::string n = e.path().filename().string();
+            if (n.rfind(base + ".k", 0) == 0 && n.size() > 6 &&
+                n.compare(n.size() - 6, 6, ".a.exr") == 0)
+                out.push_back((dir / n.substr(0, n.size() - 6)).string());
+        }
+        return out;
+    };
     EXPECT_TRUE(contains(stale.output, "kept as")) << stale.output;
-    EXPECT_EQ(fileBytes(staleStem + ".a.stale.exr"), staleA);
-    EXPECT_TRUE(fs::exists(staleStem + ".b.stale.exr"));
-    EXPECT_NE(fileBytes(staleStem + ".a.exr"), staleA);
+    std::vector<std::string> kept = keptStems();
+    ASSERT_EQ(kept.size(), 1u) << stale.output;
+    EXPECT_EQ(fileBytes(kept[0] + ".a.exr"), staleA);
+    EXPECT_TRUE(fs::exists(kept[0] + ".b.exr"));
+    const std::string newA = fileBytes(staleStem + ".a.exr");
+    EXPECT_NE(newA, staleA);
+
+    // the settings of before again: the kept reference is taken back, not rendered again, and
+    // the other one kept in its turn (each of the two under its own name)
+    CliRun back = suite(std::string(kSphere) + "/medium/side/a0.9");
+    ASSERT_EQ(back.exitCode, 0) << back.output;
+    EXPECT_TRUE(contains(back.output, "taken back from")) << back.output;
+    EXPECT_FALSE(contains(back.output, "+16 spp")) << back.output;
+    EXPECT_EQ(fileBytes(staleStem + ".a.exr"), staleA);
+    kept = keptStems();
+    ASSERT_EQ(kept.size(), 1u) << back.output;
+    EXPECT_EQ(fileBytes(kept[0] + ".a.exr"), newA);
+    // and the other way, once more: still two references, none rendered
+    CliRun forth = suite(std::string(kSphere) + "/medium/side/a0.9", "--set medium.g=0.5");
+    ASSERT_EQ(forth.exitCode, 0) << forth.output;
+    EXPECT_TRUE(contains(forth.output, "taken back from")) << forth.output;
+    EXPECT_FALSE(contains(forth.output, "+16 spp")) << forth.output;
+    EXPECT_EQ(fileBytes(staleStem + ".a.exr"), newA);
+    kept = keptStems();
+    ASSERT_EQ(kept.size(), 1u);
+    EXPECT_EQ(fileBytes(kept[0] + ".a.exr"), staleA);
+
+    // a stale pair under the names of the one-generation scheme before (CASE.a.stale.exr) is
+    // found as well
+    fs::rename(kept[0] + ".a.exr", staleStem + ".a.stale.exr");
+    fs::rename(kept[0] + ".b.exr", staleStem + ".b.stale.exr");
+    CliRun legacy = suite(std::string(kSphere) + "/medium/side/a0.9");
+    ASSERT_EQ(legacy.exitCode, 0) << legacy.output;
+    EXPECT_TRUE(contains(legacy.output, "taken back from")) << legacy.output;
+    EXPECT_FALSE(contains(legacy.output, "+16 spp")) << legacy.output;
+    EXPECT_EQ(fileBytes(staleStem + ".a.exr"), staleA);
+    EXPECT_FALSE(fs::exists(staleStem + ".a.stale.exr"));
 
     // a larger sample budget refines the cached reference instead of starting again
     CliRun more = suite(std::string(kSphere) + "/thin/front/a0.9",

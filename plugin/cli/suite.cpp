@@ -404,6 +404,84 @@ std::string readHalves(const std::string& stem, const std::string& key, int w, i
     return why;
 }
 
+/// The key a cached half was written with ("" when it has none or cannot be read).
+std::string storedKey(const std::string& path) {
+    try {
+        const io::ExrImage img = io::readExr(path);
+        const auto it = img.attributes.find("nimbus/settings/suite_key");
+        return it == img.attributes.end() ? std::string() : it->second;
+    } catch (const std::exception&) {
+        return {};
+    }
+}
+
+/// Where a stale reference of a case is kept: "<stem>.k<first 12 hex digits of the SHA-1 of the
+/// key it was written with>", its halves <that>.a.exr and <that>.b.exr. One name per key, so a
+/// reference kept again under the same settings replaces its older copy.
+std::string stashStem(const std::string& stem, const std::string& key) {
+    OIIO::SHA1 sha;
+    sha.append(key.data(), key.size());
+    std::string hex = sha.digest().substr(0, 12);
+    for (char& ch : hex) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    return stem + ".k" + hex;
+}
+
+/// Moves both halves of `from` to `to` (the .a.exr and .b.exr of each stem). False if either
+/// move failed.
+bool moveHalves(const std::string& from, const std::string& to) {
+    bool ok = true;
+    for (const char* half : {".a.exr", ".b.exr"}) {
+        std::error_code ec;
+        fs::rename(from + half, to + half, ec);
+        ok = ok && !ec;
+    }
+    return ok;
+}
+
+/// Keeps the case's current halves, rendered under other settings, beside it (stashStem of the
+/// key they hold) instead of overwriting them: a `--set` of a setting the path tracer reads makes
+/// every selected reference stale, and references can cost hours. Returns the file name they
+/// were kept under ("" if they could not be).
+std::string stashStale(const std::string& stem) {
+    const std::string key = storedKey(stem + ".a.exr");
+    if (key.empty()) return {};
+    const std::string to = stashStem(stem, key);
+    return moveHalves(stem, to) ? fs::path(to).filename().string() : std::string();
+}
+
+/// A kept reference of the case that the current `key` accepts (readHalves), or "". The files
+/// of the one-generation scheme before (<stem>.a.stale.exr, .b.stale.exr) are moved to their
+/// stashStem first.
+std::string findStash(const std::string& stem, const std::string& key, int w, int h) {
+    const fs::path dir = fs::path(stem).parent_path();
+    const std::string base = fs::path(stem).filename().string();
+    std::error_code ec;
+    if (fs::exists(stem + ".a.stale.exr", ec) && fs::exists(stem + ".b.stale.exr", ec)) {
+        const std::string old = storedKey(stem + ".a.stale.exr");
+        if (!old.empty()) {
+            const std::string to = stashStem(stem, old);
+            fs::rename(stem + ".a.stale.exr", to + ".a.exr", ec);
+            fs::rename(stem + ".b.stale.exr", to + ".b.exr", ec);
+        }
+    }
+    const std::string prefix = base + ".k", suffix = ".a.exr";
+    std::vector<std::string> found;
+    for (fs::directory_iterator it(dir.empty() ? fs::path(".") : dir, ec), end; !ec && it != end;
+         it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        // <base>.k<12 hex>.a.exr exactly: another case's name may start with this one's
+        if (name.size() == prefix.size() + 12 + suffix.size() && name.rfind(prefix, 0) == 0 &&
+            name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+            found.push_back((dir / name.substr(0, name.size() - suffix.size())).string());
+    }
+    std::sort(found.begin(), found.end());
+    for (const std::string& s : found) {
+        Halves probe;
+        if (readHalves(s, key, w, h, probe).empty()) return s;
+    }
+    return {};
+}
+
 /// Writes both halves (atomically, each). Returns an error message, "" on success.
 std::string writeHalves(const std::string& stem, const std::string& key, const Halves& hv,
                         int frame, const io::ColorSystem& cs, const std::string& ws) {
@@ -726,22 +804,37 @@ int runSuite(const ConvergeOptions& o) {
             Halves hv;
             std::string why = o.suiteRerender ? "--suite-rerender" : "";
             if (why.empty()) why = readHalves(stem, key, w, h, hv);
+            // a stale reference may have cost hours (and a --set of a setting the path tracer
+            // reads makes every selected one stale): kept beside under its key, not
+            // overwritten, and taken back when a later run's settings match it again
+            const bool stale = why.rfind("stale: ", 0) == 0;
+            std::string kept;
+            if (!why.empty() && !o.suiteRerender) {
+                const std::string stash = findStash(stem, key, w, h);
+                if (!stash.empty()) {
+                    if (stale) kept = stashStale(stem);
+                    // (never over a stale pair that could not be kept)
+                    if ((!stale || !kept.empty()) && moveHalves(stash, stem) &&
+                        readHalves(stem, key, w, h, hv).empty()) {
+                        std::fprintf(stderr, "%s; taken back from %s.a/b.exr", why.c_str(),
+                                     fs::path(stash).filename().string().c_str());
+                        if (!kept.empty())
+                            std::fprintf(stderr, " (the other one kept as %s.a/b.exr)",
+                                         kept.c_str());
+                        std::fprintf(stderr, ", ");
+                        why.clear();
+                    }
+                }
+            }
             if (why.empty()) {
                 r.cachedSpp = hv.spp;
                 std::fprintf(stderr, "cached %d spp", hv.spp);
             } else {
                 hv = Halves{};
                 std::fprintf(stderr, "%s", why.c_str());
-                // a stale reference may have cost hours (and a --set of a setting the path
-                // tracer reads makes every selected one stale): kept beside, not overwritten
-                if (why.rfind("stale: ", 0) == 0) {
-                    for (const char* half : {".a", ".b"}) {
-                        std::error_code rec;
-                        fs::rename(stem + half + ".exr", stem + half + ".stale.exr", rec);
-                    }
-                    std::fprintf(stderr, " (the old one kept as %s.a/b.stale.exr)",
-                                 fs::path(stem).filename().string().c_str());
-                }
+                if (stale && kept.empty()) kept = stashStale(stem);
+                if (!kept.empty())
+                    std::fprintf(stderr, " (the old one kept as %s.a/b.exr)", kept.c_str());
             }
             // refine until the noise, the samples or the time say enough
             while (true) {
