@@ -63,13 +63,16 @@ class Suite : public testing::Test {
                          << ".vdb in it) is absent: converge --suite tests skipped";
     }
     /// `nimbus converge --suite` on the fog sphere at 32x18 with small references.
-    /// `extra` replaces the options of the references' budget when it names one.
+    /// `extra` replaces the options of the references' budget, and the size, when it names
+    /// them.
     CliRun suite(const std::string& filter, const std::string& extra = "") {
         const std::string budget =
             extra.find("--suite-seconds") == std::string::npos ? " --suite-seconds 0" : "";
+        const std::string size =
+            extra.find("--suite-size") == std::string::npos ? " --suite-size 32x18" : "";
         return runNimbus("converge --suite --suite-data " + kData.string() + " --suite-dir " +
-                         dir.string() + " --suite-filter " + filter +
-                         " --suite-size 32x18 --suite-spp 16 --suite-max-depth 256" + budget +
+                         dir.string() + " --suite-filter " + filter + size +
+                         " --suite-spp 16 --suite-max-depth 256" + budget +
                          // the table's workings, not its accuracy: far fewer photons than
                          // the 8 M that render.photons = 0 gives the medium rows (2 M until
                          // 2026-12-05: the test 43-49 s, most of it the photons)
@@ -252,6 +255,17 @@ TEST_F(Suite, TableCsvThicknessAndCache) {
     EXPECT_FALSE(contains(legacy.output, "+16 spp")) << legacy.output;
     EXPECT_EQ(fileBytes(staleStem + ".a.exr"), staleA);
     EXPECT_FALSE(fs::exists(staleStem + ".a.stale.exr"));
+
+    // another size: the reference of this one is kept aside as well, and taken back after
+    CliRun small = suite(std::string(kSphere) + "/medium/side/a0.9", "--suite-size 16x9");
+    ASSERT_EQ(small.exitCode, 0) << small.output;
+    EXPECT_TRUE(contains(small.output, "camera.height = 9")) << small.output;
+    EXPECT_TRUE(contains(small.output, "the old one kept as")) << small.output;
+    CliRun sized = suite(std::string(kSphere) + "/medium/side/a0.9");
+    ASSERT_EQ(sized.exitCode, 0) << sized.output;
+    EXPECT_TRUE(contains(sized.output, "taken back from")) << sized.output;
+    EXPECT_FALSE(contains(sized.output, "+16 spp")) << sized.output;
+    EXPECT_EQ(fileBytes(staleStem + ".a.exr"), staleA);
 
     // a larger sample budget refines the cached reference instead of starting again
     CliRun more = suite(std::string(kSphere) + "/thin/front/a0.9",

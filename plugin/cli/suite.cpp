@@ -404,7 +404,8 @@ std::string readHalves(const std::string& stem, const std::string& key, int w, i
     return why;
 }
 
-/// The key a cached half was written with ("" when it has none or cannot be read).
+/// The key a cached half was written with (it names the size too: camera.width and height);
+/// "" when it has none or cannot be read.
 std::string storedKey(const std::string& path) {
     try {
         const io::ExrImage img = io::readExr(path);
@@ -415,9 +416,9 @@ std::string storedKey(const std::string& path) {
     }
 }
 
-/// Where a stale reference of a case is kept: "<stem>.k<first 12 hex digits of the SHA-1 of the
-/// key it was written with>", its halves <that>.a.exr and <that>.b.exr. One name per key, so a
-/// reference kept again under the same settings replaces its older copy.
+/// Where a reference of a case rendered under other settings is kept: "<stem>.k<first 12 hex
+/// digits of the SHA-1 of its key>", its halves <that>.a.exr and <that>.b.exr. One name per
+/// key, so a reference kept again under the same settings replaces its older copy.
 std::string stashStem(const std::string& stem, const std::string& key) {
     OIIO::SHA1 sha;
     sha.append(key.data(), key.size());
@@ -438,11 +439,12 @@ bool moveHalves(const std::string& from, const std::string& to) {
     return ok;
 }
 
-/// Keeps the case's current halves, rendered under other settings, beside it (stashStem of the
-/// key they hold) instead of overwriting them: a `--set` of a setting the path tracer reads makes
-/// every selected reference stale, and references can cost hours. Returns the file name they
-/// were kept under ("" if they could not be).
-std::string stashStale(const std::string& stem) {
+/// Keeps the case's current halves beside it (stashStem) instead of overwriting them, when
+/// they are a suite reference the current run cannot use: a `--set` of a setting the path
+/// tracer reads, or another --suite-size, makes every selected reference unusable, and
+/// references can cost hours. Returns the file name they were kept under; "" when they are no
+/// suite reference (missing, unreadable, without a key) or could not be moved.
+std::string keepAside(const std::string& stem) {
     const std::string key = storedKey(stem + ".a.exr");
     if (key.empty()) return {};
     const std::string to = stashStem(stem, key);
@@ -804,17 +806,17 @@ int runSuite(const ConvergeOptions& o) {
             Halves hv;
             std::string why = o.suiteRerender ? "--suite-rerender" : "";
             if (why.empty()) why = readHalves(stem, key, w, h, hv);
-            // a stale reference may have cost hours (and a --set of a setting the path tracer
-            // reads makes every selected one stale): kept beside under its key, not
+            // a reference this run cannot use may have cost hours (and a --set of a setting
+            // the path tracer reads makes every selected one stale): kept beside, not
             // overwritten, and taken back when a later run's settings match it again
-            const bool stale = why.rfind("stale: ", 0) == 0;
             std::string kept;
             if (!why.empty() && !o.suiteRerender) {
                 const std::string stash = findStash(stem, key, w, h);
                 if (!stash.empty()) {
-                    if (stale) kept = stashStale(stem);
-                    // (never over a stale pair that could not be kept)
-                    if ((!stale || !kept.empty()) && moveHalves(stash, stem) &&
+                    const bool worthKeeping = !storedKey(stem + ".a.exr").empty();
+                    if (worthKeeping) kept = keepAside(stem);
+                    // (never over a reference that could not be kept)
+                    if ((!worthKeeping || !kept.empty()) && moveHalves(stash, stem) &&
                         readHalves(stem, key, w, h, hv).empty()) {
                         std::fprintf(stderr, "%s; taken back from %s.a/b.exr", why.c_str(),
                                      fs::path(stash).filename().string().c_str());
@@ -832,7 +834,7 @@ int runSuite(const ConvergeOptions& o) {
             } else {
                 hv = Halves{};
                 std::fprintf(stderr, "%s", why.c_str());
-                if (stale && kept.empty()) kept = stashStale(stem);
+                if (kept.empty() && !o.suiteRerender) kept = keepAside(stem);
                 if (!kept.empty())
                     std::fprintf(stderr, " (the old one kept as %s.a/b.exr)", kept.c_str());
             }
