@@ -439,11 +439,9 @@ bool moveHalves(const std::string& from, const std::string& to) {
     return ok;
 }
 
-/// Keeps the case's current halves beside it (stashStem) instead of overwriting them, when
-/// they are a suite reference the current run cannot use: a `--set` of a setting the path
-/// tracer reads, or another --suite-size, makes every selected reference unusable, and
-/// references can cost hours. Returns the file name they were kept under; "" when they are no
-/// suite reference (missing, unreadable, without a key) or could not be moved.
+/// Keeps the case's current (stale) halves beside it (stashStem of the key they hold) instead
+/// of overwriting them. Returns the file name they were kept under; "" when they hold no key or
+/// could not be moved.
 std::string keepAside(const std::string& stem) {
     const std::string key = storedKey(stem + ".a.exr");
     if (key.empty()) return {};
@@ -806,26 +804,22 @@ int runSuite(const ConvergeOptions& o) {
             Halves hv;
             std::string why = o.suiteRerender ? "--suite-rerender" : "";
             if (why.empty()) why = readHalves(stem, key, w, h, hv);
-            // a reference this run cannot use may have cost hours (and a --set of a setting
-            // the path tracer reads makes every selected one stale): kept beside, not
+            // a stale reference may have cost hours (a --set of a setting the path tracer reads,
+            // or another --suite-size, makes every selected one stale): kept beside, not
             // overwritten, and taken back when a later run's settings match it again
-            std::string kept;
-            if (!why.empty() && !o.suiteRerender) {
+            const bool stale = why.rfind("stale: ", 0) == 0;
+            const std::string kept = stale ? keepAside(stem) : std::string();
+            // (never over a stale reference that could not be kept)
+            if (!why.empty() && !o.suiteRerender && (!stale || !kept.empty())) {
                 const std::string stash = findStash(stem, key, w, h);
-                if (!stash.empty()) {
-                    const bool worthKeeping = !storedKey(stem + ".a.exr").empty();
-                    if (worthKeeping) kept = keepAside(stem);
-                    // (never over a reference that could not be kept)
-                    if ((!worthKeeping || !kept.empty()) && moveHalves(stash, stem) &&
-                        readHalves(stem, key, w, h, hv).empty()) {
-                        std::fprintf(stderr, "%s; taken back from %s.a/b.exr", why.c_str(),
-                                     fs::path(stash).filename().string().c_str());
-                        if (!kept.empty())
-                            std::fprintf(stderr, " (the other one kept as %s.a/b.exr)",
-                                         kept.c_str());
-                        std::fprintf(stderr, ", ");
-                        why.clear();
-                    }
+                if (!stash.empty() && moveHalves(stash, stem) &&
+                    readHalves(stem, key, w, h, hv).empty()) {
+                    std::fprintf(stderr, "%s; taken back from %s.a/b.exr", why.c_str(),
+                                 fs::path(stash).filename().string().c_str());
+                    if (!kept.empty())
+                        std::fprintf(stderr, " (the other one kept as %s.a/b.exr)", kept.c_str());
+                    std::fprintf(stderr, ", ");
+                    why.clear();
                 }
             }
             if (why.empty()) {
@@ -834,7 +828,6 @@ int runSuite(const ConvergeOptions& o) {
             } else {
                 hv = Halves{};
                 std::fprintf(stderr, "%s", why.c_str());
-                if (kept.empty() && !o.suiteRerender) kept = keepAside(stem);
                 if (!kept.empty())
                     std::fprintf(stderr, " (the old one kept as %s.a/b.exr)", kept.c_str());
             }
