@@ -514,12 +514,18 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
 }
 
 /// "auto" traces the sky by photons too when some channel's albedo is below this (an albedo-1
-/// medium's grid sky is exact) and the cloud's mean optical depth along the sun is above
-/// kAutoPhotonSkyDepth: on the validation matrix's thin rows (depths 0.5-1.8, where little light
-/// scatters twice) it gained nothing (25 of 27 within 10% at albedo 0.9 either way, 8 cases
-/// worse by its noise) for twice the photons; its medium rows lie at 10.6-20.
+/// medium's grid sky is exact), at any depth, with at least kAutoPhotonSkyPhotons photons (the
+/// voxel still sized for the count the depth gives, doubled). On the validation matrix's 27 thin
+/// albedo-0.9 rows (depths along the sun 0.5-1.8) the grid's sky is too bright where the cloud is
+/// opaque to the camera (smoke1 front-lit: 1.14x over its pixels of alpha >= 0.95, 12.00% over
+/// the cloud); the sky by photons at twice the depth's count (4 M) levelled it (mean ratios
+/// 0.99-1.01) but its noise took three cases to 10.5-11.3% (22 of 25 VDB and cumulus cases
+/// within 10%, against 24 with the grid's sky); at 16 M on the same voxels every one was within
+/// 10%, median 5.77% -> 4.01%, worst 6.37% (8 M: worst 9.35%). Until stop 76 the sky's photons
+/// were kept to clouds deeper than 4 along the sun, from a measurement at 4 M (docs/accuracy.md,
+/// "The thin rows' sky by photons").
 constexpr float kAutoPhotonSkyAlbedo = 0.999f;
-constexpr double kAutoPhotonSkyDepth = 4.0;
+constexpr std::int64_t kAutoPhotonSkyPhotons = 16000000;
 
 /// render.photons = 0: the photons a frame traces (before "auto" doubles them for the sky), by
 /// the cloud's mean optical depth tau along the sun: kPhotonsThin up to a depth of kThinDepth,
@@ -637,7 +643,8 @@ constexpr float kDeepPhotonCellFinest = 0.0625f;
 /// The first rule above, in light-volume cells (the measured cloud's).
 float countCellScale(const FramePlan& p) {
     return finestCellScale(p, p.lightVolumeCell, kCountCellFinest, 4.0f,
-                           double(p.photonCount) / kPhotonsPerCell, [](float) { return true; });
+                           double(p.photonVoxelCount) / kPhotonsPerCell,
+                           [](float) { return true; });
 }
 
 float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, FramePlan& p) {
@@ -646,7 +653,7 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
         p.photonCellNote = "the light-volume cell (" + why + ")";
         return 1.0f;
     }
-    const double reaching = double(p.photonCount) * p.cloudHitFraction;
+    const double reaching = double(p.photonVoxelCount) * p.cloudHitFraction;
     const bool deep = p.cloudTau > kThinDepth;
     const float finest = deep ? kDeepPhotonCellFinest : kPhotonCellFinest;
     const float byReach =
@@ -660,7 +667,7 @@ float autoPhotonCellScale(const SceneDesc& s, const FrameBindings& bindings, Fra
                   "of them reaching it (%.0f%% of the rays along the sun over the box holding it "
                   "meet it; at least %g leaving or %g reaching wanted; not below %g, the depth "
                   "along the sun %s %g)",
-                  double(scale), voxels, double(p.photonCount) / std::max(voxels, 1.0),
+                  double(scale), voxels, double(p.photonVoxelCount) / std::max(voxels, 1.0),
                   reaching / std::max(voxels, 1.0), 100.0 * p.cloudHitFraction, kPhotonsPerCell,
                   kPhotonsReachingPerCell, double(finest), deep ? ">" : "<=", kThinDepth);
     p.photonCellNote = buf;
@@ -794,18 +801,26 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // the sky traced by photons too: its first scattering is march's (as with
     // render.sky_scattering = "single"), the orders above it the photons'
     // "auto" traces the sky by photons too where the medium absorbs (albedo below 1 in a
-    // channel) and the cloud is not thin (kAutoPhotonSkyDepth): there the grid's sky was 0.86-1.78
-    // times the reference on the validation matrix's medium rows (the sky alone), at albedo 1 it is
+    // channel): there the grid's sky was 0.86-1.78 times the reference on the validation matrix's
+    // medium rows (the sky alone) and 1.14 in the opaque core of a thin cloud, at albedo 1 it is
     // exact (the white furnace). The sky then takes about half the photons, so "auto" traces twice
-    // render.photons: 11 of the 27 medium cases at albedo 0.9 within 10% against 5 with the grid's
-    // sky (docs/accuracy.md, "The sky by photons where the medium absorbs")
+    // render.photons, and at least kAutoPhotonSkyPhotons: 11 of the 27 medium cases at albedo 0.9
+    // within 10% against 5 with the grid's sky (docs/accuracy.md, "The sky by photons where the
+    // medium absorbs"), every thin one against 26 of 27
     const vec3 albedo =
         s.medium.sigma_s / glm::max(s.medium.sigma_s + s.medium.sigma_a, vec3(1e-30f));
     p.photonSkyAuto = p.photons && p.ambient && p.msAuto && !s.render.photonSky &&
                       s.render.autoPhotonSky && minComponent(albedo) < kAutoPhotonSkyAlbedo &&
-                      p.cloudMeasured() && p.cloudTau > kAutoPhotonSkyDepth;
+                      p.cloudMeasured();
     p.photonSky = p.photons && p.ambient && (s.render.photonSky || p.photonSkyAuto);
-    p.photonCount = p.photons ? photonsFor(s, bindings, p) * (p.photonSkyAuto ? 2 : 1) : 0;
+    p.photonVoxelCount = p.photons ? photonsFor(s, bindings, p) * (p.photonSkyAuto ? 2 : 1) : 0;
+    p.photonCount = p.photonVoxelCount;
+    if (p.photonSkyAuto && s.render.photons == 0 && p.photonCount < kAutoPhotonSkyPhotons) {
+        p.photonCount = kAutoPhotonSkyPhotons;
+        p.photonCountNote += "; twice that with the sky's, at least " +
+                             std::to_string(kAutoPhotonSkyPhotons / 1000000) +
+                             " M, the voxel sized for " + std::to_string(p.photonVoxelCount);
+    }
     // the sky's multiple scattering is the diffusion grid's in either model (unless photons
     // trace it; then the grid carries only what photons hand off)
     p.diffusion = inScatter && oneVolume &&

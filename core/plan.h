@@ -121,8 +121,12 @@ struct FramePlan {
     bool photonSkyAuto = false;
     /// photons traced per frame, the sun's and the sky's together: render.photons (with 0, 2 M
     /// where the cloud is thin along the sun, 8 M where it is deep), twice that when "auto"
-    /// traces the sky too
+    /// traces the sky too, and then at least 16 M
     std::int64_t photonCount = 0;
+    /// the count the photons' voxel is sized for (the rules of photon_cell_scale = 0): the
+    /// count above but for the 16 M floor of "auto"'s sky, which lowers the noise of each voxel
+    /// rather than making them finer
+    std::int64_t photonVoxelCount = 0;
     std::string photonCountNote; ///< render.photons = 0: the count chosen and why
     /// march with the diffusion grid: the fraction g^2 of scattering in the phase function's
     /// forward peak kept in the sun's and the camera's beams (render.forward_scattering; 0: off)

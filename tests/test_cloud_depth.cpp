@@ -423,9 +423,9 @@ TEST(AutoMultipleScattering, SkyGridOnThePhotonsFinerVoxel) {
 
 TEST(AutoMultipleScattering, SkyByPhotonsWhereTheMediumAbsorbs) {
     // "auto" choosing photons traces the sky by photons too where some channel's albedo is
-    // below 1 (the grid's sky is exact only at albedo 1) and the cloud's depth along the sun is
-    // above 4, with twice render.photons shared between the lights; not at albedo 1, not in a
-    // thin cloud, not under a named model, not for the GLSL hosts
+    // below 1 (the grid's sky is exact only at albedo 1), thin clouds too, with twice
+    // render.photons shared between the lights; not at albedo 1, not under a named model, not
+    // for the GLSL hosts
     SceneDesc s = boxAtDepth(8.0f);
     s.sky.kind = SkyKind::Uniform;
     s.render.photons = 30000;
@@ -448,14 +448,15 @@ TEST(AutoMultipleScattering, SkyByPhotonsWhereTheMediumAbsorbs) {
     EXPECT_EQ(st.photonsTraced, 60000u);
     EXPECT_GT(st.photonsFromSky, 0u);
 
-    SceneDesc thin = boxAtDepth(1.0f); // absorbing but thin: the grid's sky, as many photons
+    SceneDesc thin = boxAtDepth(1.0f); // absorbing and thin: the sky by photons as well
     thin.sky.kind = SkyKind::Uniform;
     thin.medium.sigma_a = s.medium.sigma_a;
     thin.render.photons = 30000;
     p = planFrame(thin, 1);
-    EXPECT_TRUE(p.photons && p.diffusion);
-    EXPECT_FALSE(p.photonSky);
-    EXPECT_EQ(p.photonCount, 30000);
+    EXPECT_TRUE(p.photons && p.photonSky && p.photonSkyAuto);
+    EXPECT_FALSE(p.diffusion);
+    EXPECT_EQ(p.photonCount, 60000) << "a count named is doubled, not raised to the floor";
+    EXPECT_EQ(p.photonVoxelCount, 60000);
 
     s.render.autoPhotonSky = false; // nimbus rt, export-glsl
     p = planFrame(s, 1);
@@ -506,6 +507,23 @@ TEST(AutoMultipleScattering, PhotonCountFollowsTheCloudsDepth) {
     const FramePlan both = planFrame(sky, 1);
     ASSERT_TRUE(both.photonSkyAuto);
     EXPECT_EQ(both.photonCount, 16000000);
+    EXPECT_EQ(both.photonVoxelCount, 16000000);
+    // absorbing and thin: at least 16 M with the sky's, the voxel sized for twice the depth's 2 M
+    // (the same voxel as 4 M photons named would get)
+    SceneDesc thinSky = boxAtDepth(1.0f);
+    thinSky.render.photons = 0;
+    thinSky.sky.kind = SkyKind::Uniform;
+    thinSky.medium.sigma_a = 0.1f * thinSky.medium.sigma_s;
+    const FramePlan floor = planFrame(thinSky, 1);
+    ASSERT_TRUE(floor.photonSkyAuto);
+    EXPECT_EQ(floor.photonCount, 16000000);
+    EXPECT_EQ(floor.photonVoxelCount, 4000000);
+    EXPECT_NE(floor.explain().find("at least 16 M, the voxel sized for 4000000"), std::string::npos)
+        << floor.explain();
+    thinSky.render.photons = 2000000; // named: twice that, on the voxel of that count
+    const FramePlan named4 = planFrame(thinSky, 1);
+    EXPECT_EQ(named4.photonCount, 4000000);
+    EXPECT_FLOAT_EQ(named4.photonCell, floor.photonCell);
 
     SceneDesc named = boxAtDepth(20.0f);
     named.render.photons = 30000;
