@@ -24,16 +24,22 @@ template <class F> auto withStaging(SceneDesc& s, F fn) {
     return fn(b.st);
 }
 
+/// Runs @p fn(param, value) on every key of the parameter table that applies to @p f's field
+/// kind and has a value there.
+template <class F> void forEachSetting(const SceneFile& f, Staging& st, F fn) {
+    st.file = f;
+    for (const Param& p : registry()) {
+        if (p.kind && *p.kind != f.scene.field.kind) continue;
+        if (std::optional<Value> v = p.get(st)) fn(p, *v);
+    }
+}
+
 } // namespace
 
 std::map<std::string, std::string> sceneSettings(const SceneFile& f) {
     std::map<std::string, std::string> out;
     Staging st;
-    st.file = f;
-    for (const Param& p : registry()) {
-        if (p.kind && *p.kind != f.scene.field.kind) continue;
-        if (std::optional<Value> v = p.get(st)) out[p.full()] = toToml(p, *v);
-    }
+    forEachSetting(f, st, [&](const Param& p, const Value& v) { out[p.full()] = toToml(p, v); });
     for (const ArraySection& a : arraySections()) {
         size_t count = a.name == "volume"  ? f.scene.volumes.size()
                        : a.name == "mesh"  ? f.scene.meshes.size()
@@ -53,12 +59,9 @@ std::map<std::string, std::string> sceneSettings(const SceneFile& f) {
 std::set<std::string> pixelNeutralSettings(const SceneFile& f) {
     std::set<std::string> out;
     Staging st;
-    st.file = f;
-    for (const Param& p : registry()) {
-        if (p.kind && *p.kind != f.scene.field.kind) continue;
-        if (!p.get(st)) continue;
+    forEachSetting(f, st, [&](const Param& p, const Value&) {
         if (p.pixelNeutral || (p.used && !p.used(f))) out.insert(p.full());
-    }
+    });
     return out;
 }
 
