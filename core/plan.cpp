@@ -519,9 +519,9 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
 /// albedo-0.9 rows (depths along the sun 0.5-1.8) the grid's sky is too bright where the cloud is
 /// opaque to the camera (smoke1 front-lit: 1.14x over its pixels of alpha >= 0.95, 12.00% over
 /// the cloud); the sky by photons at twice the depth's count (4 M) levelled it (mean ratios
-/// 0.99-1.01) but its noise took three cases to 10.5-11.3% (22 of 25 VDB and cumulus cases
-/// within 10%, against 24 with the grid's sky); at 16 M on the same voxels every one was within
-/// 10%, median 5.77% -> 4.01%, worst 6.37% (8 M: worst 9.35%). Until stop 76 the sky's photons
+/// 0.99-1.01) but its noise took three cases to 10.5-11.3% (24 of the 27 within 10%, against 26
+/// with the grid's sky); at 16 M on the same voxels every one was within 10%, median 5.77% ->
+/// 3.99%, worst 6.92% (8 M: worst 9.35%). Until stop 76 the sky's photons
 /// were kept to clouds deeper than 4 along the sun, from a measurement at 4 M (docs/accuracy.md,
 /// "The thin rows' sky by photons").
 constexpr float kAutoPhotonSkyAlbedo = 0.999f;

@@ -500,20 +500,20 @@ TEST(AutoMultipleScattering, PhotonCountFollowsTheCloudsDepth) {
         last = n;
     }
 
-    SceneDesc sky = boxAtDepth(20.0f); // absorbing and deep: "auto" traces the sky too
-    sky.render.photons = 0;
-    sky.sky.kind = SkyKind::Uniform;
-    sky.medium.sigma_a = 0.1f * sky.medium.sigma_s;
-    const FramePlan both = planFrame(sky, 1);
+    auto absorbing = [](float tau) { // "auto" traces the sky too
+        SceneDesc s = boxAtDepth(tau);
+        s.render.photons = 0;
+        s.sky.kind = SkyKind::Uniform;
+        s.medium.sigma_a = 0.1f * s.medium.sigma_s;
+        return s;
+    };
+    const FramePlan both = planFrame(absorbing(20.0f), 1); // deep: twice the depth's 8 M
     ASSERT_TRUE(both.photonSkyAuto);
     EXPECT_EQ(both.photonCount, 16000000);
     EXPECT_EQ(both.photonVoxelCount, 16000000);
-    // absorbing and thin: at least 16 M with the sky's, the voxel sized for twice the depth's 2 M
-    // (the same voxel as 4 M photons named would get)
-    SceneDesc thinSky = boxAtDepth(1.0f);
-    thinSky.render.photons = 0;
-    thinSky.sky.kind = SkyKind::Uniform;
-    thinSky.medium.sigma_a = 0.1f * thinSky.medium.sigma_s;
+    // thin: at least 16 M with the sky's, the voxel sized for twice the depth's 2 M (the same
+    // voxel as 4 M photons named would get)
+    SceneDesc thinSky = absorbing(1.0f);
     const FramePlan floor = planFrame(thinSky, 1);
     ASSERT_TRUE(floor.photonSkyAuto);
     EXPECT_EQ(floor.photonCount, 16000000);
