@@ -527,6 +527,15 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
 constexpr float kAutoPhotonSkyAlbedo = 0.999f;
 constexpr std::int64_t kAutoPhotonSkyPhotons = 16000000;
 
+} // namespace
+
+bool autoPhotonSkyMedium(const MediumDesc& m) {
+    const vec3 albedo = m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
+    return minComponent(albedo) < kAutoPhotonSkyAlbedo;
+}
+
+namespace {
+
 /// render.photons = 0: the photons a frame traces (before "auto" doubles them for the sky), by
 /// the cloud's mean optical depth tau along the sun: kPhotonsThin up to a depth of kThinDepth,
 /// growing in proportion to it up to kDeepPhotonFactor times that at 4 kThinDepth and above (so a
@@ -807,11 +816,8 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // render.photons, and at least kAutoPhotonSkyPhotons: 11 of the 27 medium cases at albedo 0.9
     // within 10% against 5 with the grid's sky (docs/accuracy.md, "The sky by photons where the
     // medium absorbs"), every thin one against 26 of 27
-    const vec3 albedo =
-        s.medium.sigma_s / glm::max(s.medium.sigma_s + s.medium.sigma_a, vec3(1e-30f));
     p.photonSkyAuto = p.photons && p.ambient && p.msAuto && !s.render.photonSky &&
-                      s.render.autoPhotonSky && minComponent(albedo) < kAutoPhotonSkyAlbedo &&
-                      p.cloudMeasured();
+                      s.render.autoPhotonSky && autoPhotonSkyMedium(s.medium) && p.cloudMeasured();
     p.photonSky = p.photons && p.ambient && (s.render.photonSky || p.photonSkyAuto);
     p.photonVoxelCount = p.photons ? photonsFor(s, bindings, p) * (p.photonSkyAuto ? 2 : 1) : 0;
     p.photonCount = p.photonVoxelCount;

@@ -224,6 +224,11 @@ inline NoiseEval plannedNoiseEval(const SceneDesc& s, const FramePlan& p) {
     return s.field.cumulus.eval == NoiseEval::Rgba ? NoiseEval::Rgba : NoiseEval::Baked;
 }
 
+/// Whether render.multiple_scattering = "auto", where it chooses photons, traces the sky by
+/// photons too in this medium: some channel's albedo below 0.999 (the grid's sky is exact only
+/// at albedo 1; planFrame, FramePlan::photonSkyAuto).
+bool autoPhotonSkyMedium(const MediumDesc& m);
+
 /// Plans frame `frame` of the scene with what is bound to it (a VDB field's bounds size its
 /// majorant cell).
 FramePlan planFrame(const SceneDesc& scene, int frame, const FrameBindings& bindings,

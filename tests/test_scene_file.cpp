@@ -636,6 +636,19 @@ TEST(SceneFileWarnings, MaxDepthIsUsedWhereverPhotonsMayCarryTheLight) {
     EXPECT_TRUE(contains(f.warnings[0], "\"auto\"")) << f.warnings[0];
 }
 
+TEST(SceneFileWarnings, SkyDirectionsAreUsedWhereAutoTracesTheSkyByPhotons) {
+    // "auto" (the default) traces the sky by photons in an absorbing medium and marches its
+    // single scattering over render.sky_directions: setting it is not ignored there, but is at
+    // albedo 1, where the grid carries the sky
+    SceneFile f = parseSceneText(
+        "[medium]\nsigma_s = 0.9\nsigma_a = 0.1\n[render]\nsky_directions = 4\n", "k.toml");
+    EXPECT_TRUE(f.warnings.empty()) << (f.warnings.empty() ? "" : f.warnings[0]);
+    EXPECT_EQ(f.scene.render.skyDirections, 4);
+    f = parseSceneText("[medium]\nsigma_s = 1\n[render]\nsky_directions = 4\n", "k.toml");
+    ASSERT_EQ(f.warnings.size(), 1u);
+    EXPECT_TRUE(contains(f.warnings[0], "render.sky_directions is ignored")) << f.warnings[0];
+}
+
 TEST(SceneFileWarnings, MarchSettingsAreIgnoredByThePathTracer) {
     // the keys only march reads say so in the table (Param::marchOnly): a path-traced scene that
     // sets them is warned, a marched one is not, and the validation suite's reference keys leave

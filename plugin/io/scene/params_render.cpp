@@ -1,5 +1,6 @@
 /// @file params_render.cpp
 /// @brief Scene-file parameter table: the rows of [render] (see table.h).
+#include "core/plan.h"
 #include "plugin/io/scene/table.h"
 
 namespace nimbus::io::scene {
@@ -427,7 +428,10 @@ void addRenderParams(std::vector<Param>& t) {
                 r.skyScattering == SkyScattering::Single) ||
                ((r.multipleScattering == MultipleScattering::Photons ||
                  r.multipleScattering == MultipleScattering::Auto) &&
-                r.photonSky);
+                r.photonSky) ||
+               // "auto" turns render.photon_sky on by itself in an absorbing medium
+               (r.multipleScattering == MultipleScattering::Auto && r.autoPhotonSky &&
+                autoPhotonSkyMedium(f.scene.medium));
     };
     auto skyAmbient = [](const SceneFile& f) {
         return f.scene.render.multipleScattering == MultipleScattering::None &&
@@ -459,7 +463,8 @@ void addRenderParams(std::vector<Param>& t) {
                   "volume only, else march).",
                   &RenderDesc::skyShadow)
             .usedWhen("render.multiple_scattering = \"none\" and "
-                      "render.sky_scattering = \"single\", or render.photon_sky",
+                      "render.sky_scattering = \"single\", or render.photon_sky (which \"auto\" "
+                      "turns on in an absorbing medium)",
                       skySingle)
             .marchOnly());
     t.push_back(ren.param("sky_directions", closed(1, 256),
@@ -469,7 +474,8 @@ void addRenderParams(std::vector<Param>& t) {
                           "x 4 bytes).",
                           &RenderDesc::skyDirections)
                     .usedWhen("render.multiple_scattering = \"none\" and "
-                              "render.sky_scattering = \"single\", or render.photon_sky",
+                              "render.sky_scattering = \"single\", or render.photon_sky (which "
+                              "\"auto\" turns on in an absorbing medium)",
                               skySingle)
                     .marchOnly());
     t.push_back(ren.param("sky_occlusion",
