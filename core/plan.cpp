@@ -527,15 +527,6 @@ bool measureCloud(const SceneDesc& s, const FrameBindings& bindings, FramePlan& 
 constexpr float kAutoPhotonSkyAlbedo = 0.999f;
 constexpr std::int64_t kAutoPhotonSkyPhotons = 16000000;
 
-} // namespace
-
-bool autoPhotonSkyMedium(const MediumDesc& m) {
-    const vec3 albedo = m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
-    return minComponent(albedo) < kAutoPhotonSkyAlbedo;
-}
-
-namespace {
-
 /// render.photons = 0: the photons a frame traces (before "auto" doubles them for the sky), by
 /// the cloud's mean optical depth tau along the sun: kPhotonsThin up to a depth of kThinDepth,
 /// growing in proportion to it up to kDeepPhotonFactor times that at 4 kThinDepth and above (so a
@@ -731,6 +722,11 @@ float gridCellScale(const Box& bounds, FramePlan& p) {
 }
 
 } // namespace
+
+bool autoPhotonSkyMedium(const MediumDesc& m) {
+    const vec3 albedo = m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
+    return minComponent(albedo) < kAutoPhotonSkyAlbedo;
+}
 
 FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings,
                     const AovSet& aovs) {
