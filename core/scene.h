@@ -446,7 +446,9 @@ struct RenderDesc {
     /// (fixed ones).
     SkyScattering skyScattering = SkyScattering::Ambient;
     SkyShadow skyShadow = SkyShadow::March;
-    int skyDirections = 8;
+    /// 0 = chosen by the plan (FramePlan::skyDirections: 4 where the sky's photons leave its
+    /// single scattering to shadow marches, else 8)
+    int skyDirections = 0;
     InScatter inScatter = InScatter::Olajos;
     /// march with the diffusion grid: delta scaling of the phase function's forward peak (a
     /// fraction g^2 of the scattering): the sun's single scattering is attenuated by

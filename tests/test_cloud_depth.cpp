@@ -472,6 +472,35 @@ TEST(AutoMultipleScattering, SkyByPhotonsWhereTheMediumAbsorbs) {
     EXPECT_EQ(p.photonCount, 30000) << "the key's photons, shared as documented";
 }
 
+TEST(AutoMultipleScattering,
+     FourSkyDirectionsWhereTheSkysPhotonsLeaveItsSingleScatteringToMarches) {
+    // render.sky_directions = 0 (the default): 4 directions where the sky's photons carry its
+    // higher orders and its single scattering is marched, 8 where the sky alone is single-
+    // scattered or read from the sky volume's fixed directions; a count named is the count
+    SceneDesc s = boxAtDepth(8.0f);
+    EXPECT_EQ(s.render.skyDirections, 0);
+    s.sky.kind = SkyKind::Uniform;
+    s.medium.sigma_a = 0.1f * s.medium.sigma_s;
+    FramePlan p = planFrame(s, 1);
+    ASSERT_TRUE(p.photonSky && p.skySingle);
+    EXPECT_EQ(p.skyDirections, 4);
+    s.render.skyDirections = 6;
+    EXPECT_EQ(planFrame(s, 1).skyDirections, 6);
+    s.render.skyDirections = 0;
+    s.render.skyShadow = SkyShadow::Volume;
+    p = planFrame(s, 1);
+    ASSERT_TRUE(p.photonSky && p.skyVolume);
+    EXPECT_EQ(p.skyDirections, 8) << "fixed directions blur with fewer";
+    s.render.skyShadow = SkyShadow::March;
+    s.render.multipleScattering = MultipleScattering::None;
+    s.render.skyScattering = SkyScattering::Single;
+    p = planFrame(s, 1);
+    ASSERT_TRUE(p.skySingle && !p.photonSky);
+    EXPECT_EQ(p.skyDirections, 8);
+    s.sky.kind = SkyKind::None; // no sky: no directions
+    EXPECT_EQ(planFrame(s, 1).skyDirections, 0);
+}
+
 TEST(AutoMultipleScattering, PhotonCountFollowsTheCloudsDepth) {
     // render.photons = 0 (the default): 2 M photons up to a depth of 2 along the sun, 1 M per
     // unit of depth above, 8 M from 8; "auto" tracing the sky too doubles the count; a count
