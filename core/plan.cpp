@@ -868,16 +868,16 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                                                 ? p.photonCell
                                                 : p.lightVolumeCell * countCellScale(p)));
     const bool skyVolume = p.skySingle && s.render.skyShadow == SkyShadow::Volume;
-    if (p.skySingle)
-        p.skyDirections = s.render.skyDirections > 0
-                              ? std::clamp(s.render.skyDirections, 1, kMaxSkyDirections)
-                          : p.photonSky && !skyVolume ? kPhotonSkyDirections
-                                                      : kSkyDirections;
     // like the sun's, the sky's volumes cover one untransformed volume; instanced scenes march
     p.skyVolume = skyVolume && oneVolume;
     if (skyVolume && !oneVolume)
         p.skyNote = "render.sky_shadow = \"volume\" covers one untransformed volume; this scene "
                     "has several or instances";
+    if (p.skySingle)
+        p.skyDirections = s.render.skyDirections > 0
+                              ? std::min(s.render.skyDirections, kMaxSkyDirections)
+                          : p.photonSky && !p.skyVolume ? kPhotonSkyDirections
+                                                        : kSkyDirections;
     if (p.skyVolume) {
         const ivec3 res = lightVolumeResolution(bounds, p.lightVolumeCell);
         p.skyVolumeBytes = double(res.x) * res.y * res.z * p.skyDirections * sizeof(float);

@@ -122,6 +122,15 @@ SceneDesc boxAtDepth(float tau) {
     return s;
 }
 
+/// boxAtDepth under a uniform sky at albedo 1/1.1: where "auto" chooses photons it traces the
+/// sky by photons too.
+SceneDesc absorbingBoxAtDepth(float tau) {
+    SceneDesc s = boxAtDepth(tau);
+    s.sky.kind = SkyKind::Uniform;
+    s.medium.sigma_a = 0.1f * s.medium.sigma_s;
+    return s;
+}
+
 } // namespace
 
 TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
@@ -477,10 +486,8 @@ TEST(AutoMultipleScattering,
     // render.sky_directions = 0 (the default): 4 directions where the sky's photons carry its
     // higher orders and its single scattering is marched, 8 where the sky alone is single-
     // scattered or read from the sky volume's fixed directions; a count named is the count
-    SceneDesc s = boxAtDepth(8.0f);
+    SceneDesc s = absorbingBoxAtDepth(8.0f);
     EXPECT_EQ(s.render.skyDirections, 0);
-    s.sky.kind = SkyKind::Uniform;
-    s.medium.sigma_a = 0.1f * s.medium.sigma_s;
     FramePlan p = planFrame(s, 1);
     ASSERT_TRUE(p.photonSky && p.skySingle);
     EXPECT_EQ(p.skyDirections, 4);
@@ -530,10 +537,8 @@ TEST(AutoMultipleScattering, PhotonCountFollowsTheCloudsDepth) {
     }
 
     auto absorbing = [](float tau) { // "auto" traces the sky too
-        SceneDesc s = boxAtDepth(tau);
+        SceneDesc s = absorbingBoxAtDepth(tau);
         s.render.photons = 0;
-        s.sky.kind = SkyKind::Uniform;
-        s.medium.sigma_a = 0.1f * s.medium.sigma_s;
         return s;
     };
     const FramePlan both = planFrame(absorbing(20.0f), 1); // deep: twice the depth's 8 M
