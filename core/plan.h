@@ -54,14 +54,18 @@ struct FramePlan {
     bool diffusion = false;     ///< march: multiple scattering of sun and sky solved on a grid
     bool photons = false;       ///< march: the sun's multiple scattering from traced photons
     /// render.multiple_scattering = "auto": the model was chosen here, from the cloud's mean
-    /// optical depth along the sun (cloudTau; -1 when it was not measured) against
-    /// render.photon_depth; msDecision says what was chosen and why
+    /// optical depth along the sun (cloudTau; -1 when it was not measured), or in a medium that
+    /// absorbs the depth its diffuse light reaches where less, against render.photon_depth;
+    /// msDecision says what was chosen and why
     bool msAuto = false;
     std::string msDecision;
     /// the cloud measured along the sun (core/lighting/cloud_depth.h), for "auto" and for
     /// render.photon_cell_scale = 0: its mean optical depth (-1 until measured) and the volume
     /// it fills
     double cloudTau = -1.0;
+    /// "auto" in a medium that absorbs: the depth its diffuse light reaches (mean free paths),
+    /// where that is less than cloudTau and so what was compared with render.photon_depth; else -1
+    double absorptionDepth = -1.0;
     double cloudVolume = 0.0;
     double cloudExtinction = 0.0; ///< its mean extinction where it has density (per unit length)
     /// the share of the rays along the sun over the box that holds density that meet it (about

@@ -470,6 +470,7 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
     tbb::task_arena arena(threads);
     stats = RenderStats{};
     if (plan.msAuto) stats.cloudDepth = plan.cloudTau; // (-1 when not measured)
+    if (plan.msAuto) stats.absorptionDepth = plan.absorptionDepth;
     bool completed = true;
 
     arena.execute([&] {

@@ -65,6 +65,9 @@ struct RenderStats {
     /// render.multiple_scattering = "auto": the cloud's mean optical depth along the sun it
     /// chose the model by (FramePlan::cloudTau); -1 when not measured
     double cloudDepth = -1.0;
+    /// ... and in a medium that absorbs, the depth its diffuse light reaches, where that is less
+    /// than cloudDepth and so what "auto" chose by (FramePlan::absorptionDepth); else -1
+    double absorptionDepth = -1.0;
     double photonSeconds = 0.0;       ///< march: tracing the photons
     std::uint64_t photonsTraced = 0;  ///< photons that left the sun or the sky
     std::uint64_t photonsFromSky = 0; ///< of them, those that left the sky (render.photon_sky)

@@ -512,6 +512,22 @@ TEST(CApi, CloudDepthStatistic) {
     ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &photons), NIMBUS_OK);
     EXPECT_EQ(again, depth); // the same cloud, now above the threshold: the grid
     EXPECT_EQ(photons, 0.0);
+    // NIMBUS_STAT_ABSORPTION_DEPTH: -1 where the medium does not absorb; at albedo 12 / 13.2 and
+    // g 0.5 the diffuse light reaches 1 / sqrt(3 (1 - a)(1 - a g)) = 2.59 mean free paths, less
+    // than the cloud's depth: "auto" compares that with render.photon_depth instead
+    double reach = 0.0;
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_ABSORPTION_DEPTH, &reach), NIMBUS_OK);
+    EXPECT_EQ(reach, -1.0);
+    ASSERT_EQ(nimbus_set(c, "medium.sigma_a=1.2"), NIMBUS_OK) << c.error();
+    ASSERT_EQ(nimbus_set(c, "render.photon_depth=3"), NIMBUS_OK) << c.error();
+    renderC(c, 3);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_ABSORPTION_DEPTH, &reach), NIMBUS_OK);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &photons), NIMBUS_OK);
+    const double a = 12.0 / 13.2;
+    EXPECT_NEAR(reach, 1.0 / std::sqrt(3.0 * (1.0 - a) * (1.0 - 0.5 * a)), 1e-4);
+    EXPECT_GT(photons, 0.0); // 2.59 <= 3, though the cloud is deeper than 3
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_CLOUD_DEPTH, &again), NIMBUS_OK);
+    EXPECT_GT(again, 3.0);
 }
 
 // nimbus_output_check: absent, current after a write, stale (with the reason) after an edit of

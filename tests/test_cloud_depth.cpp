@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include <tbb/task_arena.h>
 
@@ -162,6 +163,52 @@ TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
     EXPECT_FALSE(off.photons);
     EXPECT_TRUE(off.diffusion);
     EXPECT_NE(off.msDecision.find("render.photon_depth = 0"), std::string::npos) << off.msDecision;
+}
+
+// In a medium that absorbs, "auto" compares render.photon_depth with the depth the diffuse light
+// reaches before absorption takes it, 1 / sqrt(3 (1 - a)(1 - a g)) mean free paths, where that
+// is less than the cloud's depth along the sun: a thick cloud at albedo 0.9 gets photons (their
+// walks end within about ten scatterings), one at albedo 1 keeps the grid.
+TEST(AutoMultipleScattering, PhotonsInThickCloudsWhereAbsorptionKeepsTheLightNearTheirSkin) {
+    SceneDesc s = absorbingBoxAtDepth(200.0f); // albedo 1/1.1, optical depth 220
+    ASSERT_EQ(s.medium.phase, PhaseKind::HenyeyGreenstein);
+    const double a = 1.0 / 1.1, g = double(s.medium.g);
+    const double reach = 1.0 / std::sqrt(3.0 * (1.0 - a) * (1.0 - a * g)); // 2.59 at g 0.5
+    const FramePlan p = planFrame(s, 1);
+    EXPECT_NEAR(p.cloudTau, 220.0, 0.1);
+    EXPECT_TRUE(p.msAuto);
+    EXPECT_TRUE(p.photons);
+    EXPECT_TRUE(p.photonSky); // as "auto" does wherever it gives an absorbing cloud photons
+    char depth[32];
+    std::snprintf(depth, sizeof depth, "%.3g <=", reach);
+    EXPECT_NE(p.msDecision.find("the depth the medium's absorption lets diffuse light reach"),
+              std::string::npos)
+        << p.msDecision;
+    EXPECT_NE(p.msDecision.find(depth), std::string::npos) << p.msDecision;
+
+    // the threshold is render.photon_depth's, on that depth
+    s.render.photonDepth = float(0.99 * reach);
+    const FramePlan below = planFrame(s, 1);
+    EXPECT_FALSE(below.photons);
+    EXPECT_TRUE(below.diffusion);
+    s.render.photonDepth = float(1.01 * reach);
+    EXPECT_TRUE(planFrame(s, 1).photons);
+
+    // the mean cosine counts: isotropic scattering at the same albedo reaches less deep
+    s.medium.g = 0.0f;
+    s.render.photonDepth = float(0.99 * reach);
+    EXPECT_TRUE(planFrame(s, 1).photons); // 1 / sqrt(3 (1 - a)) = 1.91 < 0.99 x 2.59
+
+    // the channel that absorbs least decides: its walks go on; one that does not absorb at all
+    // leaves the cloud's depth, and the grid
+    SceneDesc blue = boxAtDepth(200.0f);
+    blue.medium.sigma_a = vec3(0.0f, 0.0f, 0.1f) * blue.medium.sigma_s;
+    const FramePlan q = planFrame(blue, 1);
+    EXPECT_FALSE(q.photons);
+    char cloud[80];
+    std::snprintf(cloud, sizeof cloud, "the cloud's mean optical depth along the sun %.3g >",
+                  q.cloudTau);
+    EXPECT_NE(q.msDecision.find(cloud), std::string::npos) << q.msDecision;
 }
 
 TEST(AutoMultipleScattering, RendersWhatItChose) {

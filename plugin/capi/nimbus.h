@@ -331,14 +331,20 @@ typedef enum nimbus_stat {
     /** of them, those whose light went on in the diffusion grid (render.photon_bounces) */
     NIMBUS_STAT_PHOTONS_HANDED_OFF = 20,
     /** render.multiple_scattering = "auto": the cloud's mean optical depth along the sun that
-     * chose photons (at most render.photon_depth) or the grid; -1 when nothing was measured */
+     * chose photons (at most render.photon_depth, or any in a medium whose absorption keeps its
+     * diffuse light within it) or the grid; -1 when nothing was measured */
     NIMBUS_STAT_CLOUD_DEPTH = 21,
     /** MiB the multiple-scattering grid's solve held at its peak (what `--explain` estimates
      * as the plan's diffusion memory); 0 when the frame solved no grid */
     NIMBUS_STAT_DIFFUSION_MB = 22,
     /** MiB the photon pass held beyond the light grids (the photons' voxels and their own
      * tracking grid; what `--explain` estimates); 0 when no photons were traced */
-    NIMBUS_STAT_PHOTON_MB = 23
+    NIMBUS_STAT_PHOTON_MB = 23,
+    /** render.multiple_scattering = "auto" in a medium that absorbs: the depth, in mean free
+     * paths, its diffuse light reaches before absorption takes it (1 / sqrt(3 (1 - a)(1 - a g))),
+     * where that is less than NIMBUS_STAT_CLOUD_DEPTH and so what "auto" compared with
+     * render.photon_depth; -1 otherwise */
+    NIMBUS_STAT_ABSORPTION_DEPTH = 24
 } nimbus_stat;
 
 /** What nimbus_output_check() found at a frame's output path. */

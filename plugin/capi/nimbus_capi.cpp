@@ -457,6 +457,8 @@ double statItem(const nimbus_context* ctx, int item) {
         return st.diffusionBytes / 1048576.0;
     case NIMBUS_STAT_PHOTON_MB:
         return st.photonBytes / 1048576.0;
+    case NIMBUS_STAT_ABSORPTION_DEPTH:
+        return st.absorptionDepth;
     }
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }
