@@ -579,6 +579,8 @@ std::int64_t photonsFor(const SceneDesc& s, const FrameBindings& bindings, Frame
 double absorptionDepth(const MediumDesc& m) {
     const vec3 albedo = m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
     const double a = std::clamp(double(maxComponent(albedo)), 0.0, 1.0);
+    // (at albedo 1 the phase function is not needed: a Mie table would be computed for nothing)
+    if (a >= 1.0) return std::numeric_limits<double>::infinity();
     const double g = double(PhaseFunction::fromMedium(m).meanCosine());
     const double k2 = 3.0 * (1.0 - a) * (1.0 - a * g);
     return k2 > 0.0 ? 1.0 / std::sqrt(k2) : std::numeric_limits<double>::infinity();
