@@ -570,6 +570,12 @@ std::int64_t photonsFor(const SceneDesc& s, const FrameBindings& bindings, Frame
     return n;
 }
 
+/// The medium's single-scattering albedo per channel, sigma_s / (sigma_s + sigma_a) (0 in a
+/// channel that neither scatters nor absorbs).
+vec3 mediumAlbedo(const MediumDesc& m) {
+    return m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
+}
+
 /// The depth, in mean free paths, to which the diffuse light of a medium that absorbs reaches
 /// before absorption takes it: 1 / kappa, kappa = sqrt(3 (1 - a)(1 - a g)) the decay of the
 /// diffusion approximation's fluence per mean free path (a the albedo of the channel that
@@ -577,8 +583,7 @@ std::int64_t photonsFor(const SceneDesc& s, const FrameBindings& bindings, Frame
 /// albedo 1. A photon's walk in such a medium ends after about 1 / (1 - a) scatterings whatever
 /// the cloud's depth: at albedo 0.9 and g 0.8, 3.4 mean free paths and 10 scatterings.
 double absorptionDepth(const MediumDesc& m) {
-    const vec3 albedo = m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
-    const double a = std::clamp(double(maxComponent(albedo)), 0.0, 1.0);
+    const double a = std::clamp(double(maxComponent(mediumAlbedo(m))), 0.0, 1.0);
     // (at albedo 1 the phase function is not needed: a Mie table would be computed for nothing)
     if (a >= 1.0) return std::numeric_limits<double>::infinity();
     const double g = double(PhaseFunction::fromMedium(m).meanCosine());
@@ -761,8 +766,7 @@ float gridCellScale(const Box& bounds, FramePlan& p) {
 } // namespace
 
 bool autoPhotonSkyMedium(const MediumDesc& m) {
-    const vec3 albedo = m.sigma_s / glm::max(m.sigma_s + m.sigma_a, vec3(1e-30f));
-    return minComponent(albedo) < kAutoPhotonSkyAlbedo;
+    return minComponent(mediumAlbedo(m)) < kAutoPhotonSkyAlbedo;
 }
 
 FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings,

@@ -245,7 +245,7 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
     const double lookups = stat(ctx, NIMBUS_STAT_LOOKUPS);
     const double integrate = stat(ctx, NIMBUS_STAT_INTEGRATE_SECONDS);
     char grids[640] = "";
-    auto append = [&](const char* fmt, double a, double b = 0.0) {
+    auto append = [&](const char* fmt, double a = 0.0, double b = 0.0) {
         const std::size_t n = std::strlen(grids);
         std::snprintf(grids + n, sizeof grids - n, fmt, a, b);
     };
@@ -253,17 +253,13 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
         append(", simulation %.0f steps %.2f s", n, stat(ctx, NIMBUS_STAT_SIMULATION_SECONDS));
     // render.multiple_scattering = "auto": what it chose, and the depth it chose by
     if (double d = stat(ctx, NIMBUS_STAT_CLOUD_DEPTH); d >= 0.0) {
-        const bool photons = stat(ctx, NIMBUS_STAT_PHOTON_SECONDS) > 0.0;
+        append(stat(ctx, NIMBUS_STAT_PHOTON_SECONDS) > 0.0 ? ", auto: photons"
+                                                           : ", auto: the grid");
         if (double a = stat(ctx, NIMBUS_STAT_ABSORPTION_DEPTH); a >= 0.0)
-            append(photons ? ", auto: photons (the depth absorption lets light reach %.3g, the "
-                             "cloud's along the sun %.3g)"
-                           : ", auto: the grid (the depth absorption lets light reach %.3g, the "
-                             "cloud's along the sun %.3g)",
+            append(" (the depth absorption lets light reach %.3g, the cloud's along the sun %.3g)",
                    a, d);
         else
-            append(photons ? ", auto: photons (the cloud's depth along the sun %.3g)"
-                           : ", auto: the grid (the cloud's depth along the sun %.3g)",
-                   d);
+            append(" (the cloud's depth along the sun %.3g)", d);
     }
     if (double s = stat(ctx, NIMBUS_STAT_LIGHT_VOLUME_SECONDS); s > 0.0)
         append(", light grids %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_LIGHT_GRID_MB));
