@@ -769,6 +769,12 @@ bool autoPhotonSkyMedium(const MediumDesc& m) {
     return minComponent(mediumAlbedo(m)) < kAutoPhotonSkyAlbedo;
 }
 
+bool photonSkyPossible(const RenderDesc& r, const MediumDesc& m) {
+    const bool automatic = r.multipleScattering == MultipleScattering::Auto;
+    if (!automatic && r.multipleScattering != MultipleScattering::Photons) return false;
+    return r.photonSky || (automatic && r.autoPhotonSky && autoPhotonSkyMedium(m));
+}
+
 FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings,
                     const AovSet& aovs) {
     FramePlan p;
@@ -853,9 +859,9 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // render.photons, and at least kAutoPhotonSkyPhotons: 11 of the 27 medium cases at albedo 0.9
     // within 10% against 5 with the grid's sky (docs/accuracy.md, "The sky by photons where the
     // medium absorbs"), every thin one against 26 of 27
-    p.photonSkyAuto = p.photons && p.ambient && p.msAuto && !s.render.photonSky &&
-                      s.render.autoPhotonSky && autoPhotonSkyMedium(s.medium) && p.cloudMeasured();
-    p.photonSky = p.photons && p.ambient && (s.render.photonSky || p.photonSkyAuto);
+    p.photonSky = p.photons && p.ambient && photonSkyPossible(s.render, s.medium) &&
+                  (s.render.photonSky || p.cloudMeasured());
+    p.photonSkyAuto = p.photonSky && !s.render.photonSky;
     p.photonVoxelCount = p.photons ? photonsFor(s, bindings, p) * (p.photonSkyAuto ? 2 : 1) : 0;
     p.photonCount = p.photonVoxelCount;
     if (p.photonSkyAuto && s.render.photons == 0 && p.photonCount < kAutoPhotonSkyPhotons) {

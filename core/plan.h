@@ -233,6 +233,12 @@ inline NoiseEval plannedNoiseEval(const SceneDesc& s, const FramePlan& p) {
 /// at albedo 1; planFrame, FramePlan::photonSkyAuto).
 bool autoPhotonSkyMedium(const MediumDesc& m);
 
+/// Whether a frame of this scene may trace the sky by photons: render.photon_sky under
+/// "photons" or "auto", or "auto" in a medium autoPhotonSkyMedium takes. The plan turns it on
+/// where the frame traces photons and has sky light (FramePlan::photonSky; "auto" alone once the
+/// cloud is measured); the scene check asks it whether the single-scattered sky's keys are used.
+bool photonSkyPossible(const RenderDesc& r, const MediumDesc& m);
+
 /// Plans frame `frame` of the scene with what is bound to it (a VDB field's bounds size its
 /// majorant cell).
 FramePlan planFrame(const SceneDesc& scene, int frame, const FrameBindings& bindings,

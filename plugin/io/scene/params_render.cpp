@@ -434,12 +434,7 @@ void addRenderParams(std::vector<Param>& t) {
         const RenderDesc& r = f.scene.render;
         return (r.multipleScattering == MultipleScattering::None &&
                 r.skyScattering == SkyScattering::Single) ||
-               ((r.multipleScattering == MultipleScattering::Photons ||
-                 r.multipleScattering == MultipleScattering::Auto) &&
-                r.photonSky) ||
-               // "auto" turns render.photon_sky on by itself in an absorbing medium
-               (r.multipleScattering == MultipleScattering::Auto && r.autoPhotonSky &&
-                autoPhotonSkyMedium(f.scene.medium));
+               photonSkyPossible(r, f.scene.medium);
     };
     auto skyAmbient = [](const SceneFile& f) {
         return f.scene.render.multipleScattering == MultipleScattering::None &&
