@@ -587,8 +587,7 @@ double absorptionDepth(const MediumDesc& m) {
     // (at albedo 1 the phase function is not needed: a Mie table would be computed for nothing)
     if (a >= 1.0) return std::numeric_limits<double>::infinity();
     const double g = double(PhaseFunction::fromMedium(m).meanCosine());
-    const double k2 = 3.0 * (1.0 - a) * (1.0 - a * g);
-    return k2 > 0.0 ? 1.0 / std::sqrt(k2) : std::numeric_limits<double>::infinity();
+    return 1.0 / std::sqrt(3.0 * (1.0 - a) * (1.0 - a * g)); // (a < 1, g <= 1: positive)
 }
 
 /// render.multiple_scattering as the frame takes it: "auto" becomes photons where the depth

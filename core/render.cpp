@@ -469,8 +469,10 @@ bool Renderer::render(const FramePlan& plan, const FrameBindings& bindings, Fram
     const int threads = s.render.threads > 0 ? s.render.threads : tbb::task_arena::automatic;
     tbb::task_arena arena(threads);
     stats = RenderStats{};
-    if (plan.msAuto) stats.cloudDepth = plan.cloudTau; // (-1 when not measured)
-    if (plan.msAuto) stats.absorptionDepth = plan.absorptionDepth;
+    if (plan.msAuto) {
+        stats.cloudDepth = plan.cloudTau; // (-1 when not measured)
+        stats.absorptionDepth = plan.absorptionDepth;
+    }
     bool completed = true;
 
     arena.execute([&] {
