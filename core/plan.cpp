@@ -726,13 +726,19 @@ void choosePhotonWalk(const SceneDesc& s, const FrameBindings& bindings, FramePl
     }
     const double depth = p.cloudExtinction * double(p.photonCell);
     p.photonOwnWalk = depth >= double(s.render.photonWalkDepth);
-    char buf[200];
+    // where a voxel is that deep, the similar medium's change near a surface is below it
+    p.photonSimilarity = p.photonOwnWalk ? std::max(0, s.render.photonSimilarity) : 0;
+    char buf[320];
     std::snprintf(buf, sizeof buf,
                   "%s: their voxel is %.3g deep at the cloud's mean extinction, %s "
                   "render.photon_walk_depth %g",
                   p.photonOwnWalk ? "a majorant grid of their own" : "march's majorant grid", depth,
                   p.photonOwnWalk ? ">=" : "<", double(s.render.photonWalkDepth));
     p.photonWalkNote = buf;
+    if (p.photonSimilarity > 0)
+        p.photonWalkNote += "; after " + std::to_string(p.photonSimilarity) +
+                            " scatterings the similar medium (isotropic at sigma_s (1 - g), "
+                            "render.photon_similarity)";
 }
 
 /// The diffusion grid ("auto" choosing it, or named) with render.light_volume_cell = 0: the

@@ -94,6 +94,9 @@ struct FramePlan {
     /// why
     bool photonOwnWalk = false;
     std::string photonWalkNote;
+    /// Photons walking a grid of their own: the scatterings after which they walk the similar
+    /// medium (render.photon_similarity; PhotonParams::similarAfter); 0 = never
+    int photonSimilarity = 0;
     /// the diffusion solve's memory (core/lighting/diffusion.h, diffusionBytes) on its grid:
     /// the voxels with density counted from the cloud's measured volume, or all of them where
     /// it was not measured (then an upper bound); 0 while a VDB field is unread

@@ -386,6 +386,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.photons = plan.photonCount;
         pp.maxDepth = s.render.maxDepth;
         pp.ownWalk = plan.photonOwnWalk;
+        pp.similarAfter = plan.photonSimilarity;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
         if (plan.photonSky) pp.sky = s.sky;
         if (plan.photonBounces > 0 && diffusion) {
@@ -411,6 +412,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         stats.photonsTraced = out.photons.traced;
         stats.photonsFromSky = out.photons.skyTraced;
         stats.photonsHandedOff = out.photons.handedOff;
+        stats.photonScatterings = out.photons.scatterings;
         stats.photonBytes = out.photons.bytes;
     }
     if (diffusion) {

@@ -73,6 +73,9 @@ struct RenderStats {
     std::uint64_t photonsFromSky = 0; ///< of them, those that left the sky (render.photon_sky)
     /// photons whose light went on in the diffusion grid (render.photon_bounces)
     std::uint64_t photonsHandedOff = 0;
+    /// scatterings of the photons' walks (render.photon_similarity: each of the similar
+    /// medium's counting one)
+    std::uint64_t photonScatterings = 0;
     /// bytes the photons held beyond the light-volume grid (PhotonVolume::bytes, with a
     /// density grid of their own): what FramePlan::photonGridBytes estimates
     double photonBytes = 0.0;

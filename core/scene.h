@@ -423,6 +423,10 @@ struct RenderDesc {
     /// Photons: the scatterings a photon is traced through; at the next one its light goes to
     /// the diffusion grid as a source (core/lighting/photons.h); 0 = traced to maxDepth
     int photonBounces = 0;
+    /// Photons walking a grid of their own (FramePlan::photonOwnWalk): after this many
+    /// scatterings a photon walks the similar medium (isotropic scattering at sigma_s (1 - g),
+    /// the similarity relation; PhotonParams::similarAfter) instead of the real one; 0 = never
+    int photonSimilarity = 16;
     /// Photons: the sky's light traced by photons too (its orders above the first; march
     /// integrates its single scattering), so the diffusion grid keeps no sky boundary
     bool photonSky = false;

@@ -400,9 +400,11 @@ TEST(CApi, PhotonStatistics) {
     Ctx c;
     ASSERT_EQ(nimbus_load_file(c, path.c_str()), NIMBUS_OK) << c.error();
     renderC(c, 3);
-    double traced = -1.0, sky = -1.0, handed = -1.0;
+    double traced = -1.0, sky = -1.0, handed = -1.0, scatterings = -1.0;
     ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTONS, &traced), NIMBUS_OK);
     EXPECT_EQ(traced, 0.0);
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTON_SCATTERINGS, &scatterings), NIMBUS_OK);
+    EXPECT_EQ(scatterings, 0.0);
     for (const char* a :
          {"render.multiple_scattering=\"photons\"", "render.photons=20000",
           "render.photon_sky=true", "render.photon_bounces=2", "render.max_depth=64"})
@@ -418,6 +420,9 @@ TEST(CApi, PhotonStatistics) {
     EXPECT_LT(sky, traced);
     EXPECT_GT(handed, 0.0);
     EXPECT_LE(handed, traced);
+    // every photon handed to the grid scattered three times first (render.photon_bounces 2)
+    ASSERT_EQ(nimbus_render_stat(c, NIMBUS_STAT_PHOTON_SCATTERINGS, &scatterings), NIMBUS_OK);
+    EXPECT_GE(scatterings, 3.0 * handed);
 }
 
 /// The number in `--explain`'s "(12.3 MB)" / "(at most 12.3 MB)" after `after` on the line

@@ -440,3 +440,55 @@ TEST(Photons, SkyPhotonsPlan) {
     EXPECT_FALSE(p.photonSky || p.skySingle);
     EXPECT_TRUE(p.diffusion);
 }
+
+TEST(Photons, SimilarMediumKeepsTheLightOfAThickBoxInFewerScatterings) {
+    // render.photon_similarity: after that many scatterings photons walk the similar medium
+    // (isotropic at sigma_s (1 - g)). On a box 100 mean free paths across at albedo 1 and
+    // g = 0.8, lit from the side, with voxels 10 mean free paths deep, deep walks are most of
+    // the photons' scatterings; the similar walk needs about 1 - g times as many and must keep
+    // the image: its mean within 3% of the real walk's, and its pixels as close to the real
+    // walk's as a second seed of the real walk is. (Walking the similar medium's
+    // sigma_s (1 - g) with the real phase function fails both: mean ratio 0.70.)
+    SceneDesc s = sunlitBox(50.0f, 24, 30.0f, 120.0f);
+    s.medium.g = 0.8f;
+    s.sky.kind = SkyKind::None;
+    s.render.step = 0.01f;
+    s.render.shadowStep = 0.01f;
+    s.render.shadowGrowth = 0.0f;
+    s.render.majorantCell = 0.2f;
+    s.render.lightVolumeCell = 0.2f;
+    s.render.multipleScattering = MultipleScattering::Photons;
+    s.render.photons = 100000;
+    s.render.photonCellScale = 1.0f;
+    s.render.photonWalkDepth = 0.0f; // their own walk, where the plan allows the similar medium
+    s.render.photonSimilarity = 0;
+    RenderStats realStats, similarStats;
+    const Framebuffer real = renderScene(s, &realStats);
+    s.render.seed = 7;
+    const Framebuffer seed = renderScene(s);
+    s.render.seed = 11; // its own random numbers: independent of the real walk's
+    s.render.photonSimilarity = 16;
+    EXPECT_EQ(Renderer(s).plan(1).photonSimilarity, 16);
+    const Framebuffer similar = renderScene(s, &similarStats);
+
+    ASSERT_GT(realStats.photonScatterings, 0u);
+    const double fewer =
+        double(realStats.photonScatterings) / double(similarStats.photonScatterings);
+    const double mReal = meanRgb(real), mSimilar = meanRgb(similar);
+    const double seedRmse = relativeRmse(seed, real), similarRmse = relativeRmse(similar, real);
+    RecordProperty("scatterings_ratio", std::to_string(fewer));
+    RecordProperty("mean_ratio", std::to_string(mSimilar / mReal));
+    RecordProperty("relative_rmse_seed", std::to_string(seedRmse));
+    RecordProperty("relative_rmse_similar", std::to_string(similarRmse));
+    EXPECT_GT(fewer, 2.5) << realStats.photonScatterings << " " << similarStats.photonScatterings;
+    EXPECT_NEAR(mSimilar / mReal, 1.0, 0.03);
+    EXPECT_LT(similarRmse, 1.5 * seedRmse) << "seed " << seedRmse;
+
+    // where photons walk march's grid (a voxel shallower than render.photon_walk_depth) the
+    // plan leaves the real medium: the same image as without the setting
+    s.render.photonWalkDepth = 1e30f;
+    EXPECT_EQ(Renderer(s).plan(1).photonSimilarity, 0);
+    const Framebuffer onMarchGrid = renderScene(s);
+    s.render.photonSimilarity = 0;
+    EXPECT_EQ(renderScene(s).rgba, onMarchGrid.rgba);
+}

@@ -82,6 +82,7 @@ struct Tally {
     std::uint64_t lookups = 0;
     std::uint64_t traced = 0;
     std::uint64_t skyTraced = 0;
+    std::uint64_t scatterings = 0;
 };
 
 /// A photon's tentative collisions in one voxel along one straight flight, added up before they
@@ -193,6 +194,14 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const vec3 sigmaT = p.sigma_s + p.sigma_a;
     const float sigmaTMax = maxComponent(sigmaT);
     const float sigmaTMean = (sigmaT.x + sigmaT.y + sigmaT.z) / 3.0f;
+    // the similar medium (PhotonParams::similarAfter): isotropic at sigma_s (1 - g), where the
+    // phase function scatters forward
+    const float gMean = p.similarAfter > 0 ? phase.meanCosine() : 0.0f;
+    const bool similarOn = p.similarAfter > 0 && gMean > 0.0f && gMean < 1.0f;
+    const vec3 sigmaSR = p.sigma_s * (1.0f - gMean);
+    const vec3 sigmaTR = sigmaSR + p.sigma_a;
+    const float sigmaTMaxR = maxComponent(sigmaTR);
+    const float sigmaTMeanR = (sigmaTR.x + sigmaTR.y + sigmaTR.z) / 3.0f;
     if (p.photons <= 0 || sigmaTMax <= 0.0f ||
         (maxComponent(p.sunIrradiance) <= 0.0f && p.sky.kind == SkyKind::None) || rho.size() != n)
         return pv;
@@ -456,13 +465,18 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     // photons' own bounds (TrackingBounds), so that only its share costs a
                     // lookup, while the floor of the recording weight is still taken at every
                     // event (the same image in expectation, measured: docs/accuracy.md, stop 63)
+                    const bool similar = similarOn && depth >= p.similarAfter;
+                    const vec3 fSigmaS = similar ? sigmaSR : p.sigma_s;
+                    const vec3 fSigmaT = similar ? sigmaTR : sigmaT;
+                    const float fSigmaTMax = similar ? sigmaTMaxR : sigmaTMax;
+                    const float fSigmaTMean = similar ? sigmaTMeanR : sigmaTMean;
                     ScaledSegments segments{walk, placement, poll};
                     Run run;
                     float segT0 = -1.0f, segBound = 0.0f;
                     bool collided = false;
                     float tHit = 0.0f;
                     sampleTmaj(
-                        segments, sigmaTMax, rng,
+                        segments, fSigmaTMax, rng,
                         [&](float t, const MajorantSegment& seg, float sigmaMaj) {
                             // the photons' bound in this segment's cell (once a segment)
                             if (seg.t0 != segT0) {
@@ -479,7 +493,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                             const bool tracked =
                                 segBound >= seg.sigma_maj ||
                                 (segBound > 0.0f && rng.next() * seg.sigma_maj < segBound);
-                            const float sigmaTrack = sigmaTMax * segBound;
+                            const float sigmaTrack = fSigmaTMax * segBound;
                             float density = 0.0f;
                             if (tracked) {
                                 const float lookup = sampleVoxelCentres(
@@ -512,20 +526,21 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                 }
                             }
                             if (!tracked) return true;
-                            const float pReal = sigmaTMean * density / sigmaTrack;
+                            const float pReal = fSigmaTMean * density / sigmaTrack;
                             if (rng.next() < pReal) {
-                                w *= p.sigma_s / sigmaTMean; // scattering, with the albedo
+                                w *= fSigmaS / fSigmaTMean; // scattering, with the albedo
                                 tHit = t;
                                 collided = true;
                                 return false;
                             }
                             if (pReal < 1.0f)
-                                w *= (vec3(sigmaTrack) - sigmaT * density) /
+                                w *= (vec3(sigmaTrack) - fSigmaT * density) /
                                      (sigmaTrack * (1.0f - pReal));
                             return true;
                         });
                     run.flush(tally);
                     if (!collided) break; // left the volume (or hit a surface)
+                    ++tally.scatterings;
                     if (hg && depth == p.handOff) {
                         // its (handOff + 1)-th scattering: the light it sends on is the
                         // diffusion grid's from here
@@ -546,6 +561,13 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                         w /= m;
                     }
                     const float u0 = rng.next(), u1 = rng.next();
+                    if (similar) {
+                        // a scattering of the similar medium: isotropic (the first flight in
+                        // it keeps the direction the real phase function gave: its mean length,
+                        // 1 / (sigma_t (1 - g)), is the real walk's progress along it)
+                        ray = Ray{ray.at(tHit), kern::phaseDirection(ray.d, 1.0f - 2.0f * u0, u1)};
+                        continue;
+                    }
                     const PhaseSample ps = phase.sample(vec2(u0, u1));
                     if (!(ps.pdf > 0.0f)) break;
                     w *= ps.weight;
@@ -562,6 +584,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
         pv.lookups += t.lookups;
         pv.traced += t.traced;
         pv.skyTraced += t.skyTraced;
+        pv.scatterings += t.scatterings;
     }
     const vec3 flux(flux0);
     for (size_t k = 0; k < cells.size(); ++k)

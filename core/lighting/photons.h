@@ -77,6 +77,19 @@ struct PhotonParams {
     /// event records, which lowers the noise of a voxel's light where voxels are optically
     /// shallow. In a thick smoke walking it took 19 events a collision.
     bool ownWalk = false;
+    /// After this many scatterings a photon walks the similar medium (0 = never; the plan asks
+    /// it where photons walk a grid of their own, FramePlan::photonSimilarity): isotropic
+    /// scattering at sigma_s (1 - g), sigma_a as it is, g the phase function's mean cosine (the
+    /// similarity relation; nothing changes where g <= 0). Its first flight keeps the direction
+    /// the real phase function gave, its mean length 1 / (sigma_t (1 - g)) the real walk's mean
+    /// progress along it; after that each scattering turns it isotropically. The diffusion is
+    /// the same (the transport mean free path and the absorption per unit length are kept) at
+    /// 1 - g times the scatterings, and with them the tentative collisions and lookups. What a
+    /// voxel records keeps the real phase function toward the camera: for radiance that has
+    /// diffused (isotropic plus a current) that is the same in-scattered light. What changes is
+    /// the light within a few mean free paths of a surface, below a voxel that is several mean
+    /// free paths deep (docs/accuracy.md, "Photons in the similar medium").
+    int similarAfter = 0;
 };
 
 struct PhotonVolume {
@@ -102,6 +115,8 @@ struct PhotonVolume {
     std::uint64_t lookups = 0;   ///< density lookups spent (filling its density grid, tracking)
     std::uint64_t traced = 0;    ///< photons that left a light (fewer than asked when cancelled)
     std::uint64_t skyTraced = 0; ///< of them, those that left the sky (PhotonParams::sky)
+    /// scatterings of their walks (each of the similar medium's counting one)
+    std::uint64_t scatterings = 0;
     /// Bytes the trace held beyond the light-volume grid's (photonBytes' parts, from the arrays'
     /// sizes; the sums of the voxels that record excepted); the caller adds a density grid of
     /// their own. 0 when it returned before tracking (nothing to trace).

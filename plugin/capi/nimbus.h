@@ -344,7 +344,10 @@ typedef enum nimbus_stat {
      * paths, its diffuse light reaches before absorption takes it (1 / sqrt(3 (1 - a)(1 - a g))),
      * where that is less than NIMBUS_STAT_CLOUD_DEPTH and so what "auto" compared with
      * render.photon_depth; -1 otherwise */
-    NIMBUS_STAT_ABSORPTION_DEPTH = 24
+    NIMBUS_STAT_ABSORPTION_DEPTH = 24,
+    /** scatterings of the photons' walks (with render.photon_similarity, a scattering of the
+     * similar medium counts one); 0 when no photons were traced */
+    NIMBUS_STAT_PHOTON_SCATTERINGS = 25
 } nimbus_stat;
 
 /** What nimbus_output_check() found at a frame's output path. */

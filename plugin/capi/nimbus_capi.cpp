@@ -459,6 +459,8 @@ double statItem(const nimbus_context* ctx, int item) {
         return st.photonBytes / 1048576.0;
     case NIMBUS_STAT_ABSORPTION_DEPTH:
         return st.absorptionDepth;
+    case NIMBUS_STAT_PHOTON_SCATTERINGS:
+        return double(st.photonScatterings);
     }
     throw Misuse("unknown statistic " + std::to_string(int(item)));
 }

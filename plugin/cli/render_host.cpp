@@ -267,6 +267,10 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
         append(", diffusion %.2f s (%.1f MB)", s, stat(ctx, NIMBUS_STAT_DIFFUSION_MB));
     if (double s = stat(ctx, NIMBUS_STAT_PHOTON_SECONDS); s > 0.0) {
         append(", photons %.2f s (%.0f traced", s, stat(ctx, NIMBUS_STAT_PHOTONS));
+        if (double n = stat(ctx, NIMBUS_STAT_PHOTON_SCATTERINGS); n >= 1e7)
+            append(", %.0f M scatterings", 1e-6 * n, 0.0);
+        else
+            append(", %.0f scatterings", n, 0.0);
         append(", %.1f MB", stat(ctx, NIMBUS_STAT_PHOTON_MB), 0.0);
         if (double n = stat(ctx, NIMBUS_STAT_PHOTONS_FROM_SKY); n > 0.0)
             append(", %.0f from the sky", n, 0.0);

@@ -365,6 +365,23 @@ void addRenderParams(std::vector<Param>& t) {
                           &RenderDesc::photonBounces)
                     .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
                     .marchOnly());
+    t.push_back(ren.param("photon_similarity", closed(0, 1 << 20),
+                          "Photons walking a majorant grid of their own (their voxel at least "
+                          "render.photon_walk_depth mean free paths deep): after this many "
+                          "scatterings a photon walks the similar medium, isotropic scattering "
+                          "at sigma_s (1 - g) with sigma_a as it is (the similarity relation; the "
+                          "first flight there keeps its direction). The light diffuses as in the "
+                          "real medium in 1 - g times the scatterings; what changes is the "
+                          "light within a few mean free paths of a surface, below such a voxel. "
+                          "On the validation matrix's thick albedo-1 rows under photons (g 0.8) "
+                          "it measured 13 of 27 cases within 10%, median 10.2% (the real walk: "
+                          "14, 10.0%); a 640x360 frame of thick smoke1 (g 0.6) took 95 s against "
+                          "189 s, in 2.4 times fewer scatterings, its pixels 1.1% from the real "
+                          "walk's (docs/accuracy.md, \"Photons in the similar medium\"). 0 = the "
+                          "real medium throughout; nothing changes where g <= 0.",
+                          &RenderDesc::photonSimilarity)
+                    .usedWhen("render.multiple_scattering = \"photons\" or \"auto\"", photonsOn)
+                    .marchOnly());
     t.push_back(ren.param("photon_walk_depth", atLeast(0),
                           "Photons: they walk a majorant grid of their own (the bounds of the "
                           "density they read, cell by cell) where their voxel is at least this "
