@@ -319,7 +319,9 @@ std::string FramePlan::explain() const {
                     " traced through the field, recorded on a grid of voxel " +
                     std::to_string(photonCell) +
                     (photonCellNote.empty() ? std::string() : " (" + photonCellNote + ")") +
-                    megabytes(photonGridBytes, photonsOwnGrid()) + ", walking " + photonWalkNote +
+                    megabytes(photonGridBytes, photonsOwnGrid()) + ", walking " +
+                    (photonWalkNote.empty() ? "the grid chosen when the density is read"
+                                            : photonWalkNote) +
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
                     (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
