@@ -76,6 +76,16 @@ struct ScaledSegments {
     }
 };
 
+/// A medium's coefficients per unit density as the photons' tracking uses them: scattering,
+/// extinction, and the extinction's largest and mean channel (the tracking's rate and the share
+/// of its events that are real).
+struct Coefficients {
+    vec3 s, t;
+    float tMax, tMean;
+    Coefficients(vec3 sigmaS, vec3 sigmaA)
+        : s(sigmaS), t(sigmaS + sigmaA), tMax(maxComponent(t)), tMean((t.x + t.y + t.z) / 3.0f) {}
+};
+
 /// What one thread adds up: 3 channels per recording voxel, and its density lookups.
 struct Tally {
     std::vector<std::int64_t> sum;
@@ -191,18 +201,13 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
     const ivec3 res = geo.res;
     const size_t n = size_t(res.x) * res.y * res.z;
     pv.radiance.assign(n, vec3(0.0f));
-    const vec3 sigmaT = p.sigma_s + p.sigma_a;
-    const float sigmaTMax = maxComponent(sigmaT);
-    const float sigmaTMean = (sigmaT.x + sigmaT.y + sigmaT.z) / 3.0f;
+    const Coefficients real(p.sigma_s, p.sigma_a);
     // the similar medium (PhotonParams::similarAfter): isotropic at sigma_s (1 - g), where the
     // phase function scatters forward
     const float gMean = p.similarAfter > 0 ? phase.meanCosine() : 0.0f;
     const bool similarOn = p.similarAfter > 0 && gMean > 0.0f && gMean < 1.0f;
-    const vec3 sigmaSR = p.sigma_s * (1.0f - gMean);
-    const vec3 sigmaTR = sigmaSR + p.sigma_a;
-    const float sigmaTMaxR = maxComponent(sigmaTR);
-    const float sigmaTMeanR = (sigmaTR.x + sigmaTR.y + sigmaTR.z) / 3.0f;
-    if (p.photons <= 0 || sigmaTMax <= 0.0f ||
+    const Coefficients similarMedium(p.sigma_s * (1.0f - gMean), p.sigma_a);
+    if (p.photons <= 0 || real.tMax <= 0.0f ||
         (maxComponent(p.sunIrradiance) <= 0.0f && p.sky.kind == SkyKind::None) || rho.size() != n)
         return pv;
 
@@ -466,17 +471,14 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                     // lookup, while the floor of the recording weight is still taken at every
                     // event (the same image in expectation, measured: docs/accuracy.md, stop 63)
                     const bool similar = similarOn && depth >= p.similarAfter;
-                    const vec3 fSigmaS = similar ? sigmaSR : p.sigma_s;
-                    const vec3 fSigmaT = similar ? sigmaTR : sigmaT;
-                    const float fSigmaTMax = similar ? sigmaTMaxR : sigmaTMax;
-                    const float fSigmaTMean = similar ? sigmaTMeanR : sigmaTMean;
+                    const Coefficients& mc = similar ? similarMedium : real;
                     ScaledSegments segments{walk, placement, poll};
                     Run run;
                     float segT0 = -1.0f, segBound = 0.0f;
                     bool collided = false;
                     float tHit = 0.0f;
                     sampleTmaj(
-                        segments, fSigmaTMax, rng,
+                        segments, mc.tMax, rng,
                         [&](float t, const MajorantSegment& seg, float sigmaMaj) {
                             // the photons' bound in this segment's cell (once a segment)
                             if (seg.t0 != segT0) {
@@ -493,7 +495,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                             const bool tracked =
                                 segBound >= seg.sigma_maj ||
                                 (segBound > 0.0f && rng.next() * seg.sigma_maj < segBound);
-                            const float sigmaTrack = fSigmaTMax * segBound;
+                            const float sigmaTrack = mc.tMax * segBound;
                             float density = 0.0f;
                             if (tracked) {
                                 const float lookup = sampleVoxelCentres(
@@ -526,15 +528,15 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                 }
                             }
                             if (!tracked) return true;
-                            const float pReal = fSigmaTMean * density / sigmaTrack;
+                            const float pReal = mc.tMean * density / sigmaTrack;
                             if (rng.next() < pReal) {
-                                w *= fSigmaS / fSigmaTMean; // scattering, with the albedo
+                                w *= mc.s / mc.tMean; // scattering, with the albedo
                                 tHit = t;
                                 collided = true;
                                 return false;
                             }
                             if (pReal < 1.0f)
-                                w *= (vec3(sigmaTrack) - fSigmaT * density) /
+                                w *= (vec3(sigmaTrack) - mc.t * density) /
                                      (sigmaTrack * (1.0f - pReal));
                             return true;
                         });
