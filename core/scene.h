@@ -404,8 +404,11 @@ struct RenderDesc {
     /// (or from photons too with photonSky).
     /// Auto: photons where the cloud's mean optical depth along the sun is at most photonDepth
     /// (measured by the plan each frame, core/lighting/cloud_depth.h), the grid elsewhere.
+    /// 1000: twice the validation matrix's thick clouds (500), where photons took 13 of 27
+    /// albedo-1 rows within 10% and the grid none; above it the grid bounds the frame's cost,
+    /// which for photons grows with the depth (docs/accuracy.md, "Photons for thick clouds").
     MultipleScattering multipleScattering = MultipleScattering::Auto;
-    float photonDepth = 64.0f;
+    float photonDepth = 1000.0f;
     /// Photons walk a majorant grid of their own where their voxel's optical depth at the
     /// cloud's mean extinction (measured along the sun each frame) is at least this, march's
     /// grid elsewhere (FramePlan::photonOwnWalk); 0 = always their own

@@ -146,12 +146,26 @@ TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
     EXPECT_NE(a.explain().find("mean optical depth along the sun 1 <="), std::string::npos)
         << a.explain();
 
-    const SceneDesc thick = boxAtDepth(200.0f);
+    // a thick albedo-1 cloud (the validation matrix's thick rows are 500 deep) still gets
+    // photons, walking a grid of their own and the similar medium deep in it
+    const FramePlan deep = planFrame(boxAtDepth(500.0f), 1);
+    EXPECT_TRUE(deep.photons);
+    EXPECT_FALSE(deep.diffusion);
+    EXPECT_NEAR(deep.cloudTau, 500.0, 0.5);
+    EXPECT_TRUE(deep.photonOwnWalk);
+    EXPECT_GT(deep.photonSimilarity, 0);
+    EXPECT_NE(deep.msDecision.find("500 <= render.photon_depth 1000"), std::string::npos)
+        << deep.msDecision;
+
+    // above render.photon_depth (1000 by default) the grid bounds the frame's cost
+    const SceneDesc thick = boxAtDepth(2000.0f);
     const FramePlan b = planFrame(thick, 1);
     EXPECT_FALSE(b.photons);
     EXPECT_TRUE(b.diffusion);
-    EXPECT_NEAR(b.cloudTau, 200.0, 0.1);
+    EXPECT_NEAR(b.cloudTau, 2000.0, 1.0);
     EXPECT_GT(b.forwardFraction, 0.0f); // the grid's model whole, delta-M beams included
+    EXPECT_NE(b.msDecision.find("2000 > render.photon_depth 1000"), std::string::npos)
+        << b.msDecision;
 
     // the threshold is the key's: just above and below it
     thin.render.photonDepth = 0.99f;
@@ -168,7 +182,8 @@ TEST(AutoMultipleScattering, PhotonsWhereThinTheGridWhereThick) {
 // In a medium that absorbs, "auto" compares render.photon_depth with the depth the diffuse light
 // reaches before absorption takes it, 1 / sqrt(3 (1 - a)(1 - a g)) mean free paths, where that
 // is less than the cloud's depth along the sun: a thick cloud at albedo 0.9 gets photons (their
-// walks end within about ten scatterings), one at albedo 1 keeps the grid.
+// walks end within about ten scatterings) at any depth, one at albedo 1 only up to
+// render.photon_depth.
 TEST(AutoMultipleScattering, PhotonsInThickCloudsWhereAbsorptionKeepsTheLightNearTheirSkin) {
     SceneDesc s = absorbingBoxAtDepth(200.0f); // albedo 1/1.1, optical depth 220
     ASSERT_EQ(s.medium.phase, PhaseKind::HenyeyGreenstein);
@@ -201,12 +216,13 @@ TEST(AutoMultipleScattering, PhotonsInThickCloudsWhereAbsorptionKeepsTheLightNea
 
     // the channel that absorbs least decides: its walks go on; one that does not absorb at all
     // leaves the cloud's depth, and the grid
-    SceneDesc blue = boxAtDepth(200.0f);
+    SceneDesc blue = boxAtDepth(2000.0f);
     blue.medium.sigma_a = vec3(0.0f, 0.0f, 0.1f) * blue.medium.sigma_s;
     const FramePlan q = planFrame(blue, 1);
     EXPECT_FALSE(q.photons);
     char cloud[80];
-    std::snprintf(cloud, sizeof cloud, "the cloud's mean optical depth along the sun %.3g >",
+    // (from 1000 the depth is shown whole)
+    std::snprintf(cloud, sizeof cloud, "the cloud's mean optical depth along the sun %.0f >",
                   q.cloudTau);
     EXPECT_NE(q.msDecision.find(cloud), std::string::npos) << q.msDecision;
 }
@@ -224,7 +240,7 @@ TEST(AutoMultipleScattering, RendersWhatItChose) {
     EXPECT_NE(renderScene(s).rgba, photons.rgba); // (the two models differ here)
 
     // on the thick box the image of "grid" named on the cell "auto" chose for it
-    SceneDesc t = boxAtDepth(200.0f);
+    SceneDesc t = boxAtDepth(2000.0f);
     const float cell = planFrame(t, 1).lightVolumeCell;
     const Framebuffer autoThick = renderScene(t);
     t.render.multipleScattering = MultipleScattering::Grid;
@@ -283,7 +299,7 @@ TEST(AutoMultipleScattering, PhotonsSplitStepsAtTheirOwnDepth) {
     EXPECT_EQ(a.stepTau, 0.125f);
     EXPECT_NE(a.explain().find("exceeds 0.125 (render.photon_step_tau"), std::string::npos)
         << a.explain();
-    const SceneDesc thick = boxAtDepth(200.0f); // the grid
+    const SceneDesc thick = boxAtDepth(2000.0f); // the grid
     const FramePlan b = planFrame(thick, 1);
     ASSERT_FALSE(b.photons);
     EXPECT_EQ(b.stepTau, thick.render.stepTau);
@@ -300,7 +316,7 @@ TEST(AutoMultipleScattering, PhotonsSplitStepsAtTheirOwnDepth) {
 TEST(AutoMultipleScattering, GridCellFollowsTheCloudsSize) {
     // "auto" choosing the grid, render.light_volume_cell 0: the finest of 1/8 ... 1 majorant
     // cells at which the cloud fills at most 262,144 cells
-    SceneDesc s = boxAtDepth(200.0f);
+    SceneDesc s = boxAtDepth(2000.0f);
     FramePlan p = planFrame(s, 1);
     ASSERT_TRUE(p.diffusion);
     ASSERT_FALSE(p.photons);

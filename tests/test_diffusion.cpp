@@ -383,11 +383,11 @@ TEST(Diffusion, ExplainedMemoryIsWhatTheSolveHolds) {
     renderScene(layer, &sl);
     ASSERT_GT(sl.diffusionBytes, 0.0);
     EXPECT_GE(pl.diffusionBytes, sl.diffusionBytes);
-    // measured (multiple_scattering "auto" on a thick layer takes the grid, its cell not
-    // named): the voxels with density from the cloud's volume
+    // measured (multiple_scattering "auto" on a layer deeper than render.photon_depth takes
+    // the grid, its cell not named): the voxels with density from the cloud's volume
     layer.render.lightVolumeCell = 0.0f;
     layer.render.multipleScattering = MultipleScattering::Auto;
-    layer.medium.sigma_s = vec3(600.0f);
+    layer.medium.sigma_s = vec3(6000.0f);
     const FramePlan pa = Renderer(layer).plan(1);
     ASSERT_TRUE(pa.cloudMeasured());
     ASSERT_TRUE(pa.diffusion && !pa.photons);

@@ -249,9 +249,9 @@ void addRenderParams(std::vector<Param>& t) {
                   "sun's part from `render.photons` photons traced through the field "
                   "once per frame and recorded on the light-volume grid toward the "
                   "camera (no octaves, nothing to calibrate), the sky's from the "
-                  "diffusion grid; auto: photons where the cloud is optically thin along "
-                  "the sun (its mean optical depth, measured each frame, at most "
-                  "`render.photon_depth`) or where the medium absorbs enough that its "
+                  "diffusion grid; auto: photons where the cloud's mean optical depth "
+                  "along the sun, measured each frame, is at most `render.photon_depth` "
+                  "(1000), or where the medium absorbs enough that its "
                   "diffuse light reaches no deeper than that (1 / sqrt(3 (1 - a)(1 - a g)) "
                   "mean free paths: 3.4 at albedo 0.9 and g 0.8, at any thickness), the grid "
                   "elsewhere (`--explain` and the frame's "
@@ -274,10 +274,14 @@ void addRenderParams(std::vector<Param>& t) {
                           "that absorbs least, g the phase function's mean cosine), where that "
                           "is less: photons' walks end there whatever the cloud's depth. Photons "
                           "are exact up to their grid's voxel and "
-                          "their cost grows with the depth (2 M photons on smoke1, 2 cores: 1.9 s "
-                          "a frame at 4, 7.6 s at 64, 15 s at 258); the grid misses the "
-                          "forward multiple scattering of thin clouds (docs/accuracy.md, "
-                          "\"Photons where the cloud is thin or medium\"). 0 = always the grid.",
+                          "their cost grows with the depth (2 M photons on smoke1, 2 cores: "
+                          "2.4 s at 4, 15 s at 64, 25 s at 500, 37 s at 1000, 59 s at 2000; "
+                          "\"auto\" traces 8 M from a depth of 8); the grid costs the same "
+                          "at any depth but misses the forward multiple scattering of thin "
+                          "clouds and the light near the skin of thick ones (on the validation "
+                          "matrix's thick albedo-1 clouds, 500 deep: photons 13 of 27 cases "
+                          "within 10%, the grid none; docs/accuracy.md, \"Photons for thick "
+                          "clouds\"). 0 = always the grid.",
                           &RenderDesc::photonDepth)
                     .usedWhen("render.multiple_scattering = \"auto\"",
                               [](const SceneFile& f) {
