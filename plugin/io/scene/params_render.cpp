@@ -264,31 +264,31 @@ void addRenderParams(std::vector<Param>& t) {
                   "switches model between frames: name the model for such a sequence.",
                   &RenderDesc::multipleScattering)
             .marchOnly());
-    t.push_back(ren.param("photon_depth", atLeast(0),
-                          "multiple_scattering = \"auto\": the cloud's mean optical depth "
-                          "along the sun (over the rays toward the sun that meet density) up to "
-                          "which photons carry the sun's multiple scattering; above it the "
-                          "diffusion grid does. In a medium that absorbs, the depth compared is "
-                          "the one its diffuse light reaches before absorption takes it, 1 / "
-                          "sqrt(3 (1 - a)(1 - a g)) mean free paths (a the albedo of the channel "
-                          "that absorbs least, g the phase function's mean cosine), where that "
-                          "is less: photons' walks end there whatever the cloud's depth. Photons "
-                          "are exact up to their grid's voxel and "
-                          "their cost grows with the depth (2 M photons on smoke1, 2 cores: "
-                          "2.4 s at 4, 15 s at 64, 25 s at 500, 37 s at 1000, 59 s at 2000; "
-                          "\"auto\" traces 8 M from a depth of 8); the grid costs the same "
-                          "at any depth but misses the forward multiple scattering of thin "
-                          "clouds and the light near the skin of thick ones (on the validation "
-                          "matrix's thick albedo-1 clouds, 500 deep: photons 13 of 27 cases "
-                          "within 10%, the grid none; docs/accuracy.md, \"Photons for thick "
-                          "clouds\"). 0 = always the grid.",
-                          &RenderDesc::photonDepth)
-                    .usedWhen("render.multiple_scattering = \"auto\"",
-                              [](const SceneFile& f) {
-                                  return f.scene.render.multipleScattering ==
-                                         MultipleScattering::Auto;
-                              })
-                    .marchOnly());
+    t.push_back(
+        ren.param("photon_depth", atLeast(0),
+                  "multiple_scattering = \"auto\": the cloud's mean optical depth "
+                  "along the sun (over the rays toward the sun that meet density) up to "
+                  "which photons carry the sun's multiple scattering; above it the "
+                  "diffusion grid does. In a medium that absorbs, the depth compared is "
+                  "the one its diffuse light reaches before absorption takes it, 1 / "
+                  "sqrt(3 (1 - a)(1 - a g)) mean free paths (a the albedo of the channel "
+                  "that absorbs least, g the phase function's mean cosine), where that "
+                  "is less: photons' walks end there whatever the cloud's depth. Photons "
+                  "are exact up to their grid's voxel and "
+                  "their cost grows with the depth (the pass of 2 M photons on smoke1, 2 cores: "
+                  "2.4 s at 4, 15 s at 64, 25 s at 500, 37 s at 1000, 59 s at 2000; "
+                  "\"auto\" traces 8 M from a depth of 8); the grid costs the same "
+                  "at any depth but misses the forward multiple scattering of thin "
+                  "clouds and the light near the skin of thick ones (on the validation "
+                  "matrix's thick albedo-1 clouds, 500 deep: photons 13 of 27 cases "
+                  "within 10%, the grid none; docs/accuracy.md, \"Photons for thick "
+                  "clouds\"). 0 = always the grid.",
+                  &RenderDesc::photonDepth)
+            .usedWhen("render.multiple_scattering = \"auto\"",
+                      [](const SceneFile& f) {
+                          return f.scene.render.multipleScattering == MultipleScattering::Auto;
+                      })
+            .marchOnly());
     auto gridOn = [](const SceneFile& f) {
         return f.scene.render.multipleScattering != MultipleScattering::None;
     };
