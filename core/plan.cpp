@@ -123,6 +123,14 @@ double stepsPerRay(double len, double step, double growth) {
     return tg / step + std::log(len / tg) / std::log1p(growth);
 }
 
+/// An optical depth as the plan's notes show it: three significant digits, whole numbers from
+/// 1000 ("2000", not "2e+03").
+std::string depthText(double depth) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, depth < 1000.0 ? "%.3g" : "%.0f", depth);
+    return buf;
+}
+
 /// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
 std::string megabytes(double bytes, bool atMost = false) {
     if (!(bytes > 0.0)) return "";
@@ -564,9 +572,9 @@ std::int64_t photonsFor(const SceneDesc& s, const FrameBindings& bindings, Frame
     const auto n = std::int64_t(std::llround(double(kPhotonsThin) * factor));
     char buf[240];
     std::snprintf(buf, sizeof buf,
-                  "render.photons = 0: from the cloud's mean optical depth along the sun, %.3g: "
+                  "render.photons = 0: from the cloud's mean optical depth along the sun, %s: "
                   "%g M up to %g, %g M from %g",
-                  p.cloudTau, double(kPhotonsThin) * 1e-6, kThinDepth,
+                  depthText(p.cloudTau).c_str(), double(kPhotonsThin) * 1e-6, kThinDepth,
                   double(kPhotonsThin) * kDeepPhotonFactor * 1e-6, kThinDepth * kDeepPhotonFactor);
     p.photonCountNote = buf;
     return n;
@@ -628,9 +636,6 @@ MultipleScattering chooseMultipleScattering(const SceneDesc& s, const FrameBindi
     if (byAbsorption) p.absorptionDepth = absorbed;
     const double depth = byAbsorption ? absorbed : p.cloudTau;
     const bool thin = depth <= double(s.render.photonDepth);
-    // (three significant digits, whole numbers from 1000: "2000", not "2e+03")
-    char shown[32];
-    std::snprintf(shown, sizeof shown, depth < 1000.0 ? "%.3g" : "%.0f", depth);
     char buf[320];
     std::snprintf(buf, sizeof buf,
                   "render.multiple_scattering = \"auto\": %s (%s %s %s render.photon_depth "
@@ -639,7 +644,7 @@ MultipleScattering chooseMultipleScattering(const SceneDesc& s, const FrameBindi
                   byAbsorption ? "the depth the medium's absorption lets diffuse light reach, "
                                  "less than the cloud's mean optical depth along the sun,"
                                : "the cloud's mean optical depth along the sun",
-                  shown, thin ? "<=" : ">", double(s.render.photonDepth));
+                  depthText(depth).c_str(), thin ? "<=" : ">", double(s.render.photonDepth));
     p.msDecision = buf;
     return thin ? MultipleScattering::Photons : MultipleScattering::Grid;
 }
