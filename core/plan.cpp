@@ -123,14 +123,6 @@ double stepsPerRay(double len, double step, double growth) {
     return tg / step + std::log(len / tg) / std::log1p(growth);
 }
 
-/// An optical depth as the plan's notes show it: three significant digits, whole numbers from
-/// 1000 ("2000", not "2e+03").
-std::string depthText(double depth) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, depth < 1000.0 ? "%.3g" : "%.0f", depth);
-    return buf;
-}
-
 /// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
 std::string megabytes(double bytes, bool atMost = false) {
     if (!(bytes > 0.0)) return "";
@@ -226,6 +218,12 @@ void checkBounds(const SceneDesc& s, const Box& b, FramePlan& p) {
 }
 
 } // namespace
+
+std::string depthText(double depth) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, depth < 1000.0 ? "%.3g" : "%.0f", depth);
+    return buf;
+}
 
 std::string FramePlan::explain() const {
     std::ostringstream o;

@@ -253,6 +253,10 @@ FramePlan planFrame(const SceneDesc& scene, int frame, const AovSet& aovs = {});
 /// about four primary steps (`step`, the plan's) per cell and at most 256 cells along any axis.
 float autoMajorantCell(const SceneDesc& s, const Box& bounds, float step);
 
+/// An optical depth as the plan's notes, the frame's log line and the suite's table show it:
+/// three significant digits, whole numbers from 1000 ("2000", not "2e+03").
+std::string depthText(double depth);
+
 /// The smallest world voxel of the VDB grids the scene places and that are bound (a grid's
 /// voxel times the smallest scale of the instances placing it); 0 when there is none.
 float finestVoxel(const SceneDesc& s, const FrameBindings& bindings);

@@ -255,11 +255,15 @@ void printFrameLine(nimbus_context* ctx, int frame, double seconds, const std::s
     if (double d = stat(ctx, NIMBUS_STAT_CLOUD_DEPTH); d >= 0.0) {
         append(stat(ctx, NIMBUS_STAT_PHOTON_SECONDS) > 0.0 ? ", auto: photons"
                                                            : ", auto: the grid");
+        // depths as the plan's notes show them (core depthText): whole numbers from 1000
+        auto depth = [](double x) { return std::string(x < 1000.0 ? "%.3g" : "%.0f"); };
         if (double a = stat(ctx, NIMBUS_STAT_ABSORPTION_DEPTH); a >= 0.0)
-            append(" (the depth absorption lets light reach %.3g, the cloud's along the sun %.3g)",
+            append((" (the depth absorption lets light reach " + depth(a) +
+                    ", the cloud's along the sun " + depth(d) + ")")
+                       .c_str(),
                    a, d);
         else
-            append(" (the cloud's depth along the sun %.3g)", d);
+            append((" (the cloud's depth along the sun " + depth(d) + ")").c_str(), d);
     }
     if (double s = stat(ctx, NIMBUS_STAT_LIGHT_VOLUME_SECONDS); s > 0.0)
         append(", light grids %.2f s (%.0f MB)", s, stat(ctx, NIMBUS_STAT_LIGHT_GRID_MB));

@@ -897,15 +897,16 @@ int runSuite(const ConvergeOptions& o) {
             r.refSeconds = ref.seconds;
             r.msModel = mr.msModel;
             r.cloudTau = mr.cloudTau;
-            std::fprintf(stderr, "; march (%s%s%s) %.2f s: %s (noise %s), mean ratio %.3f\n",
-                         mr.msModel.c_str(),
-                         mr.photonCellScale > 0.0
-                             ? fmt(" on %g light-volume cells", mr.photonCellScale).c_str()
-                             : "",
-                         mr.cloudTau >= 0.0
-                             ? fmt(", auto: depth %.3g along the sun", mr.cloudTau).c_str()
-                             : "",
-                         mr.seconds, percent(r.rel).c_str(), percent(r.noiseRel).c_str(), r.ratio);
+            std::fprintf(
+                stderr, "; march (%s%s%s) %.2f s: %s (noise %s), mean ratio %.3f\n",
+                mr.msModel.c_str(),
+                mr.photonCellScale > 0.0
+                    ? fmt(" on %g light-volume cells", mr.photonCellScale).c_str()
+                    : "",
+                mr.cloudTau >= 0.0
+                    ? (", auto: depth " + depthText(mr.cloudTau) + " along the sun").c_str()
+                    : "",
+                mr.seconds, percent(r.rel).c_str(), percent(r.noiseRel).c_str(), r.ratio);
             results.push_back(r);
         }
         c.ls.reset(); // free the grid
