@@ -240,10 +240,13 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
                      !vs.fields[0].bounds().empty() &&
                      !(vs.shutter.open() && vs.fields[0].motion.moving);
     double emptyCells = 0.0;
+    // march's render.step_tau test reads each volume's grid at its camera steps (RayVolumes::
+    // cellMajorant) whether or not it skips with it, so that skipping leaves the image as it is
+    const bool stepGrids = s.render.integrator == Integrator::March && plan.stepTau > 0.0f;
     for (size_t i = 0; i < n; ++i) {
         const Field& f = vs.fields[i];
         vs.wholeMajorant[i] = sweptMajorant(f, vs.boundsOf(i), vs.shutter);
-        if (!plan.skipEmpty || !instanced[i] || vs.useCoarse) continue;
+        if (!instanced[i] || (!stepGrids && (!plan.skipEmpty || vs.useCoarse))) continue;
         // each volume's grid in its own space; the plan's cell for `field`
         float cell = i == 0 ? plan.majorantCell : autoMajorantCell(s, vs.boundsOf(i), plan.step);
         // blurred: the swept bounds keep the plan's cap on the cells per axis
@@ -260,7 +263,8 @@ VolumeSet Renderer::volumesFor(const FramePlan& plan, const FrameBindings& bindi
         // lookups (measured: smoke1, 37% empty cells, 1.9 s with the grid vs 1.2 s without);
         // the path tracer always wants the tighter majorants
         vs.useGrid[i] =
-            s.render.integrator == Integrator::PathTrace || empty >= kSkipMinEmptyFraction;
+            plan.skipEmpty && !vs.useCoarse &&
+            (s.render.integrator == Integrator::PathTrace || empty >= kSkipMinEmptyFraction);
         stats.majorantUsed = stats.majorantUsed || vs.useGrid[i];
     }
     if (vs.useCoarse) {

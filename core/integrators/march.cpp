@@ -144,8 +144,13 @@ struct StepNeighbours {
     }
     /// How many sub-steps a step of length dt, its sample's density rho, is split into, its
     /// optical depth per unit density weighted by `weight` (render.step_tau: kern::substeps).
-    int substeps(float weight, float rho, float dt, float stepTau) const {
-        return kern::substeps(weight * kern::splitDensity(rho, around) * dt, stepTau);
+    /// With `majorant` above 0 (a camera ray's step, the majorant of the cells it reaches
+    /// into) the step is also split as a step of that density would be: where the samples miss
+    /// a thin sheet of density between them (a cloud's edge seen grazing), its optical depth is
+    /// all or nothing with the jitter, and the transmittance too high on average.
+    int substeps(float weight, float rho, float dt, float stepTau, float majorant = 0.0f) const {
+        return kern::substeps(weight * std::max(kern::splitDensity(rho, around), majorant) * dt,
+                              stepTau);
     }
     /// The density at step n's sample ts (the step starting at `from`; 0 without a look where
     /// marchSegments says the sample lies in an empty stretch); with readAhead also at the next
@@ -167,6 +172,12 @@ struct StepNeighbours {
 };
 
 } // namespace
+
+float MarchContext::stepMajorant(RayVolumes& rv, float t, float dt, float jitter) const {
+    // a step spans a few cells at most: those at its ends and at its sample
+    const float tA = t - jitter * dt;
+    return std::max(rv.cellMajorant(t), std::max(rv.cellMajorant(tA), rv.cellMajorant(tA + dt)));
+}
 
 float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
                                        float rhoP) const {
@@ -421,8 +432,9 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                           // transmittance of the beam that carries the light to the camera
                           const float rho = nb.visit(rv, n, t, t - jitter * dt, tNext, empty,
                                                      plan_.stepTau > 0.0f);
-                          const int k = nb.substeps(maxComponent(forward ? TF : T) * sigmaTMax_,
-                                                    rho, dt, plan_.stepTau);
+                          const int k = nb.substeps(
+                              maxComponent(forward ? TF : T) * sigmaTMax_, rho, dt, plan_.stepTau,
+                              plan_.stepTau > 0.0f ? stepMajorant(rv, t, dt, jitter) : 0.0f);
                           if (k == 1) return empty || visit(t, dt, n, rho, jitter);
                           const float h = dt / float(k), t0 = t - jitter * dt;
                           for (int j = 0; j < k; ++j) {

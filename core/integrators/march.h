@@ -104,6 +104,11 @@ class MarchContext {
                                  RayVolumes& rv, float rhoP = -1.0f) const;
 
   private:
+    /// The density bound render.step_tau's test takes for a camera ray's step of length dt
+    /// sampled at t (at the fraction `jitter` of it): the largest majorant-grid cell bound at
+    /// its ends and its sample (RayVolumes::cellMajorant; 0 where no grid is built).
+    float stepMajorant(RayVolumes& rv, float t, float dt, float jitter) const;
+
     const SceneDesc& s_;
     const FramePlan& plan_;
     const VolumeSet& vols_;

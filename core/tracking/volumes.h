@@ -102,6 +102,10 @@ class RayVolumes {
     /// The instances whose spans end before `from` are done with, as density() would be.
     float densityAhead(float t, float from);
     bool nextSegment(MajorantSegment& seg);
+    /// The density bound of the majorant-grid cells that hold the point at t, summed over the
+    /// instances there (0 outside every grid): the volumes' own grids, read whether or not the
+    /// walk skips with them (march builds them for render.step_tau; 0 where none is built).
+    float cellMajorant(float t) const;
     /// The time offset (seconds from the frame's time) of the densities asked from now on:
     /// motion blur, one per camera sample. 0 (the default): the frame's time.
     void setTime(float dt) { time_ = dt; }

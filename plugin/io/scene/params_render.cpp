@@ -108,7 +108,10 @@ void addRenderParams(std::vector<Param>& t) {
         ren.param("step_tau", atLeast(0),
                   "Splits thick march steps, camera and shadow rays alike: a step whose "
                   "optical depth (at the largest density of its sample and the samples "
-                  "before and after it) times the transmittance in front of it exceeds "
+                  "before and after it; on camera rays also at the density bound of the "
+                  "majorant-grid cells the step reaches into, so that a cloud's edge seen "
+                  "grazing between two samples is not missed) times the transmittance in "
+                  "front of it exceeds "
                   "this is taken as that many sub-steps (jittered apart), at most 64. "
                   "A step's light is looked at where its transmittance puts it, right in "
                   "the mean for a constant density however thick the step; but one "
