@@ -25,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -285,7 +286,10 @@ SweepResult sweep(const std::string& source, const std::string& gridName, int n,
 
 class VdbCorrupt : public ::testing::Test {
   protected:
-    void TearDown() override { detail::setIsolatedChildHookForTests(nullptr); }
+    void TearDown() override {
+        detail::setIsolatedChildHookForTests(nullptr);
+        detail::setIsolatedStartHookForTests(nullptr);
+    }
     std::string path(const std::string& name) const { return (tmp_ / name).string(); }
     std::string write(const std::string& name, const std::vector<VdbGridSpec>& grids) const {
         const std::string p = path(name);
@@ -543,6 +547,62 @@ TEST_F(VdbCorrupt, AHangingChildIsStoppedAtTheTimeLimit) {
     EXPECT_LT(ms, 5000.0);
     EXPECT_TRUE(contains(errorOf({.path = p, .timeoutSeconds = 0.0}), "must be a positive"));
     EXPECT_TRUE(contains(errorOf({.path = p, .timeoutSeconds = -1.0}), "must be a positive"));
+}
+
+// A child stuck before its start (as on a lock of oneTBB's that a worker thread held at the
+// fork) is killed after startSeconds and forked again; the load succeeds. Each try leaves a
+// folder try<N> in gTries (what a child may touch: the file system), the first one waits.
+std::string gTries;
+
+int triesIn(const std::string& dir) {
+    int n = 0;
+    while (fs::exists(dir + "/try" + std::to_string(n + 1))) ++n;
+    return n;
+}
+
+void countTry(const VdbLoadOptions&, int) {
+    for (int n = 1;; ++n)
+        if (::mkdir((gTries + "/try" + std::to_string(n)).c_str(), 0700) == 0) break;
+}
+
+TEST_F(VdbCorrupt, AChildStuckBeforeItsStartIsForkedAgain) {
+    const std::string p = write("smoke.vdb", {smokeSpec()});
+    gTries = path("tries");
+    fs::create_directories(gTries);
+    detail::setIsolatedStartHookForTests([](const VdbLoadOptions& o, int fd) {
+        countTry(o, fd);
+        if (triesIn(gTries) == 1)
+            for (;;) ::pause();
+    });
+    auto t0 = Clock::now();
+    const LoadedVdbGrid g = loadVdbGrid({.path = p, .timeoutSeconds = 60, .startSeconds = 0.5});
+    double ms = msSince(t0);
+    detail::setIsolatedStartHookForTests(nullptr);
+    EXPECT_EQ(g.activeVoxelCount, smokeSpec().voxels.size());
+    EXPECT_EQ(triesIn(gTries), 2);
+    EXPECT_GE(ms, 490.0);
+    EXPECT_LT(ms, 10000.0); // not the 60-s time limit
+
+    // one that never starts: 4 tries, the first three stopped after startSeconds, then an error
+    // at the time limit that says it never began
+    fs::remove_all(gTries);
+    fs::create_directories(gTries);
+    detail::setIsolatedStartHookForTests([](const VdbLoadOptions& o, int fd) {
+        countTry(o, fd);
+        for (;;) ::pause();
+    });
+    t0 = Clock::now();
+    const std::string m = errorOf({.path = p, .timeoutSeconds = 2.0, .startSeconds = 0.2});
+    ms = msSince(t0);
+    detail::setIsolatedStartHookForTests(nullptr);
+    EXPECT_TRUE(contains(m, p + ": grid \"density\": the process reading the grid did not begin "
+                                "to read within 2 s and was stopped (forked again after every "
+                                "0.2 s, up to 4 times)"));
+    EXPECT_EQ(triesIn(gTries), 4);
+    EXPECT_GE(ms, 1990.0);
+    EXPECT_LT(ms, 6000.0);
+
+    EXPECT_TRUE(contains(errorOf({.path = p, .startSeconds = 0.0}), "must be a positive"));
 }
 
 TEST_F(VdbCorrupt, AbnormalExitsAndGarbledRepliesAreErrors) {

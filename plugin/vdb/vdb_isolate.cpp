@@ -5,6 +5,7 @@
 #include "plugin/vdb/vdb_isolate.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -16,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <new>
+#include <optional>
 #include <shared_mutex>
 #include <type_traits>
 
@@ -36,6 +38,7 @@ namespace nimbus::vdb::detail {
 namespace {
 
 IsolatedChildHook gChildHook = nullptr;
+IsolatedChildHook gStartHook = nullptr;
 
 // ---------------------------------------------------------------------------------------------
 // The reply: a fixed header, the metadata (every field of LoadedVdbGrid but the grid), the
@@ -180,7 +183,8 @@ bool writeReply(int fd, ReplyKind kind, const std::string& meta, const void* bul
 /// and never runs the parent's atexit handlers, static destructors or stdio flushes (which
 /// would repeat the parent's buffered output, or wait for TBB workers that do not exist here).
 [[noreturn]] void childMain(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
-                            int replyFd, int logFd, pid_t parent, rlim_t addressLimit) {
+                            int replyFd, int logFd, pid_t parent, rlim_t addressLimit,
+                            std::atomic<std::uint32_t>* started) {
     // Default dispositions, so that a crash ends this process with its signal (the caller may
     // have its own handlers); a signal blocked in the forking thread is unblocked. Ctrl-C and
     // SIGTERM/SIGHUP sent to the whole process group are the caller's to handle (the nimbus
@@ -228,7 +232,7 @@ bool writeReply(int fd, ReplyKind kind, const std::string& meta, const void* bul
         ::close(oom);
     }
 
-    if (gChildHook) gChildHook(options, replyFd);
+    if (gStartHook) gStartHook(options, replyFd);
 
     bool written = false;
     try {
@@ -236,7 +240,13 @@ bool writeReply(int fd, ReplyKind kind, const std::string& meta, const void* bul
         // The parent's TBB worker threads do not exist in a forked child: an arena of one slot
         // asks for none, and every TBB algorithm of the reader runs on this thread.
         tbb::task_arena arena(1);
-        arena.execute([&] { reply = work(); });
+        arena.execute([&] {
+            // TBB's start is behind us (where an inherited lock would have stopped us): tell the
+            // parent, through the page shared with it, that the reading has begun.
+            started->store(1, std::memory_order_release);
+            if (gChildHook) gChildHook(options, replyFd);
+            reply = work();
+        });
         written = writeReply(replyFd, ReplyKind::Loaded, reply.meta, reply.bulk, reply.bulkBytes);
     } catch (const VdbError& e) {
         written = writeReply(replyFd, ReplyKind::VdbError, e.what());
@@ -396,11 +406,15 @@ void forwardLog(int logFd, const std::string& path) {
 }
 
 /// The child process as the parent sees it: reads its reply with a deadline, reaps it, and
-/// kills it (SIGKILL) if it is still running when this object goes away.
+/// kills it (SIGKILL) if it is still running when this object goes away. A child that has not
+/// set @p started by @p startDeadline (when that is earlier than @p deadline) is reported
+/// NotStarted by read().
 class Child {
   public:
-    Child(pid_t pid, int replyFd, Clock::time_point deadline)
-        : pid_(pid), fd_(replyFd), deadline_(deadline) {}
+    Child(pid_t pid, int replyFd, Clock::time_point deadline,
+          const std::atomic<std::uint32_t>* started, Clock::time_point startDeadline)
+        : pid_(pid), fd_(replyFd), deadline_(deadline), started_(started),
+          startDeadline_(startDeadline) {}
     ~Child() {
         if (!reaped_) {
             ::kill(pid_, SIGKILL);
@@ -412,7 +426,7 @@ class Child {
     Child(const Child&) = delete;
     Child& operator=(const Child&) = delete;
 
-    enum class Read { Ok, End, Timeout };
+    enum class Read { Ok, End, Timeout, NotStarted };
 
     /// Reads exactly @p n bytes of the reply. End: the pipe closed, or the child ended, first.
     Read read(void* dst, std::uint64_t n) {
@@ -432,7 +446,9 @@ class Child {
             }
             if (r == 0) {
                 if (reaped_) return Read::End; // it ended and nothing more is in the pipe
-                reap(false);
+                if (!reap(false) && startDeadline_ < deadline_ && Clock::now() >= startDeadline_ &&
+                    !started())
+                    return Read::NotStarted;
                 continue;
             }
             const ssize_t k = ::read(fd_, p, std::size_t(std::min<std::uint64_t>(n, 1u << 20)));
@@ -485,6 +501,10 @@ class Child {
     bool reaped() const {
         return reaped_;
     }
+    /// Whether the child has begun to read (past its start, TBB's included).
+    bool started() const {
+        return started_->load(std::memory_order_acquire) != 0;
+    }
     /// waitpid status; statusKnown() is false if someone else reaped it (SIGCHLD ignored).
     int status() const {
         return status_;
@@ -512,6 +532,8 @@ class Child {
     pid_t pid_;
     int fd_;
     Clock::time_point deadline_;
+    const std::atomic<std::uint32_t>* started_;
+    Clock::time_point startDeadline_;
     bool reaped_ = false;
     bool statusKnown_ = false;
     int status_ = 0;
@@ -553,6 +575,10 @@ void setIsolatedChildHookForTests(IsolatedChildHook hook) {
     gChildHook = hook;
 }
 
+void setIsolatedStartHookForTests(IsolatedChildHook hook) {
+    gStartHook = hook;
+}
+
 IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
                           std::uint64_t minBulkBytes, const char* bulkName) {
     const std::string ctx = options.path + ": grid \"" + options.gridName + "\": ";
@@ -571,51 +597,88 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                                    " beyond its parent (VdbLoadOptions::memoryLimitBytes, "
                                    "NIMBUS_VDB_MEMORY_LIMIT for the nimbus command)";
 
-    int fds[2];
-    if (::pipe2(fds, O_CLOEXEC) != 0) {
+    if (!(options.startSeconds > 0.0) || std::isnan(options.startSeconds)) {
         throw VdbError(ctx +
-                       "cannot create a pipe for the reading process: " + std::strerror(errno));
+                       "the time the reading process is given to start must be a positive "
+                       "number of seconds (got " +
+                       secondsText(options.startSeconds) + ")");
     }
+    // The flag the child sets once it has begun to read: a page shared across the fork.
+    void* page = ::mmap(nullptr, sizeof(std::atomic<std::uint32_t>), PROT_READ | PROT_WRITE,
+                        MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+    if (page == MAP_FAILED) {
+        throw VdbError(
+            ctx + "cannot map a page shared with the reading process: " + std::strerror(errno));
+    }
+    struct Unmap {
+        void* p;
+        ~Unmap() { ::munmap(p, sizeof(std::atomic<std::uint32_t>)); }
+    } unmap{page};
+    static_assert(std::atomic<std::uint32_t>::is_always_lock_free); // no lock in shared memory
+    auto* started = new (page) std::atomic<std::uint32_t>(0);
+
     Fd log{::memfd_create("nimbus-vdb-reader-log", MFD_CLOEXEC)}; // -1: the child's output
                                                                   // goes to our stderr
     const pid_t parent = getpid();
-    // No thread of ours inside OpenVDB while forking (OpenVdbSection). A thread inside a section
-    // that forks itself (none in Nimbus) could not wait for the others: it forks as before.
-    std::unique_lock<std::shared_mutex> forkLock(gForkMutex, std::defer_lock);
-    if (tSectionDepth == 0) forkLock.lock();
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-        gForkedChild = true; // the child's copy of the lock stays as it was: never touched
-        forkLock.release();
-    } else if (forkLock.owns_lock()) {
-        forkLock.unlock();
-    }
-    if (pid < 0) {
-        const int err = errno;
-        ::close(fds[0]);
-        ::close(fds[1]);
-        throw VdbError(ctx +
-                       "cannot start the process that reads the grid (fork: " + std::strerror(err) +
-                       "); reading in process instead is possible for trusted files "
-                       "(VdbLoadOptions::isolate = false, NIMBUS_VDB_ISOLATE=0)");
-    }
-    if (pid == 0) {
-        ::close(fds[0]);
-        childMain(options, work, fds[1], log.fd, parent, addressLimit);
-    }
-    ::close(fds[1]);
-
     const double timeout = std::min(options.timeoutSeconds, 1e7);
-    Child child(pid, fds[0],
-                Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(timeout)));
-
-    // Read the reply; whatever is missing or wrong is judged after the child's end.
+    const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                          std::chrono::duration<double>(timeout));
+    const auto startWait = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(std::min(options.startSeconds, timeout)));
+    constexpr int kStartTries = 4;
+    std::optional<Child> child;
     ReplyHeader header{};
+    Child::Read r = Child::Read::End;
+    // Read the reply; whatever is missing or wrong is judged after the child's end.
     std::string meta;
     nanovdb::HostBuffer grid;
     std::string invalid; // what is wrong with the reply ("" = nothing)
-    Child::Read r = child.read(&header, sizeof header);
+    for (int tries = 1;; ++tries) {
+        started->store(0, std::memory_order_relaxed);
+        if (log.fd >= 0 && tries > 1) { // a stopped try's output is not this one's
+            [[maybe_unused]] const int t = ::ftruncate(log.fd, 0);
+            ::lseek(log.fd, 0, SEEK_SET);
+        }
+        int fds[2];
+        if (::pipe2(fds, O_CLOEXEC) != 0) {
+            throw VdbError(ctx +
+                           "cannot create a pipe for the reading process: " + std::strerror(errno));
+        }
+        // No thread of ours inside OpenVDB while forking (OpenVdbSection). A thread inside a
+        // section that forks itself (none in Nimbus) could not wait for the others: it forks as
+        // before.
+        std::unique_lock<std::shared_mutex> forkLock(gForkMutex, std::defer_lock);
+        if (tSectionDepth == 0) forkLock.lock();
+        const pid_t pid = ::fork();
+        if (pid == 0) {
+            gForkedChild = true; // the child's copy of the lock stays as it was: never touched
+            forkLock.release();
+        } else if (forkLock.owns_lock()) {
+            forkLock.unlock();
+        }
+        if (pid < 0) {
+            const int err = errno;
+            ::close(fds[0]);
+            ::close(fds[1]);
+            throw VdbError(
+                ctx + "cannot start the process that reads the grid (fork: " + std::strerror(err) +
+                "); reading in process instead is possible for trusted files "
+                "(VdbLoadOptions::isolate = false, NIMBUS_VDB_ISOLATE=0)");
+        }
+        if (pid == 0) {
+            ::close(fds[0]);
+            childMain(options, work, fds[1], log.fd, parent, addressLimit, started);
+        }
+        ::close(fds[1]);
+        // A child that has not begun by startWait is stopped and forked again (the last try
+        // gets all the time left): see VdbLoadOptions::startSeconds.
+        const Clock::time_point startDeadline =
+            tries < kStartTries ? std::min(deadline, Clock::now() + startWait) : deadline;
+        child.emplace(pid, fds[0], deadline, started, startDeadline);
+        r = child->read(&header, sizeof header);
+        if (r != Child::Read::NotStarted) break;
+        child.reset(); // killed and reaped
+    }
     if (r == Child::Read::Ok) {
         const auto kind = ReplyKind(header.kind);
         if (std::memcmp(header.magic, kReplyMagic, sizeof kReplyMagic) != 0) {
@@ -634,7 +697,7 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
         }
         if (invalid.empty()) {
             meta.resize(std::size_t(header.metaBytes));
-            r = child.read(meta.data(), meta.size());
+            r = child->read(meta.data(), meta.size());
         }
         if (invalid.empty() && r == Child::Read::Ok && header.gridBytes > 0) {
             try {
@@ -643,25 +706,34 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                 throw VdbError(ctx + "out of memory receiving " + bulkName + " (" +
                                mib(header.gridBytes) + ") from the reading process");
             }
-            r = child.read(grid.data(), header.gridBytes);
+            r = child->read(grid.data(), header.gridBytes);
         }
         if (invalid.empty() && r == Child::Read::Ok) {
             char end[sizeof kReplyEnd];
-            r = child.read(end, sizeof end);
+            r = child->read(end, sizeof end);
             if (r == Child::Read::Ok && std::memcmp(end, kReplyEnd, sizeof end) != 0)
                 invalid = "it does not end with the end marker";
         }
     }
     if (r == Child::Read::End && invalid.empty()) invalid = "it is incomplete (short)";
     if (r == Child::Read::Ok && !invalid.empty() &&
-        !child.wait(Clock::now() + std::chrono::seconds(1))) {
+        !child->wait(Clock::now() + std::chrono::seconds(1))) {
         // A garbled reply from a child that goes on (perhaps blocked writing the rest): stop it.
-        child.kill();
+        child->kill();
         throw VdbError(ctx + "the process reading the grid sent an invalid reply: " + invalid +
                        " (it was stopped)");
     }
-    if (r == Child::Read::Timeout || !child.wait()) {
-        child.kill();
+    if (r == Child::Read::Timeout || !child->wait()) {
+        const bool began = child->started();
+        child->kill();
+        if (!began) {
+            throw VdbError(ctx + "the process reading the grid did not begin to read within " +
+                           secondsText(timeout) + " s and was stopped (forked again after every " +
+                           secondsText(std::min(options.startSeconds, timeout)) + " s, up to " +
+                           std::to_string(kStartTries) +
+                           " times): the machine is overloaded? (NIMBUS_VDB_TIMEOUT=seconds "
+                           "for the nimbus command, VdbLoadOptions::timeoutSeconds)");
+        }
         throw VdbError(ctx + "the OpenVDB reader did not finish within " + secondsText(timeout) +
                        " s and was stopped (a corrupted file that makes it loop, or a grid too "
                        "large to read in that time); raise the limit with "
@@ -669,10 +741,10 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                        "nimbus command) if the file is sound");
     }
 
-    const int status = child.status();
+    const int status = child->status();
     std::string tail = logTail(log.fd);
     if (!tail.empty()) tail = "; its last output: \"" + tail + "\"";
-    if (child.statusKnown() && WIFSIGNALED(status)) {
+    if (child->statusKnown() && WIFSIGNALED(status)) {
         const int sig = WTERMSIG(status);
         switch (sig) {
         case SIGSEGV:
@@ -703,7 +775,7 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                            tail);
         }
     }
-    if (child.statusKnown() && WIFEXITED(status) && WEXITSTATUS(status) != 0) {
+    if (child->statusKnown() && WIFEXITED(status) && WEXITSTATUS(status) != 0) {
         throw VdbError(ctx + "the process reading the grid exited with status " +
                        std::to_string(WEXITSTATUS(status)) +
                        (WEXITSTATUS(status) == kChildWriteFailed

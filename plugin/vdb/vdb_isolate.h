@@ -142,10 +142,14 @@ void recordVdbRead(const std::string& path, const std::string& gridName, int gri
 /// thread-safe; every reader calls it.
 void initializeOpenVdb();
 
-/// Test hook: when set, the child process calls it first, before it reads anything (tests use it
-/// to simulate a crash, a hang, an abnormal exit or a garbled reply). Not thread-safe: set it
-/// only while no isolated load runs. nullptr (the default) disables it.
+/// Test hook: when set, the child process calls it once it has begun (its TBB arena running, the
+/// parent told), before it reads anything (tests use it to simulate a crash, a hang, an abnormal
+/// exit or a garbled reply). Not thread-safe: set it only while no isolated load runs. nullptr
+/// (the default) disables it.
 using IsolatedChildHook = void (*)(const VdbLoadOptions& options, int replyFd);
 void setIsolatedChildHookForTests(IsolatedChildHook hook);
+/// Test hook: called in the child before its start (before its TBB arena): a hook that waits
+/// here stands for a child stuck on a lock it inherited (VdbLoadOptions::startSeconds).
+void setIsolatedStartHookForTests(IsolatedChildHook hook);
 
 } // namespace nimbus::vdb::detail

@@ -60,6 +60,12 @@
 ///          child, which then waited for it until the time limit. OpenVDB used by other code of
 ///          the same process is not covered. Isolated loads concurrent with each other and with
 ///          in-process reads are fine (tested).
+///    @note oneTBB's own worker threads cannot be made to wait: forked just as they go idle after
+///          a parallel loop, a child can inherit one of TBB's locks held and then wait for ever in
+///          its first task arena (seen about once in 20,000 forks on a loaded machine). The child
+///          tells the parent, through a shared page, once its arena runs; one that has not begun
+///          after VdbLoadOptions::startSeconds (5 s) is killed and forked again, up to 4 times
+///          within the time limit (the last try gets all the time left).
 ///
 /// Sanitising (counted, one warning per kind): NaN/Inf values become 0; negative densities are
 /// clamped to 0; inactive voxels and tiles whose value is not 0 are set to 0; a non-zero
@@ -116,7 +122,12 @@ struct VdbLoadOptions {
     /// that crashes or hangs OpenVDB's reader gives a VdbError instead of ending the caller.
     /// false reads in the calling process: trusted files only.
     bool isolate = true;
-    double timeoutSeconds = 600.0;      ///< isolate: kill the child after this long (a hang)
+    double timeoutSeconds = 600.0; ///< isolate: kill the child after this long (a hang)
+    /// isolate: a child that has not begun to read after this long is killed and forked again
+    /// (up to 4 times within timeoutSeconds; the last try gets all the time left). A process
+    /// forked while another thread held a lock keeps that lock held for ever: oneTBB's worker
+    /// threads, if they were just going idle, leave the child's first task arena waiting.
+    double startSeconds = 5.0;
     std::uint64_t memoryLimitBytes = 0; ///< isolate: address space the child may map beyond the
                                         ///< caller's (0 = the machine's physical memory)
 };
