@@ -197,6 +197,34 @@ TEST(StressCli, QuickRunPassesAndListsEveryCase) {
     fs::remove(csv);
 }
 
+// A case that runs past --case-limit ends the run: exit 1, the case named, the rows before it
+// in the CSV (written as they come). The tau/ group has cases over 50 ms (its photonsky at a
+// thickness of 1e4 takes about a second), so a limit of 0.05 s stops one of them.
+TEST(StressCli, ACaseOverTheLimitStopsTheRunNamingIt) {
+    const fs::path csv =
+        fs::temp_directory_path() / ("nimbus_stress_limit_" + std::to_string(getpid()) + ".csv");
+    const CliRun r =
+        runNimbus("stress --quick --filter tau/ --case-limit 0.05 --csv " + csv.string());
+    EXPECT_EQ(r.exitCode, 1) << r.output;
+    EXPECT_TRUE(contains(r.output, "nimbus: error: stress: case tau/"));
+    EXPECT_TRUE(contains(r.output, "over the limit of 0.05 s per case (--case-limit)"));
+    EXPECT_FALSE(contains(r.output, "summary: "));
+    // the named case is the one after the last printed row
+    const size_t at = r.output.find("stress: case ") + 13;
+    const std::string named = r.output.substr(at, r.output.find(' ', at) - at);
+    EXPECT_EQ(r.output.find("\n" + named + " "), std::string::npos) << "it has a row";
+    // every printed row is in the CSV already
+    int printed = 0, rows = -1; // the CSV's header
+    std::istringstream out(r.output);
+    std::string line;
+    while (std::getline(out, line)) printed += line.rfind("tau/", 0) == 0;
+    std::ifstream in(csv);
+    while (std::getline(in, line)) ++rows;
+    EXPECT_EQ(rows, printed);
+    fs::remove(csv);
+    EXPECT_NE(runNimbus("stress --quick --case-limit 0").exitCode, 0);
+}
+
 TEST(StressCli, FilterSelectsTheCases) {
     // a filter that matches nothing is a usage error
     const CliRun none = runNimbus("stress --quick --filter no-such-case");

@@ -130,9 +130,10 @@ struct BenchVdbOptions {
 
 /// `nimbus stress`: the numerical-stability report (stress.cpp, docs/stress.md).
 struct StressOptions {
-    bool quick = false; ///< the short list of cases at 16x9 pixels
-    std::string csv;    ///< also write the table here
-    std::string filter; ///< run only the cases whose name contains this
+    bool quick = false;     ///< the short list of cases at 16x9 pixels
+    std::string csv;        ///< also write the table here
+    std::string filter;     ///< run only the cases whose name contains this
+    double caseLimit = 0.0; ///< stop the run when one case runs longer (0: 40x the budget)
 };
 
 /// `nimbus rt`: the scene's frames on the GPU through the GLSL march pass (rt.cpp,

@@ -490,6 +490,12 @@ int mainImpl(int argc, char** argv) {
     stress->add_option("--csv", so.csv, "Also write the table as CSV");
     stress->add_option("--filter", so.filter,
                        "Run only the cases whose name contains this, e.g. tau/ or /pathtrace");
+    stress
+        ->add_option("--case-limit", so.caseLimit,
+                     "Stop the whole run (exit 1, naming the case) when one case runs longer "
+                     "than this many seconds: a case that hangs (default: 40x the render "
+                     "budget, 120 s with --quick, 800 s without)")
+        ->check(CLI::PositiveNumber);
     stress->footer(
         "Cases (docs/stress.md): every integrator (march, pathtrace, photons = march with "
         "multiple_scattering\n"

@@ -296,6 +296,73 @@ SceneDesc vdbScene(const Context& c, double voxel, glm::dvec3 centre) {
     return s;
 }
 
+/// Ends the process (exit 1) when one case runs longer than `limit` seconds, naming the case: a
+/// case that hangs (a wait that nothing bounds) fails the run instead of stopping it for ever.
+/// The renders' time budgets (Budget) stop the work that is expected not to end; this is the
+/// bound on everything else.
+class CaseWatchdog {
+  public:
+    CaseWatchdog(double limit, fs::path dir) : limit_(limit), dir_(std::move(dir)) {
+        thread_ = std::thread([this] { watch(); });
+    }
+    ~CaseWatchdog() {
+        {
+            std::lock_guard<std::mutex> lock(m_);
+            done_ = true;
+        }
+        cv_.notify_all();
+        thread_.join();
+    }
+    void begin(const std::string& name) {
+        std::lock_guard<std::mutex> lock(m_);
+        name_ = name;
+        start_ = Clock::now();
+        running_ = true;
+        cv_.notify_all();
+    }
+    void end() {
+        std::lock_guard<std::mutex> lock(m_);
+        running_ = false;
+        cv_.notify_all();
+    }
+
+  private:
+    void watch() {
+        std::unique_lock<std::mutex> lock(m_);
+        while (!done_) {
+            if (!running_) {
+                cv_.wait(lock);
+                continue;
+            }
+            const auto start = start_;
+            const auto until = start + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(limit_));
+            if (cv_.wait_until(lock, until, [&] { return done_ || !running_ || start_ != start; }))
+                continue;
+            // The case's lines so far are printed (flushed per case); the CSV rows too.
+            const std::string m = "nimbus: error: stress: case " + name_ + " has run " +
+                                  fmt("%.3g s", secondsSince(start)) +
+                                  fmt(", over the limit of %g s per case (--case-limit): "
+                                      "stopping the run (a wait that nothing bounds?)\n",
+                                      limit_);
+            [[maybe_unused]] const ssize_t w = ::write(STDERR_FILENO, m.data(), m.size());
+            std::error_code ec;
+            fs::remove_all(dir_, ec);
+            _exit(kExitInternal);
+        }
+    }
+
+    double limit_;
+    fs::path dir_;
+    std::mutex m_;
+    std::condition_variable cv_;
+    std::string name_;
+    Clock::time_point start_{};
+    bool running_ = false;
+    bool done_ = false;
+    std::thread thread_;
+};
+
 /// Sets the cancel flag after `seconds` unless destroyed first.
 class Budget {
   public:
@@ -1251,6 +1318,7 @@ int runStress(const StressOptions& opt) {
     double slowest = 0.0;
     std::uint64_t nonFinite = 0;
     bool interrupted = false;
+    CaseWatchdog watchdog(opt.caseLimit > 0.0 ? opt.caseLimit : 40.0 * c.budget, c.dir);
     for (Case& k : cases) {
         if (gCancel.load()) {
             interrupted = true;
@@ -1258,11 +1326,13 @@ int runStress(const StressOptions& opt) {
         }
         Outcome o;
         const auto t0 = Clock::now();
+        watchdog.begin(k.name);
         try {
             k.run(c, o);
         } catch (const std::exception& e) {
             o.fail(std::string("exception: ") + e.what());
         }
+        watchdog.end();
         const double sec = secondsSince(t0);
         if (!k.known.empty())
             o.note(o.verdict == Verdict::Fail ? "known failure: " + k.known
@@ -1286,7 +1356,7 @@ int runStress(const StressOptions& opt) {
         std::fflush(stdout);
         if (csv) {
             csv << csvQuote(k.name) << "," << verdictName(o.verdict) << "," << fmt("%.3f", sec)
-                << "," << csvQuote(figs) << "," << csvQuote(notes) << "\n";
+                << "," << csvQuote(figs) << "," << csvQuote(notes) << std::endl;
         }
     }
     const int run = counts[0] + counts[1] + counts[2];
