@@ -338,6 +338,19 @@ TEST(March, MajorantGridKnowsTheBoxThatHoldsDensity) {
     EXPECT_TRUE(g.occupiedBounds().empty());
 }
 
+TEST(March, MajorantGridBoundAtAPoint) {
+    // the cell holding the point; 0 outside the grid, at NaN and for a grid not built
+    const MajorantGrid g = threeCellGrid();
+    EXPECT_EQ(g.boundAt(vec3(2.5f, 0.5f, 0.5f)), 1.0f);
+    EXPECT_EQ(g.boundAt(vec3(3.0f, 0.0f, 0.99f)), 2.0f); // a cell's low faces belong to it
+    EXPECT_EQ(g.boundAt(vec3(6.9f, 0.2f, 0.2f)), 3.0f);
+    EXPECT_EQ(g.boundAt(vec3(1.5f, 0.5f, 0.5f)), 0.0f);
+    for (vec3 out : {vec3(-0.01f, 0.5f, 0.5f), vec3(8.0f, 0.5f, 0.5f), vec3(2.5f, 1.0f, 0.5f),
+                     vec3(2.5f, 0.5f, -1e30f), vec3(std::nanf(""), 0.5f, 0.5f)})
+        EXPECT_EQ(g.boundAt(out), 0.0f) << out.x << " " << out.y << " " << out.z;
+    EXPECT_EQ(MajorantGrid{}.boundAt(vec3(0.5f)), 0.0f);
+}
+
 TEST(March, MajorantIteratorGivesKnownSpans) {
     // 8 x 1 x 1 cells over [0,8] x [0,1] x [0,1]; cells 2, 3 and 6 hold density
     const MajorantGrid g = threeCellGrid();

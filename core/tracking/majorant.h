@@ -33,6 +33,15 @@ struct MajorantGrid {
     std::vector<std::uint8_t> blockDistance;
 
     float at(ivec3 c) const { return maj[(size_t(c.z) * res.y + c.y) * res.x + c.x]; }
+    /// The bound of the cell holding the point p: 0 outside the grid, or where it was not built.
+    float boundAt(vec3 p) const {
+        if (maj.empty()) return 0.0f;
+        const vec3 u = (p - bounds.lo) / cellSize;
+        if (!(u.x >= 0.0f && u.y >= 0.0f && u.z >= 0.0f)) return 0.0f; // NaN too
+        const ivec3 c(u);
+        if (c.x >= res.x || c.y >= res.y || c.z >= res.z) return 0.0f;
+        return at(c);
+    }
     /// Distance of the block holding cell c (0: not empty).
     int blockDistanceAt(ivec3 c) const {
         const ivec3 b = c / kBlock;

@@ -224,32 +224,18 @@ bool RayVolumes::begin(const VolumeSet& vs, const Ray& ray, float tmin, float tm
     return true;
 }
 
-namespace {
-
-/// The bound of the cell of grid g holding p (0 outside it, or where g was not built).
-float cellBound(const MajorantGrid& g, vec3 p) {
-    if (g.cellCount() == 0) return 0.0f;
-    const vec3 u = (p - g.bounds.lo) / g.cellSize;
-    if (!(u.x >= 0.0f && u.y >= 0.0f && u.z >= 0.0f)) return 0.0f;
-    const ivec3 c(u);
-    if (c.x >= g.res.x || c.y >= g.res.y || c.z >= g.res.z) return 0.0f;
-    return g.at(c);
-}
-
-} // namespace
-
 float RayVolumes::cellMajorant(float t) const {
     if (single_) {
         const VolumeInstance& in = vs_->instances[0];
         const size_t v = size_t(in.volume);
-        return v < vs_->grids.size() ? in.density * cellBound(vs_->grids[v], ray_.at(t)) : 0.0f;
+        return v < vs_->grids.size() ? in.density * vs_->grids[v].boundAt(ray_.at(t)) : 0.0f;
     }
     float sum = 0.0f;
     for (const Span& s : spans_) {
         if (t < s.t0 || t > s.t1) continue;
         const VolumeInstance& in = vs_->instances[size_t(s.instance)];
         const size_t v = size_t(in.volume);
-        if (v < vs_->grids.size()) sum += in.density * cellBound(vs_->grids[v], s.local.at(t));
+        if (v < vs_->grids.size()) sum += in.density * vs_->grids[v].boundAt(s.local.at(t));
     }
     return sum;
 }
