@@ -186,6 +186,8 @@ TEST(StressCli, QuickRunPassesAndListsEveryCase) {
     }
     EXPECT_GT(rows, 50);
     EXPECT_EQ(verdicts["FAIL"], 0);
+    // photon frames' energy checks average over seeds (their noise is shared by the pixels)
+    EXPECT_TRUE(contains(r.output, "seeds=5"));
     std::ostringstream summary;
     summary << "summary: " << rows << " cases: " << verdicts["PASS"] << " PASS, "
             << verdicts["DEGRADED"] << " DEGRADED, 0 FAIL";
