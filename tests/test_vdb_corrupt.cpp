@@ -286,9 +286,17 @@ SweepResult sweep(const std::string& source, const std::string& gridName, int n,
 
 class VdbCorrupt : public ::testing::Test {
   protected:
-    void TearDown() override {
-        detail::setIsolatedChildHookForTests(nullptr);
-        detail::setIsolatedStartHookForTests(nullptr);
+    void TearDown() override { readerDoes(nullptr); }
+    /// Runs the reader for tests (tests/vdb_reader_for_tests.cpp) doing @p what before it
+    /// reads (see NIMBUS_TEST_READER_DOES there); nullptr: the real reader again.
+    static void readerDoes(const char* what) {
+        if (what) {
+            ::setenv("NIMBUS_TEST_READER_DOES", what, 1);
+            detail::setReaderForTests(NIMBUS_TEST_READER);
+        } else {
+            ::unsetenv("NIMBUS_TEST_READER_DOES");
+            detail::setReaderForTests("");
+        }
     }
     std::string path(const std::string& name) const { return (tmp_ / name).string(); }
     std::string write(const std::string& name, const std::vector<VdbGridSpec>& grids) const {
@@ -450,8 +458,8 @@ TEST_F(VdbCorrupt, IsolatedLoadsBesideInProcessReads) {
             if (g.activeVoxelCount == voxels && !grids.empty()) ++inProcess;
         }
     });
-    // before the fork took OpenVdbSection's lock, one load in 40 to 80 hung (half of the runs
-    // of 40 had one)
+    // when the child was a fork that read without an exec, one load in 40 to 80 hung on a lock
+    // of OpenVDB's that the reading thread held at the fork (half of the runs of 40 had one)
     constexpr int kLoads = 120;
     int loaded = 0;
     std::string firstError;
@@ -475,26 +483,23 @@ TEST_F(VdbCorrupt, IsolatedLoadsBesideInProcessReads) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// What the parent makes of a child that crashes, hangs, exits or garbles its reply (test hook).
+// What the parent makes of a reader that crashes, hangs, exits or garbles its reply (the reader
+// for tests).
 
 TEST_F(VdbCorrupt, AChildKilledByASignalIsReportedAsACrash) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
-        std::fprintf(stderr, "something went wrong at leaf 17\n");
-        std::raise(SIGSEGV);
-    });
+    readerDoes("segv");
     std::string m = errorOf({.path = p});
     EXPECT_TRUE(contains(m, p + ": grid \"density\": the OpenVDB reader crashed (SIGSEGV, "
                                 "segmentation fault) while reading the grid: the file is corrupt"));
     EXPECT_TRUE(contains(m, "its last output: \"something went wrong at leaf 17\""));
 
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) { std::abort(); });
+    readerDoes("abort");
     EXPECT_TRUE(contains(errorOf({.path = p}), "crashed (SIGABRT, aborted)"));
-    detail::setIsolatedChildHookForTests(
-        [](const VdbLoadOptions&, int) { ::kill(::getpid(), SIGKILL); });
+    readerDoes("sigkill");
     EXPECT_TRUE(contains(errorOf({.path = p}), "was killed (SIGKILL)"));
 
-    // in process, the same hook is never called: the load succeeds
+    // in process, no reader runs: the load succeeds
     EXPECT_EQ(loadVdbGrid({.path = p, .isolate = false}).activeVoxelCount,
               smokeSpec().voxels.size());
 }
@@ -503,11 +508,7 @@ TEST_F(VdbCorrupt, AChildKilledByASignalIsReportedAsACrash) {
 // naming the file, without log4cplus's terminal colours, and bounded in size.
 TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
-        // what OpenVDB 10 prints for a multi-buffer tree (Tree.h), colours included
-        std::fprintf(stderr, "\x1b[35m WARN: multi-buffer trees are no longer supported\n\x1b[0m");
-        std::fflush(stderr);
-    });
+    readerDoes("warn"); // what OpenVDB 10 prints for a multi-buffer tree, colours included
     testing::internal::CaptureStderr();
     EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
     std::string err = testing::internal::GetCapturedStderr();
@@ -517,11 +518,7 @@ TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
     EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
 
     // a child that writes a flood: 20 lines forwarded, then how many more
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
-        for (int i = 0; i < 1000; ++i)
-            std::fprintf(stderr, "line %d %s\n", i, std::string(500, 'x').c_str());
-        std::fflush(stderr);
-    });
+    readerDoes("flood");
     testing::internal::CaptureStderr();
     EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
     err = testing::internal::GetCapturedStderr();
@@ -534,9 +531,7 @@ TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
 
 TEST_F(VdbCorrupt, AHangingChildIsStoppedAtTheTimeLimit) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
-        for (;;) ::pause();
-    });
+    readerDoes("hang");
     const auto t0 = Clock::now();
     const std::string m = errorOf({.path = p, .timeoutSeconds = 0.3});
     const double ms = msSince(t0);
@@ -549,84 +544,62 @@ TEST_F(VdbCorrupt, AHangingChildIsStoppedAtTheTimeLimit) {
     EXPECT_TRUE(contains(errorOf({.path = p, .timeoutSeconds = -1.0}), "must be a positive"));
 }
 
-// A child stuck before its start (as on a lock of oneTBB's that a worker thread held at the
-// fork) is killed after startSeconds and forked again; the load succeeds. Each try leaves a
-// folder try<N> in gTries (what a child may touch: the file system), the first one waits.
-std::string gTries;
-
-int triesIn(const std::string& dir) {
-    int n = 0;
-    while (fs::exists(dir + "/try" + std::to_string(n + 1))) ++n;
-    return n;
-}
-
-void countTry(const VdbLoadOptions&, int) {
-    for (int n = 1;; ++n)
-        if (::mkdir((gTries + "/try" + std::to_string(n)).c_str(), 0700) == 0) break;
-}
-
-TEST_F(VdbCorrupt, AChildStuckBeforeItsStartIsForkedAgain) {
+// The reader is a program of its own, found beside the build (or where NIMBUS_VDB_READER
+// says); one that cannot be found is a clear error, and run by hand it says what it is for.
+TEST_F(VdbCorrupt, TheReaderIsAProgramOfItsOwn) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    gTries = path("tries");
-    fs::create_directories(gTries);
-    detail::setIsolatedStartHookForTests([](const VdbLoadOptions& o, int fd) {
-        countTry(o, fd);
-        if (triesIn(gTries) == 1)
-            for (;;) ::pause();
-    });
-    auto t0 = Clock::now();
-    const LoadedVdbGrid g = loadVdbGrid({.path = p, .timeoutSeconds = 60, .startSeconds = 0.5});
-    double ms = msSince(t0);
-    detail::setIsolatedStartHookForTests(nullptr);
-    EXPECT_EQ(g.activeVoxelCount, smokeSpec().voxels.size());
-    EXPECT_EQ(triesIn(gTries), 2);
-    EXPECT_GE(ms, 490.0);
-    EXPECT_LT(ms, 10000.0); // not the 60-s time limit
+    std::string tried;
+    EXPECT_EQ(detail::findReader(tried), NIMBUS_VDB_READER_PATH) << tried;
 
-    // one that never starts: 4 tries, the first three stopped after startSeconds, then an error
-    // at the time limit that says it never began
-    fs::remove_all(gTries);
-    fs::create_directories(gTries);
-    detail::setIsolatedStartHookForTests([](const VdbLoadOptions& o, int fd) {
-        countTry(o, fd);
-        for (;;) ::pause();
-    });
-    t0 = Clock::now();
-    const std::string m = errorOf({.path = p, .timeoutSeconds = 2.0, .startSeconds = 0.2});
-    ms = msSince(t0);
-    detail::setIsolatedStartHookForTests(nullptr);
-    EXPECT_TRUE(contains(m, p + ": grid \"density\": the process reading the grid did not begin "
-                                "to read within 2 s and was stopped (forked again after every "
-                                "0.2 s, up to 4 times)"));
-    EXPECT_EQ(triesIn(gTries), 4);
-    EXPECT_GE(ms, 1990.0);
-    EXPECT_LT(ms, 6000.0);
+    ::setenv("NIMBUS_VDB_READER", "/nonexistent/nimbus-vdb-reader", 1);
+    std::string m = errorOf({.path = p});
+    EXPECT_TRUE(contains(m, p + ": grid \"density\": cannot find the program that reads VDB "
+                                "files, nimbus-vdb-reader (tried /nonexistent/nimbus-vdb-reader "
+                                "(No such file or directory)): "))
+        << m;
+    EXPECT_TRUE(contains(m, "NIMBUS_VDB_READER=path")) << m;
+    // a file that is not a program
+    ::setenv("NIMBUS_VDB_READER", p.c_str(), 1);
+    EXPECT_TRUE(contains(errorOf({.path = p}), "(tried " + p + " (Permission denied))"));
+    // in process, no reader is needed
+    EXPECT_EQ(loadVdbGrid({.path = p, .isolate = false}).activeVoxelCount,
+              smokeSpec().voxels.size());
 
-    EXPECT_TRUE(contains(errorOf({.path = p, .startSeconds = 0.0}), "must be a positive"));
+    // the one NIMBUS_VDB_READER names runs: its output reaches the caller's stderr
+    ::setenv("NIMBUS_VDB_READER", NIMBUS_TEST_READER, 1);
+    ::setenv("NIMBUS_TEST_READER_DOES", "announce", 1);
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
+    const std::string err = testing::internal::GetCapturedStderr();
+    ::unsetenv("NIMBUS_VDB_READER");
+    ::unsetenv("NIMBUS_TEST_READER_DOES");
+    EXPECT_TRUE(contains(err, "nimbus: openvdb (" + p + "): the reader for tests ran")) << err;
+
+    // run by hand (no request on stdin): exit status 102 and a line that says what it is
+    const std::string out = path("by_hand.txt");
+    const int status =
+        std::system((std::string(NIMBUS_VDB_READER_PATH) + " < /dev/null 2> " + out).c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 102);
+    std::ifstream in(out);
+    const std::string said((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_TRUE(contains(said, "nimbus-vdb-reader: reads one VDB grid for Nimbus")) << said;
 }
 
 TEST_F(VdbCorrupt, AbnormalExitsAndGarbledRepliesAreErrors) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) { ::_exit(7); });
+    readerDoes("exit7");
     EXPECT_TRUE(
         contains(errorOf({.path = p}), "the process reading the grid exited with status 7"));
 
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) { ::_exit(0); });
+    readerDoes("exit0");
     EXPECT_TRUE(contains(errorOf({.path = p}), "sent an invalid reply: it is incomplete (short)"));
 
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int fd) {
-        const char junk[64] = "hello, this is not a reply at all, but it is 64 bytes long....";
-        [[maybe_unused]] ssize_t w = ::write(fd, junk, sizeof junk);
-        ::_exit(0);
-    });
+    readerDoes("junk");
     EXPECT_TRUE(contains(errorOf({.path = p}), "invalid reply: it does not start with the reply"));
 
     // garbage from a child that then goes on: stopped at once, not at the time limit
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int fd) {
-        const char junk[64] = "garbage, and then this child waits for ever..................";
-        [[maybe_unused]] ssize_t w = ::write(fd, junk, sizeof junk);
-        for (;;) ::pause();
-    });
+    readerDoes("junk-then-hang");
     const auto t0 = Clock::now();
     EXPECT_TRUE(
         contains(errorOf({.path = p, .timeoutSeconds = 60}),
@@ -634,15 +607,7 @@ TEST_F(VdbCorrupt, AbnormalExitsAndGarbledRepliesAreErrors) {
     EXPECT_LT(msSince(t0), 5000.0);
 
     // a reply that announces a 1 TB grid: refused before anything is allocated
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int fd) {
-        struct {
-            char magic[8] = {'N', 'I', 'M', 'B', 'V', 'D', 'B', '1'};
-            std::uint32_t kind = 1, reserved = 0;
-            std::uint64_t metaBytes = 0, gridBytes = 1ull << 40;
-        } h;
-        [[maybe_unused]] ssize_t w = ::write(fd, &h, sizeof h);
-        ::_exit(0);
-    });
+    readerDoes("huge");
     EXPECT_TRUE(contains(errorOf({.path = p, .memoryLimitBytes = 1ull << 30}),
                          "invalid reply: it announces a grid of 1099511627776 bytes"));
 }
@@ -809,7 +774,8 @@ TEST_F(VdbCorrupt, GiantClaimedSizesAndCountsAreErrorsNotOutOfMemoryKills) {
             crashed += m.find("crashed (") != std::string::npos;
             if (k.what == "leaf count 2^31" || k.what == "delayed-load byte count 2^31") {
                 EXPECT_TRUE(contains(m, "out of memory")) << k.what;
-                EXPECT_TRUE(contains(m, "may map 1024 MiB beyond its parent")) << k.what;
+                EXPECT_TRUE(contains(m, "may map 1024 MiB beyond what it maps at its start"))
+                    << k.what;
             }
         }
         EXPECT_LT(msSince(t0), 15000.0) << k.what;

@@ -322,15 +322,15 @@ TEST(VdbVelocity, ACrashWhileReadingIsAnErrorOfTheChildProcess) {
     TempDir dir;
     const std::string path = (dir / "v.vdb").string();
     writeVdbGrids(path, {linearGrid("velocity", true, "vec3s")});
-    detail::setIsolatedChildHookForTests([](const VdbLoadOptions&, int) {
-        std::fprintf(stderr, "bad leaf\n");
-        std::raise(SIGSEGV);
-    });
+    // the reader for tests (tests/vdb_reader_for_tests.cpp), made to crash
+    ::setenv("NIMBUS_TEST_READER_DOES", "segv", 1);
+    detail::setReaderForTests(NIMBUS_TEST_READER);
     const std::string msg = loadError(options(path));
-    detail::setIsolatedChildHookForTests(nullptr);
+    detail::setReaderForTests("");
+    ::unsetenv("NIMBUS_TEST_READER_DOES");
     EXPECT_TRUE(contains(msg, path + ": grid \"velocity\": the OpenVDB reader crashed (SIGSEGV, "
                                      "segmentation fault) while reading the grid"));
-    EXPECT_TRUE(contains(msg, "its last output: \"bad leaf\""));
+    EXPECT_TRUE(contains(msg, "its last output: \"something went wrong at leaf 17\""));
     // a time limit that is not a number of seconds is refused by the same machinery
     VelocityLoadOptions o = options(path);
     o.read.timeoutSeconds = -1.0;

@@ -1,29 +1,31 @@
 /// @file vdb_isolate.cpp
-/// @brief loadVdbGridIsolated(): the grid is read by a forked child process and sent back
-///        through a pipe; checkNanoGrid(), the check of every NanoVDB grid a load returns (see
-///        vdb_isolate.h and "Isolation" in vdb_reader.h). No OpenVDB headers here.
+/// @brief loadVdbGridIsolated(): the grid is read by the reader executable (a fork and an exec)
+///        and sent back through a pipe; readerMain(), that executable's body; checkNanoGrid(),
+///        the check of every NanoVDB grid a load returns (see vdb_isolate.h and "Isolation" in
+///        vdb_reader.h). No OpenVDB headers here.
 #include "plugin/vdb/vdb_isolate.h"
 
+#include "plugin/vdb/vdb_velocity.h"
+
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
-#include <functional>
 #include <memory>
 #include <mutex>
 #include <new>
-#include <optional>
-#include <shared_mutex>
 #include <type_traits>
+#include <vector>
 
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
-#include <sys/mman.h>
+#include <sys/mman.h> // memfd_create
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -31,14 +33,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <tbb/task_arena.h>
-
 namespace nimbus::vdb::detail {
 
 namespace {
-
-IsolatedChildHook gChildHook = nullptr;
-IsolatedChildHook gStartHook = nullptr;
 
 // ---------------------------------------------------------------------------------------------
 // The reply: a fixed header, the metadata (every field of LoadedVdbGrid but the grid), the
@@ -61,9 +58,6 @@ struct ReplyHeader {
     std::uint64_t metaBytes;
     std::uint64_t gridBytes;
 };
-
-/// Exit codes of the child besides 0 (a reply was written).
-constexpr int kChildWriteFailed = 101; ///< the pipe broke while the reply was written
 
 // A tripwire: a field added to LoadedVdbGrid must also be sent (encodeMeta/decodeMeta).
 static_assert(sizeof(LoadedVdbGrid) == 544 || sizeof(void*) != 8,
@@ -150,7 +144,7 @@ bool decodeMeta(const std::string& bytes, LoadedVdbGrid& g) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The child.
+// The reader's side (readerMain) writes the reply.
 
 /// Writes all of @p n bytes; false when the pipe broke.
 bool writeAll(int fd, const void* data, std::size_t n) {
@@ -179,85 +173,110 @@ bool writeReply(int fd, ReplyKind kind, const std::string& meta, const void* bul
            writeAll(fd, kReplyEnd, sizeof kReplyEnd);
 }
 
-/// The forked child: limits itself, reads the grid, writes the reply, _exit()s. Never returns
-/// and never runs the parent's atexit handlers, static destructors or stdio flushes (which
-/// would repeat the parent's buffered output, or wait for TBB workers that do not exist here).
-[[noreturn]] void childMain(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
-                            int replyFd, int logFd, pid_t parent, rlim_t addressLimit,
-                            std::atomic<std::uint32_t>* started) {
-    // Default dispositions, so that a crash ends this process with its signal (the caller may
-    // have its own handlers); a signal blocked in the forking thread is unblocked. Ctrl-C and
-    // SIGTERM/SIGHUP sent to the whole process group are the caller's to handle (the nimbus
-    // command finishes the load, then stops): ignored here. If the caller dies, so does this
-    // process (PR_SET_PDEATHSIG below).
+// ---------------------------------------------------------------------------------------------
+// The request: what the reader executable is asked to read (its stdin, a memory file).
+
+constexpr char kRequestMagic[8] = {'N', 'I', 'M', 'B', 'R', 'E', 'Q', '1'};
+
+enum class RequestKind : std::uint32_t {
+    Grid = 1,     ///< a density grid: loadVdbGridInProcess
+    Velocity = 2, ///< a velocity grid: loadVdbVelocityInProcess
+};
+
+std::uint64_t physicalMemory() {
+    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+    return pages > 0 && size > 0 ? std::uint64_t(pages) * std::uint64_t(size) : (16ull << 30);
+}
+
+/// The address space the reader may map beyond what it has mapped at its start.
+std::uint64_t memoryBudget(const VdbLoadOptions& o) {
+    return o.memoryLimitBytes ? o.memoryLimitBytes : physicalMemory();
+}
+
+void encodeRead(Encoder& e, RequestKind kind, const VdbLoadOptions& o) {
+    e.bytes.append(kRequestMagic, sizeof kRequestMagic);
+    e.pod(std::uint32_t(kind));
+    e.str(o.path);
+    e.str(o.gridName);
+    e.pod(o.levelsetToFog);
+    e.pod(memoryBudget(o));
+}
+
+/// Exit codes of the reader besides 0 (a reply was written).
+constexpr int kChildWriteFailed = 101; ///< the pipe broke while the reply was written
+constexpr int kChildBadRequest = 102;  ///< the request did not decode (not run by Nimbus?)
+constexpr int kChildExecFailed = 127;  ///< the reader executable could not be run (the shell's)
+
+/// The forked child, before it becomes the reader: limits itself and replaces its image by the
+/// reader executable (execv). Only system calls from here on: the fork copied one thread of a
+/// process whose other threads (TBB's workers, the caller's) may have held locks, memory
+/// allocation's among them, so nothing that could take a lock runs before the exec. Everything
+/// it needs was prepared before the fork. Never returns.
+[[noreturn]] void execReader(const char* reader, char* const argv[], int requestFd, int replyFd,
+                             int logFd, pid_t parent) {
+    // Default dispositions, so that a crash ends the reader with its signal (the caller may have
+    // its own handlers, and handlers do not survive the exec, but ignored signals do); a signal
+    // blocked in the forking thread is unblocked. Ctrl-C and SIGTERM/SIGHUP sent to the whole
+    // process group are the caller's to handle (the nimbus command finishes the load, then
+    // stops): ignored here, and so in the reader. If the caller dies, so does the reader
+    // (PR_SET_PDEATHSIG survives the exec).
+    struct sigaction dfl {};
+    dfl.sa_handler = SIG_DFL;
     for (int s :
          {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGTRAP, SIGSYS, SIGPIPE, SIGXFSZ, SIGXCPU}) {
-        std::signal(s, SIG_DFL);
+        sigaction(s, &dfl, nullptr);
     }
-    for (int s : {SIGINT, SIGTERM, SIGHUP}) std::signal(s, SIG_IGN);
+    struct sigaction ign {};
+    ign.sa_handler = SIG_IGN;
+    for (int s : {SIGINT, SIGTERM, SIGHUP}) sigaction(s, &ign, nullptr);
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, nullptr);
-    // Die with the parent (killed while waiting for us): no orphan goes on reading.
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (getppid() != parent) _exit(kChildWriteFailed);
 
-    // stdout/stderr go to the log, the reply pipe becomes fd 3 (both first copied above 10: the
-    // caller may have closed stdout, and the pipe may be fd 1), and every other descriptor is
-    // closed: a copy of another load's pipe held here would hide that load's end of file from
-    // its parent, and nothing else of the caller's is needed.
+    // The request becomes stdin, stdout/stderr go to the log, the reply pipe becomes fd 3 (all
+    // first copied above 10: the caller may have closed its standard descriptors, and the pipe
+    // may be one of them), and every other descriptor is closed: a copy of another load's pipe
+    // held here would hide that load's end of file from its parent.
+    const int request = fcntl(requestFd, F_DUPFD, 10);
     const int reply = fcntl(replyFd, F_DUPFD, 10);
-    const int log = logFd >= 0 ? fcntl(logFd, F_DUPFD, 10) : -1;
-    if (reply < 0) _exit(kChildWriteFailed);
+    const int log = logFd >= 0 ? fcntl(logFd, F_DUPFD, 10) : fcntl(STDERR_FILENO, F_DUPFD, 10);
+    if (request < 0 || reply < 0) _exit(kChildWriteFailed);
+    if (dup2(request, STDIN_FILENO) < 0 || dup2(reply, 3) < 0) _exit(kChildWriteFailed);
     if (log >= 0) {
         dup2(log, STDOUT_FILENO);
         dup2(log, STDERR_FILENO);
     }
-    if (dup2(reply, 3) < 0) _exit(kChildWriteFailed);
-    replyFd = 3;
     close_range(4, ~0u, 0);
+    lseek(STDIN_FILENO, 0, SEEK_SET);
     const rlimit noCore{0, 0};
     setrlimit(RLIMIT_CORE, &noCore); // a crash here is expected; no core file per corrupt file
-    rlimit as{};
-    if (getrlimit(RLIMIT_AS, &as) == 0) {
-        as.rlim_cur = std::min(as.rlim_cur, addressLimit);
-        setrlimit(RLIMIT_AS, &as);
-    }
-    const rlimit fsize{16u << 20, 16u << 20}; // the log is the only file this process writes
+    const rlimit fsize{16u << 20, 16u << 20}; // the log is the only file the reader writes
     setrlimit(RLIMIT_FSIZE, &fsize);
-    // If the machine runs out of memory anyway, the kernel kills this process, not the caller.
+    // If the machine runs out of memory anyway, the kernel kills the reader, not the caller.
     const int oom = ::open("/proc/self/oom_score_adj", O_WRONLY | O_CLOEXEC);
     if (oom >= 0) {
         [[maybe_unused]] ssize_t w = ::write(oom, "1000", 4);
         ::close(oom);
     }
+    execv(reader, argv);
+    _exit(kChildExecFailed);
+}
 
-    if (gStartHook) gStartHook(options, replyFd);
-
-    bool written = false;
-    try {
-        ChildReply reply;
-        // The parent's TBB worker threads do not exist in a forked child: an arena of one slot
-        // asks for none, and every TBB algorithm of the reader runs on this thread.
-        tbb::task_arena arena(1);
-        arena.execute([&] {
-            // TBB's start is behind us (where an inherited lock would have stopped us): tell the
-            // parent, through the page shared with it, that the reading has begun.
-            started->store(1, std::memory_order_release);
-            if (gChildHook) gChildHook(options, replyFd);
-            reply = work();
-        });
-        written = writeReply(replyFd, ReplyKind::Loaded, reply.meta, reply.bulk, reply.bulkBytes);
-    } catch (const VdbError& e) {
-        written = writeReply(replyFd, ReplyKind::VdbError, e.what());
-    } catch (const std::bad_alloc&) {
-        written = writeReply(replyFd, ReplyKind::OtherError, "out of memory");
-    } catch (const std::exception& e) {
-        written = writeReply(replyFd, ReplyKind::OtherError, e.what());
-    } catch (...) {
-        written = writeReply(replyFd, ReplyKind::OtherError, "unknown exception");
+/// Reads all of a descriptor (the request) up to @p limit bytes.
+bool readAll(int fd, std::string& out, std::size_t limit) {
+    char buf[4096];
+    for (;;) {
+        const ssize_t k = ::read(fd, buf, sizeof buf);
+        if (k < 0) {
+            if (errno == EINTR) continue;
+            return false;
+        }
+        if (k == 0) return true;
+        if (out.size() + std::size_t(k) > limit) return false;
+        out.append(buf, std::size_t(k));
     }
-    _exit(written ? 0 : kChildWriteFailed);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -312,11 +331,6 @@ std::uint64_t mappedBytes() {
     if (std::fscanf(f, "%llu", &pages) != 1) pages = 0;
     std::fclose(f);
     return std::uint64_t(pages) * std::uint64_t(sysconf(_SC_PAGESIZE));
-}
-
-std::uint64_t physicalMemory() {
-    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
-    return pages > 0 && size > 0 ? std::uint64_t(pages) * std::uint64_t(size) : (16ull << 30);
 }
 
 /// `s` without terminal escape sequences (OpenVDB's log4cplus layout colours its warnings:
@@ -406,15 +420,11 @@ void forwardLog(int logFd, const std::string& path) {
 }
 
 /// The child process as the parent sees it: reads its reply with a deadline, reaps it, and
-/// kills it (SIGKILL) if it is still running when this object goes away. A child that has not
-/// set @p started by @p startDeadline (when that is earlier than @p deadline) is reported
-/// NotStarted by read().
+/// kills it (SIGKILL) if it is still running when this object goes away.
 class Child {
   public:
-    Child(pid_t pid, int replyFd, Clock::time_point deadline,
-          const std::atomic<std::uint32_t>* started, Clock::time_point startDeadline)
-        : pid_(pid), fd_(replyFd), deadline_(deadline), started_(started),
-          startDeadline_(startDeadline) {}
+    Child(pid_t pid, int replyFd, Clock::time_point deadline)
+        : pid_(pid), fd_(replyFd), deadline_(deadline) {}
     ~Child() {
         if (!reaped_) {
             ::kill(pid_, SIGKILL);
@@ -426,7 +436,7 @@ class Child {
     Child(const Child&) = delete;
     Child& operator=(const Child&) = delete;
 
-    enum class Read { Ok, End, Timeout, NotStarted };
+    enum class Read { Ok, End, Timeout };
 
     /// Reads exactly @p n bytes of the reply. End: the pipe closed, or the child ended, first.
     Read read(void* dst, std::uint64_t n) {
@@ -446,9 +456,7 @@ class Child {
             }
             if (r == 0) {
                 if (reaped_) return Read::End; // it ended and nothing more is in the pipe
-                if (!reap(false) && startDeadline_ < deadline_ && Clock::now() >= startDeadline_ &&
-                    !started())
-                    return Read::NotStarted;
+                reap(false);
                 continue;
             }
             const ssize_t k = ::read(fd_, p, std::size_t(std::min<std::uint64_t>(n, 1u << 20)));
@@ -501,10 +509,6 @@ class Child {
     bool reaped() const {
         return reaped_;
     }
-    /// Whether the child has begun to read (past its start, TBB's included).
-    bool started() const {
-        return started_->load(std::memory_order_acquire) != 0;
-    }
     /// waitpid status; statusKnown() is false if someone else reaped it (SIGCHLD ignored).
     int status() const {
         return status_;
@@ -532,8 +536,6 @@ class Child {
     pid_t pid_;
     int fd_;
     Clock::time_point deadline_;
-    const std::atomic<std::uint32_t>* started_;
-    Clock::time_point startDeadline_;
     bool reaped_ = false;
     bool statusKnown_ = false;
     int status_ = 0;
@@ -553,33 +555,51 @@ std::string secondsText(double s) {
     return buf;
 }
 
-std::shared_mutex gForkMutex;
-thread_local int tSectionDepth = 0; // OpenVdbSections open on this thread
-bool gForkedChild = false;          // set in a forked child, which has one thread
+std::mutex gReaderMutex;
+std::string gReaderForTests; // setReaderForTests
+
+/// Where this code was linked in: the executable's or the shared object's folder.
+std::string ownFolder() {
+    Dl_info info{};
+    if (dladdr(reinterpret_cast<const void*>(&ownFolder), &info) == 0 || !info.dli_fname) return {};
+    const std::string self = info.dli_fname;
+    const std::size_t slash = self.find_last_of('/');
+    return slash == std::string::npos ? std::string() : self.substr(0, slash);
+}
 
 } // namespace
 
-OpenVdbSection::OpenVdbSection() {
-    if (tSectionDepth++ == 0 && !gForkedChild) {
-        gForkMutex.lock_shared();
-        locked_ = true;
+std::string findReader(std::string& tried) {
+    std::vector<std::string> candidates;
+    {
+        std::lock_guard<std::mutex> lock(gReaderMutex);
+        if (!gReaderForTests.empty()) candidates.push_back(gReaderForTests);
     }
+    if (candidates.empty()) {
+        if (const char* env = std::getenv("NIMBUS_VDB_READER"); env && *env) {
+            candidates.push_back(env); // named: nothing else is tried
+        } else {
+            const std::string folder = ownFolder();
+            if (!folder.empty()) candidates.push_back(folder + "/" + kReaderExecutable);
+#ifdef NIMBUS_VDB_READER_BUILT
+            candidates.push_back(NIMBUS_VDB_READER_BUILT); // the build tree's (tests, hosts)
+#endif
+        }
+    }
+    tried.clear();
+    for (const std::string& c : candidates) {
+        if (::access(c.c_str(), X_OK) == 0) return c;
+        tried += (tried.empty() ? "" : ", ") + c + " (" + std::strerror(errno) + ")";
+    }
+    return {};
 }
 
-OpenVdbSection::~OpenVdbSection() {
-    --tSectionDepth;
-    if (locked_) gForkMutex.unlock_shared();
+void setReaderForTests(const std::string& path) {
+    std::lock_guard<std::mutex> lock(gReaderMutex);
+    gReaderForTests = path;
 }
 
-void setIsolatedChildHookForTests(IsolatedChildHook hook) {
-    gChildHook = hook;
-}
-
-void setIsolatedStartHookForTests(IsolatedChildHook hook) {
-    gStartHook = hook;
-}
-
-IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
+IsolatedReply runIsolated(const VdbLoadOptions& options, const std::string& request,
                           std::uint64_t minBulkBytes, const char* bulkName) {
     const std::string ctx = options.path + ": grid \"" + options.gridName + "\": ";
     if (!(options.timeoutSeconds > 0.0) || !std::isfinite(options.timeoutSeconds)) {
@@ -588,97 +608,59 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                        "of seconds (got " +
                        secondsText(options.timeoutSeconds) + ")");
     }
-    const std::uint64_t budget =
-        options.memoryLimitBytes ? options.memoryLimitBytes : physicalMemory();
-    const std::uint64_t mapped = mappedBytes();
-    const rlim_t addressLimit =
-        mapped + budget < mapped ? RLIM_INFINITY : rlim_t(mapped + budget); // no overflow
+    std::string tried;
+    const std::string reader = findReader(tried);
+    if (reader.empty()) {
+        throw VdbError(ctx + "cannot find the program that reads VDB files, " + kReaderExecutable +
+                       " (tried " + tried +
+                       "): it is built beside the nimbus command and libnimbus.so; name it with "
+                       "NIMBUS_VDB_READER=path, or read trusted files in process "
+                       "(VdbLoadOptions::isolate = false, NIMBUS_VDB_ISOLATE=0)");
+    }
+    const std::uint64_t budget = memoryBudget(options);
     const std::string memoryNote = "the reading process may map " + mib(budget) +
-                                   " beyond its parent (VdbLoadOptions::memoryLimitBytes, "
+                                   " beyond what it maps at its start "
+                                   "(VdbLoadOptions::memoryLimitBytes, "
                                    "NIMBUS_VDB_MEMORY_LIMIT for the nimbus command)";
 
-    if (!(options.startSeconds > 0.0) || std::isnan(options.startSeconds)) {
+    // The request, in a memory file that becomes the reader's stdin.
+    Fd requestFile{::memfd_create("nimbus-vdb-request", MFD_CLOEXEC)};
+    if (requestFile.fd < 0 || !writeAll(requestFile.fd, request.data(), request.size())) {
         throw VdbError(ctx +
-                       "the time the reading process is given to start must be a positive "
-                       "number of seconds (got " +
-                       secondsText(options.startSeconds) + ")");
+                       "cannot write the request for the reading process: " + std::strerror(errno));
     }
-    // The flag the child sets once it has begun to read: a page shared across the fork.
-    void* page = ::mmap(nullptr, sizeof(std::atomic<std::uint32_t>), PROT_READ | PROT_WRITE,
-                        MAP_SHARED | MAP_ANONYMOUS, -1, 0);
-    if (page == MAP_FAILED) {
-        throw VdbError(
-            ctx + "cannot map a page shared with the reading process: " + std::strerror(errno));
-    }
-    struct Unmap {
-        void* p;
-        ~Unmap() { ::munmap(p, sizeof(std::atomic<std::uint32_t>)); }
-    } unmap{page};
-    static_assert(std::atomic<std::uint32_t>::is_always_lock_free); // no lock in shared memory
-    auto* started = new (page) std::atomic<std::uint32_t>(0);
-
-    Fd log{::memfd_create("nimbus-vdb-reader-log", MFD_CLOEXEC)}; // -1: the child's output
+    Fd log{::memfd_create("nimbus-vdb-reader-log", MFD_CLOEXEC)}; // -1: the reader's output
                                                                   // goes to our stderr
     const pid_t parent = getpid();
     const double timeout = std::min(options.timeoutSeconds, 1e7);
     const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                                           std::chrono::duration<double>(timeout));
-    const auto startWait = std::chrono::duration_cast<Clock::duration>(
-        std::chrono::duration<double>(std::min(options.startSeconds, timeout)));
-    constexpr int kStartTries = 4;
-    std::optional<Child> child;
-    ReplyHeader header{};
-    Child::Read r = Child::Read::End;
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0) {
+        throw VdbError(ctx +
+                       "cannot create a pipe for the reading process: " + std::strerror(errno));
+    }
+    // Prepared before the fork: the child only makes system calls (execReader).
+    const std::string arg0 = kReaderExecutable;
+    char* const argv[] = {const_cast<char*>(arg0.c_str()), nullptr};
+    const pid_t pid = ::fork();
+    if (pid == 0) execReader(reader.c_str(), argv, requestFile.fd, fds[1], log.fd, parent);
+    ::close(fds[1]);
+    if (pid < 0) {
+        const int err = errno;
+        ::close(fds[0]);
+        throw VdbError(ctx +
+                       "cannot start the process that reads the grid (fork: " + std::strerror(err) +
+                       "); reading in process instead is possible for trusted files "
+                       "(VdbLoadOptions::isolate = false, NIMBUS_VDB_ISOLATE=0)");
+    }
+    Child child(pid, fds[0], deadline);
     // Read the reply; whatever is missing or wrong is judged after the child's end.
+    ReplyHeader header{};
     std::string meta;
     nanovdb::HostBuffer grid;
     std::string invalid; // what is wrong with the reply ("" = nothing)
-    for (int tries = 1;; ++tries) {
-        started->store(0, std::memory_order_relaxed);
-        if (log.fd >= 0 && tries > 1) { // a stopped try's output is not this one's
-            [[maybe_unused]] const int t = ::ftruncate(log.fd, 0);
-            ::lseek(log.fd, 0, SEEK_SET);
-        }
-        int fds[2];
-        if (::pipe2(fds, O_CLOEXEC) != 0) {
-            throw VdbError(ctx +
-                           "cannot create a pipe for the reading process: " + std::strerror(errno));
-        }
-        // No thread of ours inside OpenVDB while forking (OpenVdbSection). A thread inside a
-        // section that forks itself (none in Nimbus) could not wait for the others: it forks as
-        // before.
-        std::unique_lock<std::shared_mutex> forkLock(gForkMutex, std::defer_lock);
-        if (tSectionDepth == 0) forkLock.lock();
-        const pid_t pid = ::fork();
-        if (pid == 0) {
-            gForkedChild = true; // the child's copy of the lock stays as it was: never touched
-            forkLock.release();
-        } else if (forkLock.owns_lock()) {
-            forkLock.unlock();
-        }
-        if (pid < 0) {
-            const int err = errno;
-            ::close(fds[0]);
-            ::close(fds[1]);
-            throw VdbError(
-                ctx + "cannot start the process that reads the grid (fork: " + std::strerror(err) +
-                "); reading in process instead is possible for trusted files "
-                "(VdbLoadOptions::isolate = false, NIMBUS_VDB_ISOLATE=0)");
-        }
-        if (pid == 0) {
-            ::close(fds[0]);
-            childMain(options, work, fds[1], log.fd, parent, addressLimit, started);
-        }
-        ::close(fds[1]);
-        // A child that has not begun by startWait is stopped and forked again (the last try
-        // gets all the time left): see VdbLoadOptions::startSeconds.
-        const Clock::time_point startDeadline =
-            tries < kStartTries ? std::min(deadline, Clock::now() + startWait) : deadline;
-        child.emplace(pid, fds[0], deadline, started, startDeadline);
-        r = child->read(&header, sizeof header);
-        if (r != Child::Read::NotStarted) break;
-        child.reset(); // killed and reaped
-    }
+    Child::Read r = child.read(&header, sizeof header);
     if (r == Child::Read::Ok) {
         const auto kind = ReplyKind(header.kind);
         if (std::memcmp(header.magic, kReplyMagic, sizeof kReplyMagic) != 0) {
@@ -697,7 +679,7 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
         }
         if (invalid.empty()) {
             meta.resize(std::size_t(header.metaBytes));
-            r = child->read(meta.data(), meta.size());
+            r = child.read(meta.data(), meta.size());
         }
         if (invalid.empty() && r == Child::Read::Ok && header.gridBytes > 0) {
             try {
@@ -706,34 +688,25 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                 throw VdbError(ctx + "out of memory receiving " + bulkName + " (" +
                                mib(header.gridBytes) + ") from the reading process");
             }
-            r = child->read(grid.data(), header.gridBytes);
+            r = child.read(grid.data(), header.gridBytes);
         }
         if (invalid.empty() && r == Child::Read::Ok) {
             char end[sizeof kReplyEnd];
-            r = child->read(end, sizeof end);
+            r = child.read(end, sizeof end);
             if (r == Child::Read::Ok && std::memcmp(end, kReplyEnd, sizeof end) != 0)
                 invalid = "it does not end with the end marker";
         }
     }
     if (r == Child::Read::End && invalid.empty()) invalid = "it is incomplete (short)";
     if (r == Child::Read::Ok && !invalid.empty() &&
-        !child->wait(Clock::now() + std::chrono::seconds(1))) {
+        !child.wait(Clock::now() + std::chrono::seconds(1))) {
         // A garbled reply from a child that goes on (perhaps blocked writing the rest): stop it.
-        child->kill();
+        child.kill();
         throw VdbError(ctx + "the process reading the grid sent an invalid reply: " + invalid +
                        " (it was stopped)");
     }
-    if (r == Child::Read::Timeout || !child->wait()) {
-        const bool began = child->started();
-        child->kill();
-        if (!began) {
-            throw VdbError(ctx + "the process reading the grid did not begin to read within " +
-                           secondsText(timeout) + " s and was stopped (forked again after every " +
-                           secondsText(std::min(options.startSeconds, timeout)) + " s, up to " +
-                           std::to_string(kStartTries) +
-                           " times): the machine is overloaded? (NIMBUS_VDB_TIMEOUT=seconds "
-                           "for the nimbus command, VdbLoadOptions::timeoutSeconds)");
-        }
+    if (r == Child::Read::Timeout || !child.wait()) {
+        child.kill();
         throw VdbError(ctx + "the OpenVDB reader did not finish within " + secondsText(timeout) +
                        " s and was stopped (a corrupted file that makes it loop, or a grid too "
                        "large to read in that time); raise the limit with "
@@ -741,10 +714,10 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                        "nimbus command) if the file is sound");
     }
 
-    const int status = child->status();
+    const int status = child.status();
     std::string tail = logTail(log.fd);
     if (!tail.empty()) tail = "; its last output: \"" + tail + "\"";
-    if (child->statusKnown() && WIFSIGNALED(status)) {
+    if (child.statusKnown() && WIFSIGNALED(status)) {
         const int sig = WTERMSIG(status);
         switch (sig) {
         case SIGSEGV:
@@ -775,11 +748,14 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
                            tail);
         }
     }
-    if (child->statusKnown() && WIFEXITED(status) && WEXITSTATUS(status) != 0) {
+    if (child.statusKnown() && WIFEXITED(status) && WEXITSTATUS(status) != 0) {
+        const int code = WEXITSTATUS(status);
         throw VdbError(ctx + "the process reading the grid exited with status " +
-                       std::to_string(WEXITSTATUS(status)) +
-                       (WEXITSTATUS(status) == kChildWriteFailed
-                            ? " (it could not send its result)"
+                       std::to_string(code) +
+                       (code == kChildWriteFailed  ? " (it could not send its result)"
+                        : code == kChildExecFailed ? " (" + reader + " could not be run)"
+                        : code == kChildBadRequest
+                            ? " (" + reader + " did not understand the request: not this build's?)"
                             : " (something in the OpenVDB reader called exit())") +
                        tail);
     }
@@ -805,16 +781,89 @@ IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<Chi
     return IsolatedReply{std::move(meta), std::move(grid)};
 }
 
+std::string gridRequest(const VdbLoadOptions& options) {
+    Encoder e;
+    encodeRead(e, RequestKind::Grid, options);
+    return std::move(e.bytes);
+}
+
+std::string velocityRequest(const VelocityLoadOptions& options) {
+    Encoder e;
+    encodeRead(e, RequestKind::Velocity, options.read);
+    e.pod(options.layout);
+    e.pod(options.scale);
+    e.pod(options.maxCells);
+    e.pod(options.extrapolate);
+    return std::move(e.bytes);
+}
+
+int readerMain() {
+    constexpr std::size_t kMaxRequestBytes = 1u << 20; // a path and a grid name: far less
+    std::string request;
+    if (!readAll(STDIN_FILENO, request, kMaxRequestBytes) ||
+        request.compare(0, sizeof kRequestMagic, kRequestMagic, sizeof kRequestMagic) != 0) {
+        std::fprintf(stderr,
+                     "%s: reads one VDB grid for Nimbus, which runs it: not to be run by hand\n",
+                     kReaderExecutable);
+        return kChildBadRequest;
+    }
+    const std::string body = request.substr(sizeof kRequestMagic);
+    Decoder d(body);
+    const auto kind = RequestKind(d.pod<std::uint32_t>());
+    VelocityLoadOptions velocity;
+    VdbLoadOptions& o = velocity.read;
+    o.path = d.str();
+    o.gridName = d.str();
+    o.levelsetToFog = d.pod<bool>();
+    const auto budget = d.pod<std::uint64_t>();
+    o.isolate = false;
+    if (kind == RequestKind::Velocity) {
+        velocity.layout = d.pod<VelocityLayout>();
+        velocity.scale = d.pod<float>();
+        velocity.maxCells = d.pod<std::uint64_t>();
+        velocity.extrapolate = d.pod<bool>();
+    }
+    if (!d.complete() || (kind != RequestKind::Grid && kind != RequestKind::Velocity))
+        return kChildBadRequest;
+    // The address-space limit: the budget beyond what this process maps now (its libraries,
+    // before any thread or grid). An allocation past it fails: std::bad_alloc, "out of memory".
+    const std::uint64_t mapped = mappedBytes();
+    rlimit as{};
+    if (getrlimit(RLIMIT_AS, &as) == 0) {
+        const rlim_t want = mapped + budget < mapped ? RLIM_INFINITY : rlim_t(mapped + budget);
+        as.rlim_cur = std::min(as.rlim_cur, want);
+        setrlimit(RLIMIT_AS, &as);
+    }
+    bool written = false;
+    constexpr int replyFd = 3;
+    try {
+        ChildReply reply =
+            kind == RequestKind::Grid ? gridChildReply(o) : velocityChildReply(velocity);
+        written = writeReply(replyFd, ReplyKind::Loaded, reply.meta, reply.bulk, reply.bulkBytes);
+    } catch (const VdbError& e) {
+        written = writeReply(replyFd, ReplyKind::VdbError, e.what());
+    } catch (const std::bad_alloc&) {
+        written = writeReply(replyFd, ReplyKind::OtherError, "out of memory");
+    } catch (const std::exception& e) {
+        written = writeReply(replyFd, ReplyKind::OtherError, e.what());
+    } catch (...) {
+        written = writeReply(replyFd, ReplyKind::OtherError, "unknown exception");
+    }
+    // No static destructors: OpenVDB's and TBB's are not needed for a process that ends here.
+    std::fflush(stdout);
+    std::fflush(stderr);
+    ::_exit(written ? 0 : kChildWriteFailed);
+}
+
+ChildReply gridChildReply(const VdbLoadOptions& options) {
+    auto g = std::make_shared<LoadedVdbGrid>(loadVdbGridInProcess(options, /*checkGrid=*/false));
+    const nanovdb::HostBuffer& buffer = g->handle.buffer();
+    return ChildReply{encodeMeta(*g), g, buffer.data(), buffer.size()};
+}
+
 LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options) {
-    IsolatedReply reply = runIsolated(
-        options,
-        [&options] {
-            auto g =
-                std::make_shared<LoadedVdbGrid>(loadVdbGridInProcess(options, /*checkGrid=*/false));
-            const nanovdb::HostBuffer& buffer = g->handle.buffer();
-            return ChildReply{encodeMeta(*g), g, buffer.data(), buffer.size()};
-        },
-        sizeof(nanovdb::GridData), "a grid");
+    IsolatedReply reply =
+        runIsolated(options, gridRequest(options), sizeof(nanovdb::GridData), "a grid");
     LoadedVdbGrid out;
     if (!decodeMeta(reply.meta, out)) {
         throw VdbError(options.path + ": grid \"" + options.gridName +

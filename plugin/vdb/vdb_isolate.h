@@ -1,44 +1,31 @@
 /// @file vdb_isolate.h
 /// @brief Internal to plugin/vdb (and its tests): the two ways loadVdbGrid() reads a grid, the
-///        check of a finished NanoVDB grid, and a test hook for the child process.
+///        reader executable's body, and the check of a finished NanoVDB grid.
 ///
 /// loadVdbGrid() dispatches on VdbLoadOptions::isolate:
 ///  - loadVdbGridInProcess() reads and converts the grid in the calling process (vdb_reader.cpp,
 ///    the only translation unit that includes OpenVDB's reading headers);
-///  - loadVdbGridIsolated() forks a child process that runs loadVdbGridInProcess() and sends the
-///    result back through a pipe (vdb_isolate.cpp). Whatever happens inside OpenVDB's reader
-///    (a crash on corrupted tree data, an endless loop, a giant allocation) then ends the child,
-///    not the caller, and becomes a VdbError naming the file, the grid and what happened.
+///  - loadVdbGridIsolated() runs the reader executable, nimbus-vdb-reader (a fork and an exec:
+///    the child starts as a new program, with none of the caller's threads, locks or TBB state),
+///    which runs loadVdbGridInProcess() and sends the result back through a pipe
+///    (vdb_isolate.cpp). Whatever happens inside OpenVDB's reader (a crash on corrupted tree
+///    data, an endless loop, a giant allocation) then ends the child, not the caller, and becomes
+///    a VdbError naming the file, the grid and what happened.
 #pragma once
 
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
-#include <functional>
 #include <memory>
 #include <string>
 
 #include "plugin/vdb/vdb_reader.h"
 
+namespace nimbus::vdb {
+struct VelocityLoadOptions; // vdb_velocity.h
+} // namespace nimbus::vdb
+
 namespace nimbus::vdb::detail {
-
-/// Held (shared) by this thread while it is inside OpenVDB in this process: every entry point
-/// of plugin/vdb that calls OpenVDB in process takes one. The fork of a reading process
-/// (runIsolated) takes the same lock exclusively, so no thread of the caller is inside OpenVDB
-/// holding one of its locks (its grid registry's, say) when the child is forked: the child's copy
-/// of such a lock would stay locked, and the child would wait for it until its time limit.
-/// Nested sections on one thread take the lock once; in a forked child the sections are free (it
-/// has one thread). Another library's use of OpenVDB in the same process is not covered.
-class OpenVdbSection {
-  public:
-    OpenVdbSection();
-    ~OpenVdbSection();
-    OpenVdbSection(const OpenVdbSection&) = delete;
-    OpenVdbSection& operator=(const OpenVdbSection&) = delete;
-
-  private:
-    bool locked_ = false;
-};
 
 /// Reads and converts in this process (no fork), then checks the NanoVDB grid with
 /// checkNanoGrid() unless @p checkGrid is false (the isolated child: its parent checks what it
@@ -49,9 +36,33 @@ LoadedVdbGrid loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid
 /// converted NanoVDB grid is invalid (<problem>): the file is corrupt".
 std::string invalidGridMessage(const LoadedVdbGrid& g, const std::string& problem);
 
-/// Reads and converts in a forked child process. @throws VdbError as loadVdbGrid(), plus the
-/// failures of the child itself (a signal, an abnormal exit, the time limit, an invalid reply).
+/// Reads and converts in the reader process. @throws VdbError as loadVdbGrid(), plus the
+/// failures of the child itself (a signal, an abnormal exit, the time limit, an invalid reply,
+/// a reader executable that cannot be found or run).
 LoadedVdbGrid loadVdbGridIsolated(const VdbLoadOptions& options);
+
+/// The reader executable's file name. It is looked for (findReader) where NIMBUS_VDB_READER
+/// names it, else beside the executable or shared object this code is linked into (the nimbus
+/// command, libnimbus.so), else where the build tree put it.
+inline constexpr const char* kReaderExecutable = "nimbus-vdb-reader";
+
+/// The reader executable to run: the first candidate above that is executable, or "" with
+/// @p tried listing each candidate and why it was not.
+std::string findReader(std::string& tried);
+
+/// Test hook: run this executable as the reader instead ("" = look for it as findReader says).
+/// Tests run a reader that crashes, hangs or garbles its reply (tests/vdb_reader_for_tests.cpp).
+void setReaderForTests(const std::string& path);
+
+/// The reader executable's body (plugin/vdb/reader_main.cpp calls it): reads the request on
+/// stdin (what the caller encoded with gridRequest or velocityRequest), reads the grid in process
+/// and writes the reply on descriptor 3. Returns or exits with 0 when a reply was written (a
+/// VdbError is a reply), 101 when the pipe broke, 102 when the request did not decode.
+int readerMain();
+
+/// The requests runIsolated sends: a density grid, a velocity grid.
+std::string gridRequest(const VdbLoadOptions& options);
+std::string velocityRequest(const VelocityLoadOptions& options);
 
 /// Byte records for the replies of child processes (runIsolated): plain values and strings.
 class Encoder {
@@ -100,8 +111,8 @@ class Decoder {
     bool ok_ = true;
 };
 
-/// What the work of a child process returns (runIsolated): its metadata bytes and one bulk
-/// buffer (`bulkBytes` bytes at `bulk`, kept alive by `owner`).
+/// What the reader sends back: its metadata bytes and one bulk buffer (`bulkBytes` bytes at
+/// `bulk`, kept alive by `owner`).
 struct ChildReply {
     std::string meta;
     std::shared_ptr<const void> owner;
@@ -117,14 +128,19 @@ struct IsolatedReply {
 
 /// The machinery of loadVdbGridIsolated() for any reader: forks a child process limited as
 /// "Isolation" in vdb_reader.h says (address space, no core dumps, OOM score, time limit of
-/// options.timeoutSeconds, captured stderr), runs @p work there inside a one-thread TBB arena and
-/// sends its reply back. A VdbError thrown by @p work reaches the caller with its message; a
-/// crash, a hang, an exhausted memory limit or a garbled reply becomes a VdbError that starts
-/// with `<options.path>: grid "<options.gridName>": `. A reply whose bulk buffer is smaller than
-/// @p minBulkBytes (at least 1) or larger than the memory limit is refused; @p bulkName names
-/// the buffer in messages ("a grid"). The caller decodes and checks what it receives.
-IsolatedReply runIsolated(const VdbLoadOptions& options, const std::function<ChildReply()>& work,
+/// options.timeoutSeconds, captured stderr) that execs the reader executable with @p request on
+/// its stdin, and receives its reply. A VdbError of the reader reaches the caller with its
+/// message; a crash, a hang, an exhausted memory limit or a garbled reply becomes a VdbError
+/// that starts with `<options.path>: grid "<options.gridName>": `. A reply whose bulk buffer is
+/// smaller than @p minBulkBytes (at least 1) or larger than the memory limit is refused;
+/// @p bulkName names the buffer in messages ("a grid"). The caller decodes and checks what it
+/// receives.
+IsolatedReply runIsolated(const VdbLoadOptions& options, const std::string& request,
                           std::uint64_t minBulkBytes, const char* bulkName);
+
+/// What the reader sends for a density grid and for a velocity grid (vdb_velocity.cpp).
+ChildReply gridChildReply(const VdbLoadOptions& options);
+ChildReply velocityChildReply(const VelocityLoadOptions& options);
 
 /// Checks that @p g.handle holds one well-formed float NanoVDB grid that is safe to traverse:
 /// its header, every node offset inside the buffer and pointing at a node of the right level,
@@ -141,15 +157,5 @@ void recordVdbRead(const std::string& path, const std::string& gridName, int gri
 /// its warnings read " WARN: ..." in a log, in process as in the reading child. Idempotent and
 /// thread-safe; every reader calls it.
 void initializeOpenVdb();
-
-/// Test hook: when set, the child process calls it once it has begun (its TBB arena running, the
-/// parent told), before it reads anything (tests use it to simulate a crash, a hang, an abnormal
-/// exit or a garbled reply). Not thread-safe: set it only while no isolated load runs. nullptr
-/// (the default) disables it.
-using IsolatedChildHook = void (*)(const VdbLoadOptions& options, int replyFd);
-void setIsolatedChildHookForTests(IsolatedChildHook hook);
-/// Test hook: called in the child before its start (before its TBB arena): a hook that waits
-/// here stands for a child stuck on a lock it inherited (VdbLoadOptions::startSeconds).
-void setIsolatedStartHookForTests(IsolatedChildHook hook);
 
 } // namespace nimbus::vdb::detail

@@ -16,7 +16,6 @@
 namespace nimbus::vdb::detail {
 
 void initializeOpenVdb() {
-    const OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     static std::once_flag once;
     std::call_once(once, [] {
         openvdb::initialize();

@@ -603,7 +603,6 @@ void levelSetToFog(openvdb::FloatTree& tree) {
 } // namespace
 
 std::vector<VdbGridInfo> listVdbGrids(const std::string& path) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     detail::initializeOpenVdb();
     try {
         return DescriptorScanner().scan(path).grids;
@@ -633,9 +632,6 @@ std::vector<VdbRead> vdbRecentReads() {
 }
 
 LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
-    // Before a fork: the child inherits the registered grid types instead of registering them
-    // again for every load.
-    detail::initializeOpenVdb(); // idempotent and thread-safe (no colours in the log)
     LoadedVdbGrid g = options.isolate ? detail::loadVdbGridIsolated(options)
                                       : detail::loadVdbGridInProcess(options);
     detail::recordVdbRead(g.path, g.gridName, g.gridsRead);
@@ -643,8 +639,7 @@ LoadedVdbGrid loadVdbGrid(const VdbLoadOptions& options) {
 }
 
 LoadedVdbGrid detail::loadVdbGridInProcess(const VdbLoadOptions& options, bool checkGrid) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
-    detail::initializeOpenVdb();          // idempotent and thread-safe (no colours in the log)
+    detail::initializeOpenVdb(); // idempotent and thread-safe (no colours in the log)
     const std::string& path = options.path;
     const std::string ctx = gridContext(path, options.gridName);
 
@@ -939,7 +934,6 @@ void denseVelocity(const GridT& grid, const openvdb::CoordBBox& box, float scale
 } // namespace
 
 LoadedVelocityGrid detail::loadVdbVelocityInProcess(const VelocityLoadOptions& options) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     detail::initializeOpenVdb();
     const std::string& path = options.read.path;
     const std::string& name = options.read.gridName;

@@ -34,38 +34,29 @@
 ///    (io::bloscFromStream reads a chunk of the size the file claims into a fixed leaf buffer
 ///    before checking that size, a heap overflow; DelayedLoadMetadata::getMask asserts on a
 ///    corrupted leaf count, and Debian's build keeps asserts), loop or allocate gigabytes. So by
-///    default (VdbLoadOptions::isolate) the grid is read in a forked child process, see
+///    default (VdbLoadOptions::isolate) the grid is read in a process of its own, see
 ///    "Isolation" below: a crash, a hang or an exhausted memory limit there becomes a VdbError
 ///    such as `x.vdb: grid "density": the OpenVDB reader crashed (SIGSEGV, segmentation fault)
 ///    while reading the grid: the file is corrupt`.
 ///
-/// Isolation (VdbLoadOptions::isolate, on by default): loadVdbGrid() fork()s; the child opens the
-/// file, reads and converts the grid exactly as the in-process path does (inside a one-thread
-/// tbb::task_arena: the parent's TBB worker threads do not exist in a forked child), and writes
-/// the NanoVDB buffer and every other field of LoadedVdbGrid into a pipe; the parent rebuilds
-/// LoadedVdbGrid and checks the NanoVDB grid (every node offset inside the buffer, finite
-/// non-negative values) before anything traverses it. A VdbError of the child (a refusal: a
-/// level set, a missing grid, ...) reaches the caller with its exact message. The child runs
-/// with an address-space limit (VdbLoadOptions::memoryLimitBytes beyond what the caller has
-/// mapped; by default the machine's physical memory), no core dumps, an out-of-memory-killer
-/// score of 1000 (it goes first, not the caller) and is killed after
+/// Isolation (VdbLoadOptions::isolate, on by default): loadVdbGrid() runs the reader executable,
+/// nimbus-vdb-reader (built beside the nimbus command and libnimbus.so; NIMBUS_VDB_READER names
+/// another), by a fork and an immediate exec: between the two the child makes only system calls,
+/// so no lock that another thread of the caller held at the fork (oneTBB's, OpenVDB's, the
+/// allocator's) can stop it, and the reader starts with a TBB of its own. It reads the request
+/// (file, grid, options) on stdin, reads and converts the grid exactly as the in-process path
+/// does, and writes the NanoVDB buffer and every other field of LoadedVdbGrid into a pipe; the
+/// parent rebuilds LoadedVdbGrid and checks the NanoVDB grid (every node offset inside the
+/// buffer, finite non-negative values) before anything traverses it. A VdbError of the reader
+/// (a refusal: a level set, a missing grid, ...) reaches the caller with its exact message. The
+/// reader runs with an address-space limit (VdbLoadOptions::memoryLimitBytes beyond what it
+/// maps at its start, its libraries; by default the machine's physical memory), no core dumps, an
+/// out-of-memory-killer score of 1000 (it goes first, not the caller) and is killed after
 /// VdbLoadOptions::timeoutSeconds. Its stderr is captured: forwarded to the caller's stderr
 /// after a normal end, quoted in the message after a crash. The memory it peaked at is returned
-/// when it exits. Cost: one fork and one copy of the NanoVDB grid through a pipe (docs/vdb.md,
-/// "Corrupt files and the child process"). With isolate = false the grid is read in the calling
-/// process: for trusted files only.
-///    @note The fork waits while another thread of the caller is inside OpenVDB through this
-///          module (an in-process load, listVdbGrids(), a bake or write: detail::OpenVdbSection),
-///          since a lock held there (OpenVDB's grid registry's, say) would stay locked in the
-///          child, which then waited for it until the time limit. OpenVDB used by other code of
-///          the same process is not covered. Isolated loads concurrent with each other and with
-///          in-process reads are fine (tested).
-///    @note oneTBB's own worker threads cannot be made to wait: forked just as they go idle after
-///          a parallel loop, a child can inherit one of TBB's locks held and then wait for ever in
-///          its first task arena (seen about once in 20,000 forks on a loaded machine). The child
-///          tells the parent, through a shared page, once its arena runs; one that has not begun
-///          after VdbLoadOptions::startSeconds (5 s) is killed and forked again, up to 4 times
-///          within the time limit (the last try gets all the time left).
+/// when it exits. Cost: one process start (about 25 ms with OpenVDB's libraries) and one copy of
+/// the NanoVDB grid through a pipe (docs/vdb.md, "Corrupt files and the child process"). With
+/// isolate = false the grid is read in the calling process: for trusted files only.
 ///
 /// Sanitising (counted, one warning per kind): NaN/Inf values become 0; negative densities are
 /// clamped to 0; inactive voxels and tiles whose value is not 0 are set to 0; a non-zero
@@ -122,14 +113,9 @@ struct VdbLoadOptions {
     /// that crashes or hangs OpenVDB's reader gives a VdbError instead of ending the caller.
     /// false reads in the calling process: trusted files only.
     bool isolate = true;
-    double timeoutSeconds = 600.0; ///< isolate: kill the child after this long (a hang)
-    /// isolate: a child that has not begun to read after this long is killed and forked again
-    /// (up to 4 times within timeoutSeconds; the last try gets all the time left). A process
-    /// forked while another thread held a lock keeps that lock held for ever: oneTBB's worker
-    /// threads, if they were just going idle, leave the child's first task arena waiting.
-    double startSeconds = 5.0;
-    std::uint64_t memoryLimitBytes = 0; ///< isolate: address space the child may map beyond the
-                                        ///< caller's (0 = the machine's physical memory)
+    double timeoutSeconds = 600.0;      ///< isolate: kill the child after this long (a hang)
+    std::uint64_t memoryLimitBytes = 0; ///< isolate: address space the reader may map beyond its
+                                        ///< libraries (0 = the machine's physical memory)
 };
 
 /// One grid in a file, as its descriptor says (no tree is read to list these).

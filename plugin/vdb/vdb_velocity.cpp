@@ -69,14 +69,7 @@ bool decodeVelocityMeta(const std::string& bytes, LoadedVelocityGrid& g) {
 
 LoadedVelocityGrid loadIsolated(const VelocityLoadOptions& options) {
     detail::IsolatedReply reply = detail::runIsolated(
-        options.read,
-        [&options] {
-            auto g =
-                std::make_shared<LoadedVelocityGrid>(detail::loadVdbVelocityInProcess(options));
-            return detail::ChildReply{encodeVelocityMeta(*g), g, g->grid.v.data(),
-                                      g->grid.v.size() * sizeof(vec3)};
-        },
-        sizeof(vec3), "a velocity grid");
+        options.read, detail::velocityRequest(options), sizeof(vec3), "a velocity grid");
     const std::string ctx = options.read.path + ": grid \"" + options.read.gridName +
                             "\": the process reading the "
                             "grid sent an invalid reply: ";
@@ -102,6 +95,12 @@ LoadedVelocityGrid loadIsolated(const VelocityLoadOptions& options) {
 }
 
 } // namespace
+
+detail::ChildReply detail::velocityChildReply(const VelocityLoadOptions& options) {
+    auto g = std::make_shared<LoadedVelocityGrid>(detail::loadVdbVelocityInProcess(options));
+    return detail::ChildReply{encodeVelocityMeta(*g), g, g->grid.v.data(),
+                              g->grid.v.size() * sizeof(vec3)};
+}
 
 LoadedVelocityGrid loadVdbVelocity(const VelocityLoadOptions& options) {
     LoadedVelocityGrid g =

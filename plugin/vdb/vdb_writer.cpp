@@ -283,7 +283,6 @@ void placeGrid(openvdb::GridBase& grid, const std::string& name, openvdb::GridCl
 VdbBakeStats writeFogVdb(const std::string& path, const std::string& gridName, int nx, int ny,
                          int nz, const float* dense, glm::vec3 worldOrigin, glm::vec3 voxelSize,
                          float backgroundTolerance) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     if (!dense) throw VdbError(path + ": grid \"" + gridName + "\": no density array given");
     const std::size_t sx = std::size_t(std::max(nx, 0)), sxy = sx * std::size_t(std::max(ny, 0));
     return bake(path, gridName, glm::ivec3(nx, ny, nz), worldOrigin, voxelSize, backgroundTolerance,
@@ -294,7 +293,6 @@ VdbBakeStats bakeFogVdb(const std::string& path, const std::string& gridName, gl
                         glm::vec3 worldOrigin, glm::vec3 voxelSize,
                         const std::function<float(glm::vec3 worldPos)>& density,
                         float backgroundTolerance) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     if (!density) throw VdbError(path + ": grid \"" + gridName + "\": no density function");
     const glm::dvec3 origin(worldOrigin), vs(voxelSize);
     return bake(
@@ -304,7 +302,6 @@ VdbBakeStats bakeFogVdb(const std::string& path, const std::string& gridName, gl
 
 std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<FogBake>& fogs,
                                   const std::vector<LevelSetBake>& levelSets) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     openvdb::GridCPtrVec grids;
     std::vector<VdbBakeStats> stats;
     for (const FogBake& f : fogs) {
@@ -334,7 +331,6 @@ std::vector<VdbBakeStats> bakeVdb(const std::string& path, const std::vector<Fog
 
 void writeVdbGrids(const std::string& path, const std::vector<VdbGridSpec>& grids,
                    const std::string& creator) {
-    const detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     openvdb::initialize();
     openvdb::GridCPtrVec out;
     for (const VdbGridSpec& spec : grids) {

@@ -77,7 +77,6 @@ struct VolumeRenderBaseline::Impl {
 
 VolumeRenderBaseline::VolumeRenderBaseline(const VdbFieldDesc& vdb, const GridBinding& grid)
     : impl_(new Impl) {
-    const vdb::detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     openvdb::initialize();
     const auto* nano = static_cast<const nanovdb::FloatGrid*>(grid.grid);
     if (!nano || nano->activeVoxelCount() == 0)
@@ -104,7 +103,6 @@ double VolumeRenderBaseline::voxelSize() const {
 VolumeRenderTimes VolumeRenderBaseline::render(const SceneDesc& scene,
                                                const VolumeRenderSettings& settings,
                                                Framebuffer& fb) const {
-    const vdb::detail::OpenVdbSection section; // no fork while inside OpenVDB (vdb_isolate.h)
     using Intersector = openvdb::tools::VolumeRayIntersector<openvdb::FloatGrid>;
     const VolumeRenderProblem p = volumeRenderProblem(scene, impl_->voxelSize);
     const int w = scene.camera.width, h = scene.camera.height;
