@@ -400,8 +400,9 @@ struct Frame {
     bool refused = false;
     double seconds = 0.0;
     FrameCheck check;
-    /// photon frames: the mean RGB value and the white-furnace mean of each seed (render())
-    std::vector<double> seedMeans, seedFurnace;
+    /// photon frames: each seed's mean RGB value (render()), what the energy and white-furnace
+    /// checks average
+    std::vector<double> seedMeans;
 };
 
 /// Renders `s` once with a time budget (the global interrupt flag, SIGINT/SIGTERM, stops it too).
@@ -449,7 +450,7 @@ Frame render(const SceneDesc& s, const FrameBindings& b, double budget,
     Frame f = renderOnce(s, b, budget, aovs);
     if (!f.completed || f.refused || s.render.multipleScattering != MultipleScattering::Photons)
         return f;
-    std::vector<double> rgb{f.check.meanRgb}, fur{furnace(f.fb).mean};
+    std::vector<double> means{f.check.meanRgb};
     for (int k = 1; k < kSeeds; ++k) {
         SceneDesc t = s;
         t.render.seed = s.render.seed + 7919u * std::uint32_t(k);
@@ -459,11 +460,9 @@ Frame render(const SceneDesc& s, const FrameBindings& b, double budget,
         f.stats.nonFinite += g.stats.nonFinite;
         f.seconds += g.seconds;
         if (!g.completed) return f; // no spread: the checks take the first frame alone
-        rgb.push_back(g.check.meanRgb);
-        fur.push_back(furnace(g.fb).mean);
+        means.push_back(g.check.meanRgb);
     }
-    f.seedMeans = std::move(rgb);
-    f.seedFurnace = std::move(fur);
+    f.seedMeans = std::move(means);
     return f;
 }
 
@@ -531,7 +530,7 @@ void figures(Outcome& o, const Frame& f, const SceneDesc& s, bool stochastic) {
         slack = kSeedZ * se;
         over = fmt("mean (%g seeds, ", double(f.seedMeans.size())) + fmt("se %.2g)", se);
     } else if (stochastic) {
-        slack = 4.0 * furnace(f.fb).se;
+        slack = 4.0 * f.check.seRgb;
     }
     if (v > bound * (1.0 + 1e-4) + slack)
         o.fail(std::string("energy not bounded: ") + over +
@@ -554,14 +553,14 @@ SceneDesc furnaceOf(SceneDesc s) {
 
 void judgeFurnace(Outcome& o, const Frame& f) {
     if (f.refused || !f.completed || f.fb.rgba.empty()) return;
-    Furnace w = furnace(f.fb);
+    Furnace w{f.check.meanRgb, f.check.seRgb, f.check.maxRgb};
     double z = 4.0;
     std::string over = "1 + 4 se";
-    if (f.seedFurnace.size() >= 2) { // photons: the seeds' frame means (render())
-        std::tie(w.mean, w.se) = meanAndSe(f.seedFurnace);
+    if (f.seedMeans.size() >= 2) { // photons: the seeds' frame means (render())
+        std::tie(w.mean, w.se) = meanAndSe(f.seedMeans);
         z = kSeedZ;
-        over = fmt("1 + %g se of ", kSeedZ) + fmt("%g seeds' means", double(f.seedFurnace.size()));
-        o.fig("seeds", double(f.seedFurnace.size()));
+        over = fmt("1 + %g se of ", kSeedZ) + fmt("%g seeds' means", double(f.seedMeans.size()));
+        o.fig("seeds", double(f.seedMeans.size()));
     }
     o.fig("furnace", w.mean);
     o.fig("se", w.se);

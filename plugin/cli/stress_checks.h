@@ -15,6 +15,23 @@
 
 namespace nimbus::stress {
 
+/// The mean of a set of values and its standard error from their spread (sqrt(var / n)).
+struct MeanSe {
+    double sum = 0.0, sq = 0.0;
+    std::uint64_t n = 0;
+    void add(double v) {
+        sum += v;
+        sq += v * v;
+        ++n;
+    }
+    double mean() const { return n ? sum / double(n) : 0.0; }
+    double se() const {
+        if (n == 0) return 0.0;
+        const double m = mean();
+        return std::sqrt(std::max(0.0, sq / double(n) - m * m) / double(n));
+    }
+};
+
 /// What one frame holds: counts of bad values and the range of the good ones.
 struct FrameCheck {
     std::uint64_t nonFinite = 0;          ///< NaN/Inf in RGBA, transmittance or depth
@@ -24,6 +41,7 @@ struct FrameCheck {
     std::uint64_t transAlphaMismatch = 0; ///< alpha != 1 - mean transmittance (1e-3 slack)
     double maxRgb = 0.0;                  ///< largest colour value
     double meanRgb = 0.0;                 ///< mean colour value (finite ones)
+    double seRgb = 0.0;                   ///< its standard error from the values' spread
     double minT = 1.0, maxT = 0.0;        ///< range of the transmittance AOV (when present)
     bool ok() const {
         return nonFinite == 0 && negative == 0 && alphaOutside == 0 && transOutside == 0;
@@ -33,8 +51,7 @@ struct FrameCheck {
 inline FrameCheck checkFrame(const Framebuffer& fb) {
     FrameCheck c;
     constexpr float kSlack = 1e-5f;
-    double sum = 0.0;
-    std::uint64_t n = 0;
+    MeanSe rgb;
     for (size_t i = 0; i < fb.rgba.size(); ++i) {
         const float v = fb.rgba[i];
         if (!std::isfinite(v)) {
@@ -46,11 +63,11 @@ inline FrameCheck checkFrame(const Framebuffer& fb) {
             if (v < -kSlack || v > 1.0f + kSlack) ++c.alphaOutside;
         } else {
             c.maxRgb = std::max(c.maxRgb, double(v));
-            sum += v;
-            ++n;
+            rgb.add(v);
         }
     }
-    c.meanRgb = n ? sum / double(n) : 0.0;
+    c.meanRgb = rgb.mean();
+    c.seRgb = rgb.se();
     for (size_t i = 0; i < fb.transmittance.size(); ++i) {
         const float t = fb.transmittance[i];
         if (!std::isfinite(t)) {
@@ -70,23 +87,6 @@ inline FrameCheck checkFrame(const Framebuffer& fb) {
     }
     return c;
 }
-
-/// The mean of a set of values and its standard error from their spread (sqrt(var / n)).
-struct MeanSe {
-    double sum = 0.0, sq = 0.0;
-    std::uint64_t n = 0;
-    void add(double v) {
-        sum += v;
-        sq += v * v;
-        ++n;
-    }
-    double mean() const { return n ? sum / double(n) : 0.0; }
-    double se() const {
-        if (n == 0) return 0.0;
-        const double m = mean();
-        return std::sqrt(std::max(0.0, sq / double(n) - m * m) / double(n));
-    }
-};
 
 /// A white furnace's figures over the colour values of a frame (background sky included): the
 /// mean, its standard error from the spread of the values, and the largest value.
