@@ -109,7 +109,7 @@ struct VdbLoadOptions {
     std::string gridName = "density"; ///< the one grid to read (names are case-sensitive)
     bool levelsetToFog = false;       ///< convert a level set to a fog volume (as
                                       ///< openvdb::tools::sdfToFogVolume) instead of refusing it
-    /// Read in a forked child process (see "Isolation" in the file comment): a corrupted file
+    /// Read in the reader process (see "Isolation" in the file comment): a corrupted file
     /// that crashes or hangs OpenVDB's reader gives a VdbError instead of ending the caller.
     /// false reads in the calling process: trusted files only.
     bool isolate = true;

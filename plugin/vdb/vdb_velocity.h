@@ -5,8 +5,8 @@
 ///
 /// The grid is read exactly as loadVdbGrid() reads a density grid (vdb_reader.h): the file's
 /// structure is scanned with every length checked first, only the named grid's tree is read,
-/// and by default in a forked child process with the same memory and time limits (a corrupt
-/// file ends the child, not the caller). Errors are VdbErrors that start with
+/// and by default in the reader process with the same memory and time limits (a corrupt
+/// file ends the reader, not the caller). Errors are VdbErrors that start with
 /// `<path>: grid "<name>": `.
 ///
 /// What is accepted:
