@@ -286,18 +286,7 @@ SweepResult sweep(const std::string& source, const std::string& gridName, int n,
 
 class VdbCorrupt : public ::testing::Test {
   protected:
-    void TearDown() override { readerDoes(nullptr); }
-    /// Runs the reader for tests (tests/vdb_reader_for_tests.cpp) doing @p what before it
-    /// reads (see NIMBUS_TEST_READER_DOES there); nullptr: the real reader again.
-    static void readerDoes(const char* what) {
-        if (what) {
-            ::setenv("NIMBUS_TEST_READER_DOES", what, 1);
-            detail::setReaderForTests(NIMBUS_TEST_READER);
-        } else {
-            ::unsetenv("NIMBUS_TEST_READER_DOES");
-            detail::setReaderForTests("");
-        }
-    }
+    void TearDown() override { useReaderForTests(nullptr); }
     std::string path(const std::string& name) const { return (tmp_ / name).string(); }
     std::string write(const std::string& name, const std::vector<VdbGridSpec>& grids) const {
         const std::string p = path(name);
@@ -488,15 +477,15 @@ TEST_F(VdbCorrupt, IsolatedLoadsBesideInProcessReads) {
 
 TEST_F(VdbCorrupt, AChildKilledByASignalIsReportedAsACrash) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    readerDoes("segv");
+    useReaderForTests("segv");
     std::string m = errorOf({.path = p});
     EXPECT_TRUE(contains(m, p + ": grid \"density\": the OpenVDB reader crashed (SIGSEGV, "
                                 "segmentation fault) while reading the grid: the file is corrupt"));
     EXPECT_TRUE(contains(m, "its last output: \"something went wrong at leaf 17\""));
 
-    readerDoes("abort");
+    useReaderForTests("abort");
     EXPECT_TRUE(contains(errorOf({.path = p}), "crashed (SIGABRT, aborted)"));
-    readerDoes("sigkill");
+    useReaderForTests("sigkill");
     EXPECT_TRUE(contains(errorOf({.path = p}), "was killed (SIGKILL)"));
 
     // in process, no reader runs: the load succeeds
@@ -508,7 +497,7 @@ TEST_F(VdbCorrupt, AChildKilledByASignalIsReportedAsACrash) {
 // naming the file, without log4cplus's terminal colours, and bounded in size.
 TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    readerDoes("warn"); // what OpenVDB 10 prints for a multi-buffer tree, colours included
+    useReaderForTests("warn"); // what OpenVDB 10 prints for a multi-buffer tree, colours included
     testing::internal::CaptureStderr();
     EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
     std::string err = testing::internal::GetCapturedStderr();
@@ -518,7 +507,7 @@ TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
     EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
 
     // a child that writes a flood: 20 lines forwarded, then how many more
-    readerDoes("flood");
+    useReaderForTests("flood");
     testing::internal::CaptureStderr();
     EXPECT_EQ(loadVdbGrid({.path = p}).activeVoxelCount, smokeSpec().voxels.size());
     err = testing::internal::GetCapturedStderr();
@@ -531,7 +520,7 @@ TEST_F(VdbCorrupt, TheChildsOpenVdbWarningsArriveWithoutColoursNamingTheFile) {
 
 TEST_F(VdbCorrupt, AHangingChildIsStoppedAtTheTimeLimit) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    readerDoes("hang");
+    useReaderForTests("hang");
     const auto t0 = Clock::now();
     const std::string m = errorOf({.path = p, .timeoutSeconds = 0.3});
     const double ms = msSince(t0);
@@ -588,18 +577,18 @@ TEST_F(VdbCorrupt, TheReaderIsAProgramOfItsOwn) {
 
 TEST_F(VdbCorrupt, AbnormalExitsAndGarbledRepliesAreErrors) {
     const std::string p = write("smoke.vdb", {smokeSpec()});
-    readerDoes("exit7");
+    useReaderForTests("exit7");
     EXPECT_TRUE(
         contains(errorOf({.path = p}), "the process reading the grid exited with status 7"));
 
-    readerDoes("exit0");
+    useReaderForTests("exit0");
     EXPECT_TRUE(contains(errorOf({.path = p}), "sent an invalid reply: it is incomplete (short)"));
 
-    readerDoes("junk");
+    useReaderForTests("junk");
     EXPECT_TRUE(contains(errorOf({.path = p}), "invalid reply: it does not start with the reply"));
 
     // garbage from a child that then goes on: stopped at once, not at the time limit
-    readerDoes("junk-then-hang");
+    useReaderForTests("junk-then-hang");
     const auto t0 = Clock::now();
     EXPECT_TRUE(
         contains(errorOf({.path = p, .timeoutSeconds = 60}),
@@ -607,7 +596,7 @@ TEST_F(VdbCorrupt, AbnormalExitsAndGarbledRepliesAreErrors) {
     EXPECT_LT(msSince(t0), 5000.0);
 
     // a reply that announces a 1 TB grid: refused before anything is allocated
-    readerDoes("huge");
+    useReaderForTests("huge");
     EXPECT_TRUE(contains(errorOf({.path = p, .memoryLimitBytes = 1ull << 30}),
                          "invalid reply: it announces a grid of 1099511627776 bytes"));
 }

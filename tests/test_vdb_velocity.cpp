@@ -18,6 +18,7 @@
 #include "plugin/vdb/vdb_velocity.h"
 #include "plugin/vdb/vdb_writer.h"
 #include "test_util.h"
+#include "tests/vdb_test_util.h"
 
 using namespace nimbus;
 using namespace nimbus::vdb;
@@ -322,12 +323,9 @@ TEST(VdbVelocity, ACrashWhileReadingIsAnErrorOfTheChildProcess) {
     TempDir dir;
     const std::string path = (dir / "v.vdb").string();
     writeVdbGrids(path, {linearGrid("velocity", true, "vec3s")});
-    // the reader for tests (tests/vdb_reader_for_tests.cpp), made to crash
-    ::setenv("NIMBUS_TEST_READER_DOES", "segv", 1);
-    detail::setReaderForTests(NIMBUS_TEST_READER);
+    useReaderForTests("segv");
     const std::string msg = loadError(options(path));
-    detail::setReaderForTests("");
-    ::unsetenv("NIMBUS_TEST_READER_DOES");
+    useReaderForTests(nullptr);
     EXPECT_TRUE(contains(msg, path + ": grid \"velocity\": the OpenVDB reader crashed (SIGSEGV, "
                                      "segmentation fault) while reading the grid"));
     EXPECT_TRUE(contains(msg, "its last output: \"something went wrong at leaf 17\""));

@@ -2,11 +2,26 @@
 /// @brief Helpers shared by the VDB reader tests.
 #pragma once
 
+#include <cstdlib>
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "plugin/vdb/vdb_isolate.h"
 #include "plugin/vdb/vdb_reader.h"
+
+/// Isolated loads run the reader for tests (tests/vdb_reader_for_tests.cpp), which does @p what
+/// (NIMBUS_TEST_READER_DOES there: "segv", "hang", "junk", ...) before it reads; nullptr: the
+/// real reader again.
+inline void useReaderForTests(const char* what) {
+    if (what) {
+        ::setenv("NIMBUS_TEST_READER_DOES", what, 1);
+        nimbus::vdb::detail::setReaderForTests(NIMBUS_TEST_READER);
+    } else {
+        ::unsetenv("NIMBUS_TEST_READER_DOES");
+        nimbus::vdb::detail::setReaderForTests("");
+    }
+}
 
 /// The message of the VdbError that loadVdbGrid(o) throws, or "" (and a test failure).
 inline std::string loadError(const nimbus::vdb::VdbLoadOptions& o) {

@@ -5,6 +5,7 @@
 
 #include "plugin/io/atomic_file.h"
 #include "plugin/io/image_module.h"
+#include "plugin/io/object_folder.h"
 
 #include <dlfcn.h>
 
@@ -60,19 +61,11 @@ template <class T> ImageAttribute attribute(const std::string& name, const T& va
     return a;
 }
 
-/// Where this code was linked in: the executable's or the shared object's folder.
-std::string ownFolder() {
-    Dl_info info{};
-    if (dladdr(reinterpret_cast<const void*>(&ownFolder), &info) == 0 || !info.dli_fname) return {};
-    const std::string self = info.dli_fname;
-    const size_t slash = self.find_last_of('/');
-    return slash == std::string::npos ? std::string() : self.substr(0, slash);
-}
-
 const detail::ImageModule* loadImageModule() {
     std::string tried;
     void* lib = nullptr;
-    const std::string folder = ownFolder();
+    // beside the executable or shared object this code was linked into
+    const std::string folder = objectFolder(reinterpret_cast<const void*>(&loadImageModule));
     if (!folder.empty()) {
         const std::string path = folder + "/" + detail::kImageModuleLibrary;
         lib = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);

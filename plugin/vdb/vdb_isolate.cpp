@@ -5,6 +5,7 @@
 ///        vdb_reader.h). No OpenVDB headers here.
 #include "plugin/vdb/vdb_isolate.h"
 
+#include "plugin/io/object_folder.h"
 #include "plugin/vdb/vdb_velocity.h"
 
 #include <algorithm>
@@ -22,7 +23,6 @@
 #include <type_traits>
 #include <vector>
 
-#include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/mman.h> // memfd_create
@@ -558,15 +558,6 @@ std::string secondsText(double s) {
 std::mutex gReaderMutex;
 std::string gReaderForTests; // setReaderForTests
 
-/// Where this code was linked in: the executable's or the shared object's folder.
-std::string ownFolder() {
-    Dl_info info{};
-    if (dladdr(reinterpret_cast<const void*>(&ownFolder), &info) == 0 || !info.dli_fname) return {};
-    const std::string self = info.dli_fname;
-    const std::size_t slash = self.find_last_of('/');
-    return slash == std::string::npos ? std::string() : self.substr(0, slash);
-}
-
 } // namespace
 
 std::string findReader(std::string& tried) {
@@ -579,7 +570,8 @@ std::string findReader(std::string& tried) {
         if (const char* env = std::getenv("NIMBUS_VDB_READER"); env && *env) {
             candidates.push_back(env); // named: nothing else is tried
         } else {
-            const std::string folder = ownFolder();
+            // beside the executable or shared object this code was linked into
+            const std::string folder = io::objectFolder(reinterpret_cast<const void*>(&mib));
             if (!folder.empty()) candidates.push_back(folder + "/" + kReaderExecutable);
 #ifdef NIMBUS_VDB_READER_BUILT
             candidates.push_back(NIMBUS_VDB_READER_BUILT); // the build tree's (tests, hosts)
