@@ -558,6 +558,13 @@ std::string secondsText(double s) {
 std::mutex gReaderMutex;
 std::string gReaderForTests; // setReaderForTests
 
+/// The folder of the executable or shared object this code was linked into, where the reader
+/// ships beside it (its own address: a function of internal linkage, which no other object's
+/// copy can stand in for).
+std::string ownFolder() {
+    return io::objectFolder(reinterpret_cast<const void*>(&ownFolder));
+}
+
 } // namespace
 
 std::string findReader(std::string& tried) {
@@ -570,8 +577,7 @@ std::string findReader(std::string& tried) {
         if (const char* env = std::getenv("NIMBUS_VDB_READER"); env && *env) {
             candidates.push_back(env); // named: nothing else is tried
         } else {
-            // beside the executable or shared object this code was linked into
-            const std::string folder = io::objectFolder(reinterpret_cast<const void*>(&mib));
+            const std::string folder = ownFolder();
             if (!folder.empty()) candidates.push_back(folder + "/" + kReaderExecutable);
 #ifdef NIMBUS_VDB_READER_BUILT
             candidates.push_back(NIMBUS_VDB_READER_BUILT); // the build tree's (tests, hosts)
