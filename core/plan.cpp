@@ -124,6 +124,13 @@ double stepsPerRay(double len, double step, double growth) {
 }
 
 /// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
+/// A number as %g prints it.
+std::string gText(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
 std::string megabytes(double bytes, bool atMost = false) {
     if (!(bytes > 0.0)) return "";
     char buf[48];
@@ -330,6 +337,13 @@ std::string FramePlan::explain() const {
                                             : photonWalkNote) +
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
+                    (secondShare > 0.0f
+                         ? ", the sun's second scattering by march (about " +
+                               std::to_string(int(std::lround(1.0 / double(secondShare)))) +
+                               " paths of two vertices a camera ray, render.photon_second_share "
+                               "= " +
+                               gText(secondShare) + "; the photons from their second on)"
+                         : std::string()) +
                     (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
                                              " scatterings, the higher orders from their light "
                                              "diffused on the light-volume grid"
@@ -978,6 +992,16 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                         p.photonOwnWalk, p.photonsOwnGrid(),
                         p.photonBounces > 0 ? double(lr.x) * lr.y * lr.z : 0.0);
     }
+    // the sun's light scattered twice, by paths from march's samples: the photons' voxels
+    // average it over a depth the camera does not see, most where a thin edge is lit from
+    // behind; not in a cloud at most kThinDepth deep along the sun, where no voxel holds such a
+    // skin and the paths only add their noise (docs/accuracy.md, "The sun's second scattering
+    // by march")
+    // (after the photons' walk, whose choice measures the cloud)
+    p.secondShare = p.photons && p.shadows && marching && s.render.maxDepth >= 2 &&
+                            (p.cloudTau < 0.0 || p.cloudTau > kThinDepth)
+                        ? std::max(0.0f, s.render.photonSecondShare)
+                        : 0.0f;
     if (p.diffusion && !bounds.empty()) {
         const ivec3 res = lightVolumeResolution(bounds, p.diffusionCell);
         const double n = double(res.x) * res.y * res.z;

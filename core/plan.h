@@ -160,8 +160,14 @@ struct FramePlan {
     /// render.shadow_step or, where those are 0, chosen here (see stepDecision)
     float step = kDefaultStep;
     float shadowStep = kDefaultStep;
-    std::string stepDecision;  ///< what the steps are and why
-    float stepTau = 0.0f;      ///< render.step_tau: thick steps split above this (march.cpp)
+    std::string stepDecision; ///< what the steps are and why
+    float stepTau = 0.0f;     ///< render.step_tau: thick steps split above this (march.cpp)
+    /// march estimates the sun's second scattering at its samples, about 1 / secondShare paths
+    /// a camera ray, and the sun's photons record from their second scattering on
+    /// (render.photon_second_share where photons carry the sun, the CPU march, max_depth >= 2,
+    /// a cloud more than 2 mean free paths deep along the sun or not measured;
+    /// Renderer::marchGrids, for the GPU port, builds the photons with it at 0); 0 = off
+    float secondShare = 0.0f;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries
     int instances = 1;         ///< placements (1: `field` untransformed)

@@ -391,6 +391,8 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.maxDepth = s.render.maxDepth;
         pp.ownWalk = plan.photonOwnWalk;
         pp.similarAfter = plan.photonSimilarity;
+        // march takes the sun's second scattering itself (plan.secondShare)
+        if (plan.secondShare > 0.0f) pp.sunRecordFrom = 2;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
         if (plan.photonSky) pp.sky = s.sky;
         if (plan.photonBounces > 0 && diffusion) {
@@ -458,7 +460,11 @@ MarchGrids Renderer::marchGrids(const FramePlan& plan, const FrameBindings& bind
         const SurfaceQuery* surfaces = bindings.geometry ? bindings.geometry->surfaces() : nullptr;
         std::unique_ptr<SdfSurfaces> solids = solidsOver(scene_, surfaces);
         if (solids) surfaces = solids.get();
-        return buildMarchGrids(scene_, plan, vs, surfaces, stats, cancel);
+        // for the GPU port, whose march does not take the sun's second scattering itself: the
+        // photons carry it (FramePlan::secondShare)
+        FramePlan gpu = plan;
+        gpu.secondShare = 0.0f;
+        return buildMarchGrids(scene_, gpu, vs, surfaces, stats, cancel);
     });
 }
 
@@ -530,7 +536,7 @@ bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, Render
     const int ts = s.render.tileSize;
     const int tilesX = (fb.width + ts - 1) / ts, tilesY = (fb.height + ts - 1) / ts;
     const int tiles = tilesX * tilesY;
-    std::atomic<std::uint64_t> rays{0}, prim{0}, shad{0}, bad{0};
+    std::atomic<std::uint64_t> rays{0}, prim{0}, shad{0}, second{0}, bad{0};
     std::atomic<int> done{0};
     std::mutex progressMutex;
     // per-thread working memory of the integrator, reused from tile to tile
@@ -552,6 +558,7 @@ bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, Render
                 rays += cnt.rays;
                 prim += cnt.primarySamples;
                 shad += cnt.shadowSamples;
+                second += cnt.secondSamples;
                 bad += cnt.nonFinite;
                 const int d = ++done;
                 if (cb.progress) {
@@ -564,6 +571,7 @@ bool renderTiles(const Context& ctx, const SceneDesc& s, Framebuffer& fb, Render
     stats.rays = rays;
     stats.primarySamples = prim;
     stats.shadowSamples = shad;
+    stats.secondSamples = second;
     stats.nonFinite = bad;
     return done.load() == tiles;
 }

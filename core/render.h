@@ -33,7 +33,9 @@ struct RenderStats {
     std::uint64_t rays = 0;
     std::uint64_t primarySamples = 0; ///< density lookups on camera rays
     std::uint64_t shadowSamples = 0;  ///< density lookups on shadow rays
-    std::uint64_t nonFinite = 0;      ///< pixels that were NaN/Inf (replaced by 0); should be 0
+    /// density lookups on the flights of march's paths for the sun's second scattering
+    std::uint64_t secondSamples = 0;
+    std::uint64_t nonFinite = 0; ///< pixels that were NaN/Inf (replaced by 0); should be 0
     std::size_t majorantCells = 0;
     double majorantEmptyFraction = 0.0;
     bool majorantUsed = false; ///< march skips with it only when at least half its cells are empty
@@ -84,7 +86,7 @@ struct RenderStats {
     std::size_t skyVolumeBytes = 0;
     std::size_t aovBytes = 0; ///< memory of the frame's AOV buffers (0 when none is asked for)
     double integrateSeconds = 0.0;
-    std::uint64_t lookups() const { return primarySamples + shadowSamples; }
+    std::uint64_t lookups() const { return primarySamples + shadowSamples + secondSamples; }
 };
 
 struct ScatterVolumes; // core/integrators/march.h
@@ -145,7 +147,9 @@ class Renderer {
     /// Renders the frame into fb (resized to the camera). Returns false if cancelled. With
     /// `grids`, the march grids the frame was rendered with are moved there (a consumer that
     /// needs both, as the GLSL pass's parity tests do, builds them once; for a plan rendered
-    /// translated, plan.rebased, they are in the translated coordinates).
+    /// translated, plan.rebased, they are in the translated coordinates). Under a plan with
+    /// secondShare > 0 its photons leave the sun's second scattering out (march took it): a GPU
+    /// consumer renders with secondShare 0 or builds its grids with marchGrids.
     bool render(const FramePlan& plan, const FrameBindings& bindings, Framebuffer& fb,
                 RenderStats& stats, const RenderCallbacks& cb = {}, MarchGrids* grids = nullptr);
     bool render(const FramePlan& plan, Framebuffer& fb, RenderStats& stats,
@@ -161,7 +165,8 @@ class Renderer {
     VolumeSet volumesFor(const FramePlan& plan, RenderStats& stats);
     /// The march grids of a frame as render() builds them (volumesFor, then buildMarchGrids with
     /// the frame's surfaces and SDF solids), in the scene's own coordinates: not for a frame the
-    /// plan renders translated (plan.rebased).
+    /// plan renders translated (plan.rebased). For the GPU port: its photons carry the sun's
+    /// second scattering too (plan.secondShare taken as 0), since its march does not take it.
     MarchGrids marchGrids(const FramePlan& plan, const FrameBindings& bindings, RenderStats& stats,
                           const std::atomic<bool>* cancel = nullptr);
     /// [field.advect]: what the simulation kept between frames holds now (its frames are the

@@ -62,10 +62,14 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     s.render.spp = 1024;
     const Framebuffer ref = renderScene(s);
 
-    // flat voxels (the default): the estimator itself
+    // flat voxels (the default): the estimator itself, with the sun's second scattering by
+    // march's paths (render.photon_second_share, the default) and by the photons alone
     RenderStats st;
     const Framebuffer photons = renderScene(sunBox(), &st);
     EXPECT_GT(st.photonLookups, 0u);
+    SceneDesc alone = sunBox();
+    alone.render.photonSecondShare = 0.0f;
+    const Framebuffer photonsAlone = renderScene(alone);
     // the skin profile the default scene measured best with (a model: here it must keep the
     // box's energy and stay close)
     SceneDesc k = sunBox();
@@ -99,7 +103,11 @@ TEST(Photons, MarchMatchesPathtraceOnBacklitBox) {
     RecordProperty("relative_rmse_grid", std::to_string(eGrid));
     RecordProperty("relative_rmse_single", std::to_string(eSingle));
     EXPECT_GT(eSingle, 0.4) << "single scattering alone";
+    const double eAlone = relativeRmse(photonsAlone, ref);
+    RecordProperty("relative_rmse_photons_alone", std::to_string(eAlone));
     EXPECT_LT(ePhotons, 0.065) << "photons; grid: " << eGrid;
+    EXPECT_LT(eAlone, 0.065) << "photons carrying the second scattering too";
+    EXPECT_NEAR(meanRgb(photonsAlone) / mRef, 1.0, 0.04);
     EXPECT_LT(ePhotons, eGrid) << "photons against the grid diffusion";
     EXPECT_NEAR(meanRgb(photons) / mRef, 1.0, 0.04);
     EXPECT_LT(eSkin, 0.08) << "photons with the skin profile";
@@ -137,6 +145,81 @@ TEST(Photons, FirstScatteringIsLeftToMarch) {
     EXPECT_GT(meanRgb(renderScene(s)), 1.5 * meanRgb(b));
 }
 
+TEST(Photons, SecondScatteringByMarchMatchesPathtrace) {
+    // the sun's light scattered exactly twice (max_depth 2), path traced, against march: by its
+    // own paths from its samples (render.photon_second_share, the default; the photons then
+    // record nothing, since they record from their second scattering on) and by the photons'
+    // voxels (share 0). Both estimate the same light, march's paths without a voxel's average.
+    auto twice = [](SceneDesc s) {
+        s.render.maxDepth = 2;
+        return s;
+    };
+    SceneDesc r = twice(sunBox());
+    r.render.integrator = Integrator::PathTrace;
+    r.render.spp = 2048;
+    const Framebuffer ref = renderScene(r);
+
+    SceneDesc m = twice(sunBox());
+    ASSERT_GT(m.render.photonSecondShare, 0.0f) << "the default takes the second scattering";
+    const FramePlan plan = Renderer(m).plan(1);
+    ASSERT_GT(plan.secondShare, 0.0f);
+    EXPECT_NE(plan.explain().find("second scattering by march"), std::string::npos);
+    const Framebuffer paths = renderScene(m);
+    SceneDesc v = m;
+    v.render.photonSecondShare = 0.0f;
+    ASSERT_EQ(Renderer(v).plan(1).secondShare, 0.0f);
+    const Framebuffer voxels = renderScene(v);
+    SceneDesc n = m;
+    n.render.multipleScattering = MultipleScattering::None;
+    const Framebuffer single = renderScene(n);
+
+    const double ePaths = relativeRmse(paths, ref), eVoxels = relativeRmse(voxels, ref),
+                 eSingle = relativeRmse(single, ref);
+    RecordProperty("relative_rmse_second_by_march", std::to_string(ePaths));
+    RecordProperty("relative_rmse_second_by_photons", std::to_string(eVoxels));
+    RecordProperty("relative_rmse_single", std::to_string(eSingle));
+    EXPECT_GT(eSingle, 0.2) << "the second scattering is a good part of this image";
+    EXPECT_LT(ePaths, 0.1) << "voxels: " << eVoxels;
+    EXPECT_NEAR(meanRgb(paths) / meanRgb(ref), 1.0, 0.03);
+    EXPECT_NEAR(meanRgb(voxels) / meanRgb(ref), 1.0, 0.03);
+
+    // with one scattering event the paths find nothing to add: single scattering exact
+    SceneDesc once = m;
+    once.render.maxDepth = 1;
+    EXPECT_EQ(Renderer(once).plan(1).secondShare, 0.0f);
+    // nor are they taken in a cloud about one mean free path deep along the sun, where the
+    // photons' voxels hold its light well and the paths would only add noise
+    SceneDesc thin = m;
+    thin.medium.sigma_s = vec3(0.5f);
+    const FramePlan thinPlan = Renderer(thin).plan(1);
+    ASSERT_GE(thinPlan.cloudTau, 0.0) << "measured";
+    EXPECT_LE(thinPlan.cloudTau, 2.0);
+    EXPECT_EQ(thinPlan.secondShare, 0.0f);
+    EXPECT_GT(plan.cloudTau < 0.0 ? 3.0 : plan.cloudTau, 2.0) << "the box of the test above";
+}
+
+TEST(Photons, GpuGridsCarryTheSecondScattering) {
+    // Renderer::marchGrids builds the photons for the GPU port, whose march does not take the
+    // sun's second scattering: they record it whatever render.photon_second_share says, while
+    // the CPU's photons under the share leave it out
+    SceneDesc s = sunBox();
+    s.render.photons = 20000;
+    Renderer a(s);
+    const FramePlan pa = a.plan(1);
+    ASSERT_GT(pa.secondShare, 0.0f);
+    RenderStats st;
+    const MarchGrids ga = a.marchGrids(pa, FrameBindings{}, st);
+    SceneDesc z = s;
+    z.render.photonSecondShare = 0.0f;
+    Renderer b(z);
+    const MarchGrids gb = b.marchGrids(b.plan(1), FrameBindings{}, st);
+    ASSERT_TRUE(ga.hasPhotons && gb.hasPhotons);
+    EXPECT_EQ(ga.photons.radiance, gb.photons.radiance);
+    // the CPU frame with the share differs from the one without (its photons lack the second
+    // scattering, its paths add it back)
+    EXPECT_GT(relativeRmse(renderScene(s), renderScene(z)), 1e-4);
+}
+
 TEST(Photons, InScatterModelsStandDown) {
     // the empirical in-scatter terms stand for light scattered more than once, which photons
     // trace: with photons every render.inscatter gives the image of "none"
@@ -167,6 +250,7 @@ TEST(Photons, NoiseFallsAsOneOverSqrtPhotonsAroundTheSameMean) {
     for (int k = 0; k < 2; ++k) {
         SceneDesc s = smallCumulus();
         s.render.photons = k == 0 ? 5000 : 80000;
+        s.render.photonSecondShare = 0.0f; // the photons' own estimator, every order
         Framebuffer f[4];
         for (int i = 0; i < 4; ++i) {
             s.render.seed = std::uint32_t(i + 1);

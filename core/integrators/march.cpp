@@ -18,6 +18,9 @@ namespace {
 /// MarchSky.SingleScatteredSkyMatchesPathtraceDepthOne's fine steps measured 11.7% and 12.8%
 /// against 9.2% (0.02: 9.6%). docs/accuracy.md, "The sky by photons where the medium absorbs".
 constexpr float kSkyMarchShare = 0.02f;
+/// The most paths of the sun's second scattering one march sample takes
+/// (render.photon_second_share)
+constexpr int kMaxSecondPaths = 256;
 } // namespace
 
 using kern::pcg;
@@ -185,7 +188,8 @@ float MarchContext::sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& c
 }
 
 float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt,
-                                    RayVolumes& rv, float rhoP) const {
+                                    RayVolumes& rv, float rhoP, float stopAt, float* tStop) const {
+    float tBase = 0.0f;
     const Ray ray{p, w};
     const float jitter = s_.render.jitter ? kern::hashToUnit(pcg(rng)) : 0.5f;
     // stop once the sun is blocked for every channel (transmittance < 1e-5)
@@ -194,6 +198,7 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
     if (rv.tIn() > 0.0f) {
         // from outside every volume (a surface, a gap between instances): the step schedule
         // starts where the volumes do, not at p, so its steps have not grown on the way
+        tBase = rv.tIn();
         const Ray entry{ray.at(rv.tIn()), ray.d};
         if (!rv.begin(vols_, entry, 0.0f, std::numeric_limits<float>::max())) return 0.0f;
         rhoP = 0.0f; // (the march starts where it enters, with nothing before it)
@@ -217,6 +222,11 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
                       if (k == 1) {
                           if (empty) return true;
                           ++cnt.shadowSamples;
+                          if (tStop && rho > 0.0f && tau + rho * dt >= stopAt) {
+                              *tStop = tBase + (t - jitter * dt) + (stopAt - tau) / rho;
+                              tau = stopAt;
+                              return false;
+                          }
                           tau += rho * dt;
                       } else {
                           // k sub-steps, each sampled at its own turn of the jitter
@@ -224,12 +234,49 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
                           const float h = dt / float(k), t0 = t - jitter * dt;
                           for (int j = 0; j < k && tau <= tauStop; ++j) {
                               ++cnt.shadowSamples;
-                              tau += rv.density(kern::substepT(t0, h, j, jitter)) * h;
+                              const float rj = rv.density(kern::substepT(t0, h, j, jitter));
+                              if (tStop && rj > 0.0f && tau + rj * h >= stopAt) {
+                                  *tStop = tBase + t0 + float(j) * h + (stopAt - tau) / rj;
+                                  tau = stopAt;
+                                  return false;
+                              }
+                              tau += rj * h;
                           }
                       }
                       return tau <= tauStop;
                   });
     return tau;
+}
+
+vec3 MarchContext::secondSun(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt,
+                             RayVolumes& rv) const {
+    // One path of two vertices from p: a direction w toward the light's origin drawn from the
+    // phase function about the view (its weight eval / pdf), a flight along w to a collision y
+    // sampled by the march's own density integral (the mean channel's extinction; the others
+    // weighted by their transmittance over it), and the sun's next-event estimate at y. Its
+    // expectation is the in-scattered radiance of the sun's light scattered exactly twice, per
+    // unit phase-normalised scattering at p, as a photon voxel's S(x) holds for the higher
+    // orders (core/lighting/photons.h). Escaping flights and a surface in the way give 0.
+    const float u1 = kern::hashToUnit(rng = pcg(rng)), u2 = kern::hashToUnit(rng = pcg(rng));
+    const float u3 = kern::hashToUnit(rng = pcg(rng)), lobe = kern::hashToUnit(rng = pcg(rng));
+    const PhaseSample ps = medium_.phase.sample(vec2(u1, lobe));
+    if (!(ps.pdf > 0.0f)) return vec3(0.0f);
+    const vec3 w = kern::phaseDirection(d, ps.cosTheta, u2);
+    const float target = -std::log(std::max(1.0f - u3, 1e-12f)) / sigmaTMean_;
+    float tHit = -1.0f;
+    const std::uint64_t before = cnt.shadowSamples; // (the flight's lookups are its own)
+    densityIntegral(p, w, pcg(rng ^ 0x3c6ef372u), cnt, rv, -1.0f, target, &tHit);
+    cnt.secondSamples += cnt.shadowSamples - before;
+    cnt.shadowSamples = before;
+    if (!(tHit >= 0.0f)) return vec3(0.0f);
+    if (surfaces_ && surfaces_->occluded(Ray{p, w}, 1e-4f, tHit)) return vec3(0.0f);
+    const vec3 y = p + w * tHit;
+    const float tauSun = sunOpticalDepth(y, pcg(rng ^ 0xa54ff53au), cnt, rv, -1.0f);
+    if (!std::isfinite(tauSun)) return vec3(0.0f);
+    const vec3 chan =
+        medium_.sigma_s * glm::exp(-(medium_.sigma_t - sigmaTMean_) * target) / sigmaTMean_;
+    return ps.weight * chan * medium_.phase.eval(glm::dot(w, s_.sun.direction)) *
+           s_.sun.irradiance * s_.render.msStrength * kern::beerLambert(medium_.sigma_t * tauSun);
 }
 
 float MarchContext::sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
@@ -298,6 +345,13 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
     double skyLine = 0.0;
     double skyTooth = double(kern::hashToUnit(pcg(pixelKey ^ 0x6a09e667u))) * kSkyMarchShare;
 
+    // the sun's second scattering (plan_.secondShare, render.photon_second_share): the same
+    // comb over the samples' shares w, teeth `share` apart; a sample with w >= share takes
+    // ceil(w / share) paths (at most kMaxSecondPaths), so that each path stands for about
+    // `share` of the ray's light and a pixel's estimate is the mean of about 1 / share of them
+    const float share = plan_.secondShare;
+    double secondLine = 0.0;
+    double secondTooth = double(kern::hashToUnit(pcg(pixelKey ^ 0x510e527fu))) * share;
     RayVolumes& rv = scratch.primary;
     if (rv.begin(vols_, ray, 0.0f, tMax)) {
         // one sample of the march: its position t, the length dt it stands for, its index n
@@ -367,6 +421,33 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             // the light scattered more than once that photons carry: the sun's, and the
             // sky's with render.photon_sky (core/lighting/photons.h)
             if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
+            // the sun's light scattered twice, which the photons leave out (core/lighting/
+            // photons.h, PhotonParams::sunRecordFrom): paths of two vertices from here
+            if (share > 0.0f && volumes_.photons && beamT) {
+                float scale = 1.0f;
+                const float w =
+                    maxComponent(T * (vec3(1.0f) - glm::exp(-medium_.sigma_t * (rho * dt))));
+                if (w < share) {
+                    const double end = secondLine + double(w);
+                    if (secondTooth < end) {
+                        scale = share / w;
+                        secondTooth += share;
+                    } else {
+                        scale = 0.0f;
+                    }
+                    secondLine = end;
+                }
+                const int paths =
+                    w > share ? std::min(kMaxSecondPaths, int(std::ceil(w / share))) : 1;
+                if (scale > 0.0f)
+                    for (int q = 0; q < paths; ++q)
+                        S += (scale / float(paths)) *
+                             secondSun(p, ray.d,
+                                       pcg(pixelKey ^
+                                           std::uint32_t(std::uint64_t(n) * 0x27d4eb2full) ^
+                                           (0x165667b1u + 0x9e3779b9u * std::uint32_t(q))),
+                                       cnt, scratch.shadow);
+            }
             // (below the march's tolerance T's terms are not evaluated)
             if (beamT) {
                 if (volumes_.diffusion) {

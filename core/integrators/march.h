@@ -79,8 +79,15 @@ class MarchContext {
     /// Density integral along the ray from p toward direction w (shadow march), stopped once
     /// the transmittance is below 1e-5 in every channel. `rhoP`: the density at p where the
     /// caller knows it (render.step_tau's test of the first step looks at it), else negative.
+    /// With `tStop`, the march also stops where the integral reaches `stopAt` (the density
+    /// taken constant over the step or sub-step it falls in) and stores the distance from p
+    /// there; `tStop` is left as it was where the integral stays below `stopAt`.
     float densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
-                          float rhoP = -1.0f) const;
+                          float rhoP = -1.0f, float stopAt = -1.0f, float* tStop = nullptr) const;
+    /// The sun's light scattered exactly twice, in-scattered at p toward a camera ray of
+    /// direction d: one path's estimate (unbiased for the march's density integral), per unit
+    /// phase-normalised scattering (render.photon_second_share)
+    vec3 secondSun(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
     /// Density integral along the ray from p toward the sun (shadow march).
     float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
                              float rhoP = -1.0f) const;

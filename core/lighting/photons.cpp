@@ -503,7 +503,7 @@ PhotonVolume tracePhotons(const VolumeSet& vs, const PhaseFunction& phase, const
                                 density = std::min(segBound, lookup);
                                 ++tally.lookups;
                             }
-                            if (depth > 0) {
+                            if (depth >= (i < nSun ? p.sunRecordFrom : 1)) {
                                 // light scattered at least once: record it toward the camera
                                 const vec3 q = ray.at(t);
                                 const ivec3 c = cellAt(geo.bounds.lo, geo.voxel, res, q);

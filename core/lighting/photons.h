@@ -90,6 +90,10 @@ struct PhotonParams {
     /// the light within a few mean free paths of a surface, below a voxel that is several mean
     /// free paths deep (docs/accuracy.md, "Photons in the similar medium").
     int similarAfter = 0;
+    /// The sun's photons record from this scattering on (1: all the light they carry after
+    /// their first; 2 where march estimates the second itself, FramePlan::secondShare). The
+    /// sky's photons always record from their first.
+    int sunRecordFrom = 1;
 };
 
 struct PhotonVolume {
