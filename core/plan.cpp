@@ -123,7 +123,6 @@ double stepsPerRay(double len, double step, double growth) {
     return tg / step + std::log(len / tg) / std::log1p(growth);
 }
 
-/// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
 /// A number as %g prints it.
 std::string gText(double v) {
     char buf[32];
@@ -131,6 +130,7 @@ std::string gText(double v) {
     return buf;
 }
 
+/// " (12.3 MB)" for a size in bytes, "" for 0 (unknown).
 std::string megabytes(double bytes, bool atMost = false) {
     if (!(bytes > 0.0)) return "";
     char buf[48];
@@ -996,8 +996,7 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
     // average it over a depth the camera does not see, most where a thin edge is lit from
     // behind; not in a cloud at most kThinDepth deep along the sun, where no voxel holds such a
     // skin and the paths only add their noise (docs/accuracy.md, "The sun's second scattering
-    // by march")
-    // (after the photons' walk, whose choice measures the cloud)
+    // by march"). Decided here, after the photons' walk, whose choice measures the cloud.
     p.secondShare = p.photons && p.shadows && marching && s.render.maxDepth >= 2 &&
                             (p.cloudTau < 0.0 || p.cloudTau > kThinDepth)
                         ? std::max(0.0f, s.render.photonSecondShare)

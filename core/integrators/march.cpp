@@ -21,6 +21,31 @@ constexpr float kSkyMarchShare = 0.02f;
 /// The most paths of the sun's second scattering one march sample takes
 /// (render.photon_second_share)
 constexpr int kMaxSecondPaths = 256;
+
+/// A systematic draw over a camera ray's samples by their shares w of its light (the step's
+/// opacity times T): a sample with w >= share is always taken; the others lie end to end on a
+/// line of their w's, and those a comb of teeth `share` apart (at a random offset per ray)
+/// falls on are taken, weighted share / w. Each is taken with probability w / share, so the
+/// estimate stays unbiased, and the picks are spread along the ray rather than clumped.
+struct ShareComb {
+    float share;
+    double line = 0.0; ///< the line's length so far
+    double tooth;      ///< the next tooth on it
+    ShareComb(float s, float offset) : share(s), tooth(double(offset) * s) {}
+    /// The weight of a sample whose share is w: 1 at or above the share, share / w where the
+    /// comb takes it, else 0.
+    float weight(float w) {
+        if (w >= share) return 1.0f;
+        const double end = line + double(w);
+        float scale = 0.0f;
+        if (tooth < end) {
+            scale = share / w;
+            tooth += share;
+        }
+        line = end;
+        return scale;
+    }
+};
 } // namespace
 
 using kern::pcg;
@@ -334,24 +359,15 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
 
     // the single-scattered sky's weights, computed at the ray's first sample in the medium
     bool skyWeighted = false;
-    // the samples whose sky is shadow-marched (plan_.skySingle without the sky volume): a
-    // systematic draw along the ray by each sample's share of the camera ray's light w (the
-    // step's opacity times T). A sample with w >= kSkyMarchShare always marches; the others lie
-    // end to end on a line of their w's, and those a comb of teeth kSkyMarchShare apart (at a
-    // random offset per ray) falls on march, weighted kSkyMarchShare / w: each is picked with
-    // probability w / kSkyMarchShare, so the estimate stays unbiased, and the picks are spread
-    // along the ray rather than clumped. skyLine: the line's length so far; skyTooth: the next
-    // tooth on it.
-    double skyLine = 0.0;
-    double skyTooth = double(kern::hashToUnit(pcg(pixelKey ^ 0x6a09e667u))) * kSkyMarchShare;
-
-    // the sun's second scattering (plan_.secondShare, render.photon_second_share): the same
-    // comb over the samples' shares w, teeth `share` apart; a sample with w >= share takes
-    // ceil(w / share) paths (at most kMaxSecondPaths), so that each path stands for about
-    // `share` of the ray's light and a pixel's estimate is the mean of about 1 / share of them
+    // the samples whose sky is shadow-marched (plan_.skySingle without the sky volume), by a
+    // comb of teeth kSkyMarchShare apart over the samples' shares of the ray's light
+    ShareComb skyComb(kSkyMarchShare, kern::hashToUnit(pcg(pixelKey ^ 0x6a09e667u)));
+    // the sun's second scattering (plan_.secondShare, render.photon_second_share): a comb of
+    // teeth `share` apart; a sample with w >= share takes ceil(w / share) paths (at most
+    // kMaxSecondPaths), so that each path stands for about `share` of the ray's light and a
+    // pixel's estimate is the mean of about 1 / share of them
     const float share = plan_.secondShare;
-    double secondLine = 0.0;
-    double secondTooth = double(kern::hashToUnit(pcg(pixelKey ^ 0x510e527fu))) * share;
+    ShareComb secondComb(share, kern::hashToUnit(pcg(pixelKey ^ 0x510e527fu)));
     RayVolumes& rv = scratch.primary;
     if (rv.begin(vols_, ray, 0.0f, tMax)) {
         // one sample of the march: its position t, the length dt it stands for, its index n
@@ -366,6 +382,10 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             // past the point where T has fallen below eps (only the forward beam goes on),
             // every term T carries is dropped, as the march itself would stop there
             const bool beamT = !forward || maxComponent(T) >= eps;
+            // the sample's share of the camera ray's light (the combs' w), where a comb asks
+            auto lightShare = [&] {
+                return maxComponent(T * (vec3(1.0f) - glm::exp(-medium_.sigma_t * (rho * dt))));
+            };
             if (plan_.shadows && plan_.scatters) {
                 const float tau = sunOpticalDepth(
                     p, pcg(pixelKey ^ std::uint32_t(std::uint64_t(n) * 0x9e3779b9ull)), cnt,
@@ -424,19 +444,8 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             // the sun's light scattered twice, which the photons leave out (core/lighting/
             // photons.h, PhotonParams::sunRecordFrom): paths of two vertices from here
             if (share > 0.0f && volumes_.photons && beamT) {
-                float scale = 1.0f;
-                const float w =
-                    maxComponent(T * (vec3(1.0f) - glm::exp(-medium_.sigma_t * (rho * dt))));
-                if (w < share) {
-                    const double end = secondLine + double(w);
-                    if (secondTooth < end) {
-                        scale = share / w;
-                        secondTooth += share;
-                    } else {
-                        scale = 0.0f;
-                    }
-                    secondLine = end;
-                }
+                const float w = lightShare();
+                const float scale = secondComb.weight(w);
                 const int paths =
                     w > share ? std::min(kMaxSecondPaths, int(std::ceil(w / share))) : 1;
                 if (scale > 0.0f)
@@ -472,19 +481,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
                     }
                     S += skySingleScatter(p, scratch.skyWeights.data());
                 } else if (plan_.skySingle) {
-                    float scale = 1.0f;
-                    const float w =
-                        maxComponent(T * (vec3(1.0f) - glm::exp(-medium_.sigma_t * (rho * dt))));
-                    if (w < kSkyMarchShare) {
-                        const double end = skyLine + double(w);
-                        if (skyTooth < end) {
-                            scale = kSkyMarchShare / w;
-                            skyTooth += kSkyMarchShare;
-                        } else {
-                            scale = 0.0f;
-                        }
-                        skyLine = end;
-                    }
+                    const float scale = skyComb.weight(lightShare());
                     if (scale > 0.0f)
                         S += scale *
                              skySingleScatterMarched(
