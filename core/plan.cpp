@@ -338,11 +338,16 @@ std::string FramePlan::explain() const {
                     ", with the single scattering exact (no octaves, render.inscatter "
                     "\"none\")" +
                     (secondShare > 0.0f
-                         ? ", the sun's second scattering by march (about " +
+                         ? (secondDepth > 2 ? ", the sun's orders 2 to " +
+                                                  std::to_string(secondDepth) + " by march"
+                                            : std::string(", the sun's second scattering by "
+                                                          "march")) +
+                               " (about " +
                                std::to_string(int(std::lround(1.0 / double(secondShare)))) +
-                               " paths of two vertices a camera ray, render.photon_second_share "
-                               "= " +
-                               gText(secondShare) + "; the photons from their second on)"
+                               " paths of up to " + std::to_string(secondDepth - 1) +
+                               " vertices a camera ray, render.photon_second_share = " +
+                               gText(secondShare) + ", photon_march_depth; the photons from " +
+                               "the order above)"
                          : std::string()) +
                     (photonBounces > 0 ? ", each traced through " + std::to_string(photonBounces) +
                                              " scatterings, the higher orders from their light "
@@ -750,6 +755,7 @@ void choosePhotonWalk(const SceneDesc& s, const FrameBindings& bindings, FramePl
         return;
     }
     const double depth = p.cloudExtinction * double(p.photonCell);
+    p.photonVoxelDepth = depth;
     p.photonOwnWalk = depth >= double(s.render.photonWalkDepth);
     // where a voxel is that deep, the similar medium's change near a surface is below it
     p.photonSimilarity = p.photonOwnWalk ? std::max(0, s.render.photonSimilarity) : 0;
@@ -1001,6 +1007,12 @@ FramePlan planFrame(const SceneDesc& s, int frame, const FrameBindings& bindings
                             (p.cloudTau < 0.0 || p.cloudTau > kThinDepth)
                         ? std::max(0.0f, s.render.photonSecondShare)
                         : 0.0f;
+    // and the orders above it where a photon voxel is deeper than the diffuse light reaches in
+    // a medium that absorbs: its average of the lit skin with the dark inside is the thick
+    // albedo-0.9 rows' dimness (docs/accuracy.md, "The sun's orders 2 to 8 by march"); at
+    // albedo 1 and in shallower voxels they only add noise
+    if (p.secondShare > 0.0f && p.photonVoxelDepth > absorptionDepth(s.medium))
+        p.secondDepth = std::max(2, std::min(s.render.photonMarchDepth, s.render.maxDepth));
     if (p.diffusion && !bounds.empty()) {
         const ivec3 res = lightVolumeResolution(bounds, p.diffusionCell);
         const double n = double(res.x) * res.y * res.z;

@@ -162,12 +162,21 @@ struct FramePlan {
     float shadowStep = kDefaultStep;
     std::string stepDecision; ///< what the steps are and why
     float stepTau = 0.0f;     ///< render.step_tau: thick steps split above this (march.cpp)
-    /// march estimates the sun's second scattering at its samples, about 1 / secondShare paths
-    /// a camera ray, and the sun's photons record from their second scattering on
+    /// march estimates the sun's orders 2 .. secondDepth at its samples, about 1 / secondShare
+    /// paths a camera ray, and the sun's photons record the orders above
     /// (render.photon_second_share where photons carry the sun, the CPU march, max_depth >= 2,
     /// a cloud more than 2 mean free paths deep along the sun or not measured;
     /// Renderer::marchGrids, for the GPU port, builds the photons with it at 0); 0 = off
     float secondShare = 0.0f;
+    /// with secondShare: march's paths carry the sun's orders 2 .. secondDepth, the photons
+    /// record the orders above: render.photon_march_depth (at most max_depth) where the
+    /// photons' voxel is deeper than the medium's absorption lets diffuse light reach
+    /// (photonVoxelDepth > absorptionDepth(medium): a voxel would average the lit skin with
+    /// the dark inside), else 2
+    int secondDepth = 2;
+    /// the photons' voxel's optical depth at the cloud's mean extinction (mean free paths;
+    /// -1 where the cloud was not measured)
+    double photonVoxelDepth = -1.0;
     float majorantCell = 0.0f; ///< world size of a majorant cell
     int volumes = 1;           ///< `field` and the [[volume]] entries
     int instances = 1;         ///< placements (1: `field` untransformed)

@@ -392,7 +392,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.ownWalk = plan.photonOwnWalk;
         pp.similarAfter = plan.photonSimilarity;
         // march takes the sun's second scattering itself (plan.secondShare)
-        if (plan.secondShare > 0.0f) pp.sunRecordFrom = 2;
+        if (plan.secondShare > 0.0f) pp.sunRecordFrom = plan.secondDepth;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
         if (plan.photonSky) pp.sky = s.sky;
         if (plan.photonBounces > 0 && diffusion) {

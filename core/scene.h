@@ -349,10 +349,13 @@ struct RenderDesc {
     float stepTau = 0.5f;
     float photonStepTau = 0.125f; ///< render.photon_step_tau: stepTau where photons carry the sun
     /// render.photon_second_share: where photons carry the sun, march estimates the sun's light
-    /// scattered twice itself, by about 1 / share paths of two vertices per camera ray, and the
-    /// photons record from their second scattering on (not in a cloud at most 2 mean free
-    /// paths deep along the sun); 0 = the photons carry it too
+    /// scattered 2 to photonMarchDepth times itself, by about 1 / share paths per camera ray,
+    /// and the photons record the orders above (not in a cloud at most 2 mean free paths deep
+    /// along the sun); 0 = the photons carry them too
     float photonSecondShare = 0.002f;
+    /// render.photon_march_depth: with photon_second_share, march's paths carry the sun's
+    /// orders 2 .. this (vertices up to this - 1 a path), the photons the orders above
+    int photonMarchDepth = 8;
     bool jitter = true;
     /// march: camera rays per pixel, stratified over the filter's width and weighted by it;
     /// 1 = one ray through the pixel centre (no filter)

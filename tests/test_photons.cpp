@@ -198,6 +198,60 @@ TEST(Photons, SecondScatteringByMarchMatchesPathtrace) {
     EXPECT_GT(plan.cloudTau < 0.0 ? 3.0 : plan.cloudTau, 2.0) << "the box of the test above";
 }
 
+TEST(Photons, HigherOrdersByMarchMatchPathtrace) {
+    // the sun's light scattered up to four times (max_depth 4), path traced, against march in
+    // a box that absorbs (albedo 0.6: diffuse light reaches about 1.1 mean free paths) on
+    // photon voxels 1.6 mean free paths deep: its paths carry orders 2 to 4
+    // (render.photon_march_depth, the default taken down to max_depth; the photons then record
+    // nothing) where with photon_march_depth 2 the voxels carry orders 3 and 4
+    auto box = [](SceneDesc s) {
+        s.medium.sigma_s = vec3(4.8f);
+        s.medium.sigma_a = vec3(3.2f);
+        s.render.photonCellScale = 2.0f; // 0.2: 1.6 mean free paths
+        s.render.maxDepth = 4;
+        return s;
+    };
+    SceneDesc r = box(sunBox());
+    r.render.integrator = Integrator::PathTrace;
+    r.render.spp = 2048;
+    const Framebuffer ref = renderScene(r);
+
+    SceneDesc m = box(sunBox());
+    ASSERT_GE(m.render.photonMarchDepth, 4) << "the default goes deeper than max_depth here";
+    const FramePlan plan = Renderer(m).plan(1);
+    ASSERT_GT(plan.secondShare, 0.0f);
+    EXPECT_NEAR(plan.photonVoxelDepth, 1.6, 0.01);
+    EXPECT_EQ(plan.secondDepth, 4) << "taken down to max_depth";
+    EXPECT_NE(plan.explain().find("orders 2 to 4 by march"), std::string::npos) << plan.explain();
+    const Framebuffer paths = renderScene(m);
+    SceneDesc v = m;
+    v.render.photonMarchDepth = 2;
+    ASSERT_EQ(Renderer(v).plan(1).secondDepth, 2);
+    const Framebuffer voxels = renderScene(v);
+    SceneDesc two = m;
+    two.render.maxDepth = 2;
+    const Framebuffer upToTwo = renderScene(two);
+
+    const double ePaths = relativeRmse(paths, ref), eVoxels = relativeRmse(voxels, ref),
+                 eTwo = relativeRmse(upToTwo, ref);
+    RecordProperty("relative_rmse_orders_by_march", std::to_string(ePaths));
+    RecordProperty("relative_rmse_orders_by_photons", std::to_string(eVoxels));
+    RecordProperty("relative_rmse_two_orders", std::to_string(eTwo));
+    EXPECT_GT(eTwo, 0.05) << "orders 3 and 4 are a part of this image";
+    EXPECT_LT(ePaths, 0.1) << "voxels: " << eVoxels;
+    EXPECT_NEAR(meanRgb(paths) / meanRgb(ref), 1.0, 0.03);
+
+    // where the medium does not absorb, or the voxel is shallower than the light reaches, the
+    // paths stop at the second order: the photons' voxels hold the higher orders well there
+    SceneDesc white = sunBox();
+    white.render.photonCellScale = 2.0f;
+    ASSERT_GT(Renderer(white).plan(1).secondShare, 0.0f);
+    EXPECT_EQ(Renderer(white).plan(1).secondDepth, 2) << "albedo 1";
+    SceneDesc fine = box(sunBox());
+    fine.render.photonCellScale = 1.0f; // 0.8 mean free paths
+    EXPECT_EQ(Renderer(fine).plan(1).secondDepth, 2) << "a voxel shallower than 1.1";
+}
+
 TEST(Photons, GpuGridsCarryTheSecondScattering) {
     // Renderer::marchGrids builds the photons for the GPU port, whose march does not take the
     // sun's second scattering: they record it whatever render.photon_second_share says, while

@@ -275,33 +275,42 @@ float MarchContext::densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounte
 
 vec3 MarchContext::secondSun(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt,
                              RayVolumes& rv) const {
-    // One path of two vertices from p: a direction w toward the light's origin drawn from the
-    // phase function about the view (its weight eval / pdf), a flight along w to a collision y
-    // sampled by the march's own density integral (the mean channel's extinction; the others
-    // weighted by their transmittance over it), and the sun's next-event estimate at y. Its
-    // expectation is the in-scattered radiance of the sun's light scattered exactly twice, per
-    // unit phase-normalised scattering at p, as a photon voxel's S(x) holds for the higher
-    // orders (core/lighting/photons.h). Escaping flights and a surface in the way give 0.
-    const float u1 = kern::hashToUnit(rng = pcg(rng)), u2 = kern::hashToUnit(rng = pcg(rng));
-    const float u3 = kern::hashToUnit(rng = pcg(rng)), lobe = kern::hashToUnit(rng = pcg(rng));
-    const PhaseSample ps = medium_.phase.sample(vec2(u1, lobe));
-    if (!(ps.pdf > 0.0f)) return vec3(0.0f);
-    const vec3 w = kern::phaseDirection(d, ps.cosTheta, u2);
-    const float target = -std::log(std::max(1.0f - u3, 1e-12f)) / sigmaTMean_;
-    float tHit = -1.0f;
-    const std::uint64_t before = cnt.shadowSamples; // (the flight's lookups are its own)
-    densityIntegral(p, w, pcg(rng ^ 0x3c6ef372u), cnt, rv, -1.0f, target, &tHit);
-    cnt.secondSamples += cnt.shadowSamples - before;
-    cnt.shadowSamples = before;
-    if (!(tHit >= 0.0f)) return vec3(0.0f);
-    if (surfaces_ && surfaces_->occluded(Ray{p, w}, 1e-4f, tHit)) return vec3(0.0f);
-    const vec3 y = p + w * tHit;
-    const float tauSun = sunOpticalDepth(y, pcg(rng ^ 0xa54ff53au), cnt, rv, -1.0f);
-    if (!std::isfinite(tauSun)) return vec3(0.0f);
-    const vec3 chan =
-        medium_.sigma_s * glm::exp(-(medium_.sigma_t - sigmaTMean_) * target) / sigmaTMean_;
-    return ps.weight * chan * medium_.phase.eval(glm::dot(w, s_.sun.direction)) *
-           s_.sun.irradiance * s_.render.msStrength * kern::beerLambert(medium_.sigma_t * tauSun);
+    // One path from p of up to plan_.secondDepth - 1 vertices: at each, a direction w toward
+    // the light's origin drawn from the phase function about the direction the light leaves
+    // in (its weight eval / pdf), a flight along w to a collision y sampled by the march's own
+    // density integral (the mean channel's extinction; the others weighted by their
+    // transmittance over it), and the sun's next-event estimate at y. The estimate at the
+    // k-th vertex has the expectation of the in-scattered radiance of the sun's light
+    // scattered exactly k + 1 times, per unit phase-normalised scattering at p, as a photon
+    // voxel's S(x) holds for the higher orders (core/lighting/photons.h). A flight that
+    // escapes or meets a surface ends the path.
+    vec3 sum(0.0f), beta(1.0f);
+    vec3 x = p, out = d;
+    for (int k = 2; k <= plan_.secondDepth; ++k) {
+        const float u1 = kern::hashToUnit(rng = pcg(rng)), u2 = kern::hashToUnit(rng = pcg(rng));
+        const float u3 = kern::hashToUnit(rng = pcg(rng)), lobe = kern::hashToUnit(rng = pcg(rng));
+        const PhaseSample ps = medium_.phase.sample(vec2(u1, lobe));
+        if (!(ps.pdf > 0.0f)) break;
+        const vec3 w = kern::phaseDirection(out, ps.cosTheta, u2);
+        const float target = -std::log(std::max(1.0f - u3, 1e-12f)) / sigmaTMean_;
+        float tHit = -1.0f;
+        const std::uint64_t flight = cnt.shadowSamples; // (the flights' lookups: their own)
+        densityIntegral(x, w, pcg(rng ^ 0x3c6ef372u), cnt, rv, -1.0f, target, &tHit);
+        cnt.secondSamples += cnt.shadowSamples - flight;
+        cnt.shadowSamples = flight;
+        if (!(tHit >= 0.0f)) break;
+        if (surfaces_ && surfaces_->occluded(Ray{x, w}, 1e-4f, tHit)) break;
+        const vec3 y = x + w * tHit;
+        beta *= ps.weight * medium_.sigma_s * glm::exp(-(medium_.sigma_t - sigmaTMean_) * target) /
+                sigmaTMean_;
+        const float tauSun = sunOpticalDepth(y, pcg(rng ^ 0xa54ff53au), cnt, rv, -1.0f);
+        if (std::isfinite(tauSun))
+            sum += beta * medium_.phase.eval(glm::dot(w, s_.sun.direction)) *
+                   kern::beerLambert(medium_.sigma_t * tauSun);
+        x = y;
+        out = w;
+    }
+    return sum * s_.sun.irradiance * s_.render.msStrength;
 }
 
 float MarchContext::sunOpticalDepth(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,

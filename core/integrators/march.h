@@ -84,9 +84,9 @@ class MarchContext {
     /// there; `tStop` is left as it was where the integral stays below `stopAt`.
     float densityIntegral(vec3 p, vec3 w, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,
                           float rhoP = -1.0f, float stopAt = -1.0f, float* tStop = nullptr) const;
-    /// The sun's light scattered exactly twice, in-scattered at p toward a camera ray of
-    /// direction d: one path's estimate (unbiased for the march's density integral), per unit
-    /// phase-normalised scattering (render.photon_second_share)
+    /// The sun's light scattered 2 to plan.secondDepth times, in-scattered at p toward a camera
+    /// ray of direction d: one path's estimate (unbiased for the march's density integral), per
+    /// unit phase-normalised scattering (render.photon_second_share, photon_march_depth)
     vec3 secondSun(vec3 p, vec3 d, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv) const;
     /// Density integral along the ray from p toward the sun (shadow march).
     float sunDensityIntegral(vec3 p, std::uint32_t rng, RayCounters& cnt, RayVolumes& rv,

@@ -58,7 +58,9 @@ struct Measured {
     /// render.multiple_scattering = "auto" measured it, the cloud's optical depth along the sun
     std::string msModel;
     double cloudTau = -1.0;
-    double photonCellScale = 0.0; ///< photons: their voxel in light-volume cells
+    double photonCellScale = 0.0;   ///< photons: their voxel in light-volume cells
+    double photonVoxelDepth = -1.0; ///< photons: their voxel's mean optical depth (-1: unmeasured)
+    int marchOrders = 1; ///< the sun's orders march takes itself (FramePlan::secondDepth)
 };
 
 /// The scene with its whole step schedule scaled by f: render.step, render.step_growth and

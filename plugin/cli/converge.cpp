@@ -53,6 +53,8 @@ bool measure(const SceneDesc& s, const FrameBindings& b, int frame, Measured& m)
     m.msModel = plan.photons ? "photons" : plan.diffusion ? "grid" : "none";
     m.cloudTau = plan.msAuto ? plan.cloudTau : -1.0;
     m.photonCellScale = plan.photons ? double(plan.photonCell / plan.lightVolumeCell) : 0.0;
+    m.photonVoxelDepth = plan.photons ? plan.photonVoxelDepth : -1.0;
+    m.marchOrders = plan.secondShare > 0.0f ? plan.secondDepth : 1;
     RenderCallbacks cb;
     cb.cancel = &gCancel;
     if (plan.bakeNoise) r.fieldFor(plan, b);

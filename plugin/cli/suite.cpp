@@ -901,7 +901,13 @@ int runSuite(const ConvergeOptions& o) {
                 stderr, "; march (%s%s%s) %.2f s: %s (noise %s), mean ratio %.3f\n",
                 mr.msModel.c_str(),
                 mr.photonCellScale > 0.0
-                    ? fmt(" on %g light-volume cells", mr.photonCellScale).c_str()
+                    ? (fmt(" on %g light-volume cells", mr.photonCellScale) +
+                       (mr.photonVoxelDepth >= 0.0
+                            ? fmt(" (%.3g mean free paths)", mr.photonVoxelDepth)
+                            : std::string()) +
+                       (mr.marchOrders > 1 ? fmt(", orders 2-%g by paths", double(mr.marchOrders))
+                                           : std::string()))
+                          .c_str()
                     : "",
                 mr.cloudTau >= 0.0
                     ? (", auto: depth " + depthText(mr.cloudTau) + " along the sun").c_str()
