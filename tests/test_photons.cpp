@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <initializer_list>
+#include <utility>
+#include <vector>
 
 #include "core/fields/field.h"
 #include "core/lighting/light_volume.h"
@@ -43,6 +46,25 @@ SceneDesc skyBox() {
     s.render.photonSky = true;
     s.render.skyDirections = 64;
     return s;
+}
+
+/// s path traced at 2048 samples a pixel: the reference the order tests compare march with
+Framebuffer pathTraced(SceneDesc s) {
+    s.render.integrator = Integrator::PathTrace;
+    s.render.spp = 2048;
+    return renderScene(s);
+}
+
+/// Each image's relative RMSE against ref, recorded as a test property under its name
+std::vector<double>
+recordErrors(const Framebuffer& ref,
+             std::initializer_list<std::pair<const char*, const Framebuffer*>> images) {
+    std::vector<double> e;
+    for (const auto& [name, fb] : images) {
+        e.push_back(relativeRmse(*fb, ref));
+        ::testing::Test::RecordProperty(name, std::to_string(e.back()));
+    }
+    return e;
 }
 
 SceneDesc smallCumulus() {
@@ -154,10 +176,7 @@ TEST(Photons, SecondScatteringByMarchMatchesPathtrace) {
         s.render.maxDepth = 2;
         return s;
     };
-    SceneDesc r = twice(sunBox());
-    r.render.integrator = Integrator::PathTrace;
-    r.render.spp = 2048;
-    const Framebuffer ref = renderScene(r);
+    const Framebuffer ref = pathTraced(twice(sunBox()));
 
     SceneDesc m = twice(sunBox());
     ASSERT_GT(m.render.photonSecondShare, 0.0f) << "the default takes the second scattering";
@@ -173,11 +192,10 @@ TEST(Photons, SecondScatteringByMarchMatchesPathtrace) {
     n.render.multipleScattering = MultipleScattering::None;
     const Framebuffer single = renderScene(n);
 
-    const double ePaths = relativeRmse(paths, ref), eVoxels = relativeRmse(voxels, ref),
-                 eSingle = relativeRmse(single, ref);
-    RecordProperty("relative_rmse_second_by_march", std::to_string(ePaths));
-    RecordProperty("relative_rmse_second_by_photons", std::to_string(eVoxels));
-    RecordProperty("relative_rmse_single", std::to_string(eSingle));
+    const std::vector<double> e = recordErrors(ref, {{"relative_rmse_second_by_march", &paths},
+                                                     {"relative_rmse_second_by_photons", &voxels},
+                                                     {"relative_rmse_single", &single}});
+    const double ePaths = e[0], eVoxels = e[1], eSingle = e[2];
     EXPECT_GT(eSingle, 0.2) << "the second scattering is a good part of this image";
     EXPECT_LT(ePaths, 0.1) << "voxels: " << eVoxels;
     EXPECT_NEAR(meanRgb(paths) / meanRgb(ref), 1.0, 0.03);
@@ -211,10 +229,7 @@ TEST(Photons, HigherOrdersByMarchMatchPathtrace) {
         s.render.maxDepth = 4;
         return s;
     };
-    SceneDesc r = box(sunBox());
-    r.render.integrator = Integrator::PathTrace;
-    r.render.spp = 2048;
-    const Framebuffer ref = renderScene(r);
+    const Framebuffer ref = pathTraced(box(sunBox()));
 
     SceneDesc m = box(sunBox());
     ASSERT_GE(m.render.photonMarchDepth, 4) << "the default goes deeper than max_depth here";
@@ -232,11 +247,10 @@ TEST(Photons, HigherOrdersByMarchMatchPathtrace) {
     two.render.maxDepth = 2;
     const Framebuffer upToTwo = renderScene(two);
 
-    const double ePaths = relativeRmse(paths, ref), eVoxels = relativeRmse(voxels, ref),
-                 eTwo = relativeRmse(upToTwo, ref);
-    RecordProperty("relative_rmse_orders_by_march", std::to_string(ePaths));
-    RecordProperty("relative_rmse_orders_by_photons", std::to_string(eVoxels));
-    RecordProperty("relative_rmse_two_orders", std::to_string(eTwo));
+    const std::vector<double> e = recordErrors(ref, {{"relative_rmse_orders_by_march", &paths},
+                                                     {"relative_rmse_orders_by_photons", &voxels},
+                                                     {"relative_rmse_two_orders", &upToTwo}});
+    const double ePaths = e[0], eVoxels = e[1], eTwo = e[2];
     EXPECT_GT(eTwo, 0.05) << "orders 3 and 4 are a part of this image";
     EXPECT_LT(ePaths, 0.1) << "voxels: " << eVoxels;
     EXPECT_NEAR(meanRgb(paths) / meanRgb(ref), 1.0, 0.03);
