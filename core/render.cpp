@@ -391,7 +391,7 @@ MarchGrids buildMarchGrids(const SceneDesc& s, const FramePlan& plan, const Volu
         pp.maxDepth = s.render.maxDepth;
         pp.ownWalk = plan.photonOwnWalk;
         pp.similarAfter = plan.photonSimilarity;
-        // march takes the sun's second scattering itself (plan.secondShare)
+        // march takes the sun's orders 2 .. secondDepth itself (plan.secondShare)
         if (plan.secondShare > 0.0f) pp.sunRecordFrom = plan.secondDepth;
         pp.seed = kern::pcg(frameSeedKey(s, plan) ^ kern::pcg(s.render.seed));
         if (plan.photonSky) pp.sky = s.sky;
@@ -460,8 +460,8 @@ MarchGrids Renderer::marchGrids(const FramePlan& plan, const FrameBindings& bind
         const SurfaceQuery* surfaces = bindings.geometry ? bindings.geometry->surfaces() : nullptr;
         std::unique_ptr<SdfSurfaces> solids = solidsOver(scene_, surfaces);
         if (solids) surfaces = solids.get();
-        // for the GPU port, whose march does not take the sun's second scattering itself: the
-        // photons carry it (FramePlan::secondShare)
+        // for the GPU port, whose march does not take the sun's orders from the second itself:
+        // the photons carry them (FramePlan::secondShare)
         FramePlan gpu = plan;
         gpu.secondShare = 0.0f;
         return buildMarchGrids(scene_, gpu, vs, surfaces, stats, cancel);

@@ -371,7 +371,7 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
     // the samples whose sky is shadow-marched (plan_.skySingle without the sky volume), by a
     // comb of teeth kSkyMarchShare apart over the samples' shares of the ray's light
     ShareComb skyComb(kSkyMarchShare, kern::hashToUnit(pcg(pixelKey ^ 0x6a09e667u)));
-    // the sun's second scattering (plan_.secondShare, render.photon_second_share): a comb of
+    // the sun's orders from the second (plan_.secondShare, render.photon_second_share): a comb of
     // teeth `share` apart; a sample with w >= share takes ceil(w / share) paths (at most
     // kMaxSecondPaths), so that each path stands for about `share` of the ray's light and a
     // pixel's estimate is the mean of about 1 / share of them
@@ -450,8 +450,8 @@ MarchContext::Sample MarchContext::traceRay(const Ray& ray, std::uint32_t pixelK
             // the light scattered more than once that photons carry: the sun's, and the
             // sky's with render.photon_sky (core/lighting/photons.h)
             if (volumes_.photons && beamT) S += volumes_.photons->sample(p);
-            // the sun's light scattered twice, which the photons leave out (core/lighting/
-            // photons.h, PhotonParams::sunRecordFrom): paths of two vertices from here
+            // the sun's light scattered 2 .. plan_.secondDepth times, which the photons leave
+            // out (core/lighting/photons.h, PhotonParams::sunRecordFrom): paths from here
             if (share > 0.0f && volumes_.photons && beamT) {
                 const float w = lightShare();
                 const float scale = secondComb.weight(w);

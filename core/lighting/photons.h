@@ -91,8 +91,8 @@ struct PhotonParams {
     /// free paths deep (docs/accuracy.md, "Photons in the similar medium").
     int similarAfter = 0;
     /// The sun's photons record from this scattering on (1: all the light they carry after
-    /// their first; 2 where march estimates the second itself, FramePlan::secondShare). The
-    /// sky's photons always record from their first.
+    /// their first; FramePlan::secondDepth where march's paths take the orders up to it,
+    /// FramePlan::secondShare). The sky's photons always record from their first.
     int sunRecordFrom = 1;
 };
 
